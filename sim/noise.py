@@ -1,0 +1,146 @@
+"""Seeded noise processes held as piecewise-linear functions on fixed knot grids.
+
+Each process is generated lazily, block by block, from a stream named after it, so its
+value at a time does not depend on the order of queries. Between knots the process is
+linear; its value and its running integral are therefore exact and O(1) per query.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+
+import numpy as np
+
+from sim.rng import stream
+
+BLOCK = 4096
+
+
+class KnotProcess:
+    """A process known at knots ``k * h`` and linear in between.
+
+    ``step(rng, x_prev, n)`` returns the next ``n`` knot values given the last one.
+    """
+
+    def __init__(
+        self,
+        h: float,
+        seed: int,
+        names: tuple[str | int, ...],
+        first: Callable[[np.random.Generator], float],
+        step: Callable[[np.random.Generator, float, int], np.ndarray],
+    ) -> None:
+        self.h = float(h)
+        self._seed = seed
+        self._names = names
+        self._step = step
+        x0 = first(stream(seed, *names, "first"))
+        self._x = np.array([x0], dtype=float)
+        self._cum = np.array([0.0])  # integral from 0 to knot k
+        self._blocks = 0
+
+    def _ensure(self, k_max: int) -> None:
+        while self._x.size <= k_max + 1:
+            rng = stream(self._seed, *self._names, self._blocks)
+            new = self._step(rng, float(self._x[-1]), BLOCK)
+            xs = np.concatenate(([self._x[-1]], new))
+            seg = 0.5 * self.h * (xs[1:] + xs[:-1])
+            self._cum = np.concatenate((self._cum, self._cum[-1] + np.cumsum(seg)))
+            self._x = np.concatenate((self._x, new))
+            self._blocks += 1
+
+    def _locate(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        u = np.maximum(t, 0.0) / self.h
+        k = np.floor(u).astype(np.int64)
+        self._ensure(int(k.max()) if k.size else 0)
+        return k, u - k
+
+    def value(self, t):
+        """Process value at time(s) t (seconds)."""
+        ta = np.asarray(t, dtype=float)
+        k, f = self._locate(np.atleast_1d(ta))
+        v = self._x[k] * (1.0 - f) + self._x[k + 1] * f
+        return v.reshape(ta.shape) if ta.ndim else float(v[0])
+
+    def slope(self, t):
+        """Time derivative (piecewise constant) at time(s) t."""
+        ta = np.asarray(t, dtype=float)
+        k, _ = self._locate(np.atleast_1d(ta))
+        v = (self._x[k + 1] - self._x[k]) / self.h
+        return v.reshape(ta.shape) if ta.ndim else float(v[0])
+
+    def integral(self, t):
+        """Integral of the process from 0 to time(s) t."""
+        ta = np.asarray(t, dtype=float)
+        k, f = self._locate(np.atleast_1d(ta))
+        x0 = self._x[k]
+        x1 = self._x[k + 1]
+        v = self._cum[k] + self.h * f * (x0 + 0.5 * f * (x1 - x0))
+        return v.reshape(ta.shape) if ta.ndim else float(v[0])
+
+
+def _ar1(a: float, x: float, w: np.ndarray, chunk: int = 256) -> np.ndarray:
+    """x_i = a x_{i-1} + w_i, in closed form chunk by chunk (no Python loop per sample)."""
+    out = np.empty_like(w)
+    if a < 0.05:  # nearly white: the closed form would divide by tiny powers of a
+        for i, wi in enumerate(w):
+            x = a * x + wi
+            out[i] = x
+        return out
+    for s in range(0, w.size, chunk):
+        seg = w[s : s + chunk]
+        p = a ** np.arange(1, seg.size + 1)
+        out[s : s + seg.size] = p * (x + np.cumsum(seg / p))
+        x = float(out[s + seg.size - 1])
+    return out
+
+
+def random_walk(h: float, q: float, seed: int, *names: str | int) -> KnotProcess:
+    """Wiener process W(0)=0 with variance ``q * t`` (q in units^2/s): the integral of white noise."""
+    sd = math.sqrt(max(q, 0.0) * h)
+
+    def step(rng: np.random.Generator, x: float, n: int) -> np.ndarray:
+        return x + np.cumsum(rng.standard_normal(n) * sd)
+
+    return KnotProcess(h, seed, names, lambda rng: 0.0, step)
+
+
+def gauss_markov(h: float, sigma: float, tau: float, seed: int, *names: str | int) -> KnotProcess:
+    """Stationary first-order Gauss-Markov process: covariance sigma^2 exp(-|dt|/tau)."""
+    a = math.exp(-h / tau)
+    b = sigma * math.sqrt(1.0 - a * a)
+
+    def step(rng: np.random.Generator, x: float, n: int) -> np.ndarray:
+        return _ar1(a, x, rng.standard_normal(n) * b)
+
+    return KnotProcess(h, seed, names, lambda rng: float(rng.standard_normal() * sigma), step)
+
+
+class Multitone:
+    """Band-limited stationary noise as a sum of sinusoids with seeded frequencies and phases.
+
+    Covariance: sum_k (A_k^2 / 2) cos(w_k tau). Value and running integral are closed form.
+    """
+
+    def __init__(self, rms: float, f_lo: float, f_hi: float, n: int, seed: int, *names) -> None:
+        rng = stream(seed, *names)
+        self.w = 2.0 * math.pi * rng.uniform(f_lo, f_hi, n)
+        self.amp = np.full(n, rms * math.sqrt(2.0 / n))
+        self.psi = rng.uniform(0.0, 2.0 * math.pi, n)
+
+    def value(self, t):
+        ta = np.asarray(t, dtype=float)
+        v = np.cos(np.multiply.outer(ta, self.w) + self.psi) @ self.amp
+        return v if ta.ndim else float(v)
+
+    def integral(self, t):
+        """Integral from 0 to t."""
+        ta = np.asarray(t, dtype=float)
+        c = self.amp / self.w
+        v = np.sin(np.multiply.outer(ta, self.w) + self.psi) @ c - float(np.sin(self.psi) @ c)
+        return v if ta.ndim else float(v)
+
+    def covariance(self, tau):
+        ta = np.asarray(tau, dtype=float)
+        return np.cos(np.multiply.outer(ta, self.w)) @ (0.5 * self.amp**2)

@@ -1,0 +1,95 @@
+"""Pulse trains as analytic phase functions (DESIGN.md).
+
+A line's phase Phi(t) counts its edges: the number of edges in (t0, t1] is
+floor(Phi(t1)) - floor(Phi(t0)), and the N-th edge after t is found by solving
+Phi(t') = level. Gyro pulses are emitted only at the rebalance loop's sampling instants
+(Chart IV-2: t_N - t_0 = N tau), so a gyro line's phase is read at the last sampling
+instant before t. No pulse is ever simulated one by one.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+
+from scipy.optimize import brentq
+
+
+class PulseLine:
+    """One pulse output of the world, named as on the patch panel (Chart II-2)."""
+
+    def __init__(
+        self,
+        name: str,
+        phase: Callable[[float], float],
+        sample: tuple[float, float] | None = None,
+        bipolar_sign: int = 0,
+    ) -> None:
+        self.name = name
+        self._phase = phase
+        self.sample = sample  # (tau, offset) of a sampled output, or None
+        self.bipolar_sign = bipolar_sign  # +1 / -1 for a gyro's + / - line, 0 otherwise
+        self.net: PulseLine | None = None  # for + / - lines: the gyro's net train
+
+    def phase(self, t: float) -> float:
+        return self._phase(t)
+
+    def last_sample(self, t: float) -> float:
+        if self.sample is None:
+            return t
+        tau, off = self.sample
+        return off + math.floor((t - off) / tau) * tau
+
+    def next_sample(self, t: float) -> float:
+        if self.sample is None:
+            return t
+        tau, off = self.sample
+        return off + math.ceil((t - off) / tau - 1e-9) * tau
+
+    def level(self, t: float) -> int:
+        """floor(Phi) as seen at time t (edges at or before t)."""
+        return math.floor(self.phase(self.last_sample(t)))
+
+    def count(self, t0: float, t1: float) -> int:
+        """Edges in (t0, t1]; signed for a net train."""
+        if self.net is not None:
+            n = self.net.count(t0, t1)
+            return max(self.bipolar_sign * n, 0)
+        return self.level(t1) - self.level(t0)
+
+    def direction(self, t: float) -> int:
+        """+1 if the phase is increasing at t, -1 if decreasing (probed over 1 s)."""
+        src = self.net if self.net is not None else self
+        d = src.phase(t + 1.0) - src.phase(t)
+        return 1 if d >= 0 else -1
+
+    def edge_after(self, t: float, n: int) -> float:
+        """Time of the n-th edge after t (n >= 1) in the line's direction of motion."""
+        src = self.net if self.net is not None else self
+        d = src.direction(t) if self.net is None else self.bipolar_sign
+        lev = src.level(t)
+        target = lev + n if d > 0 else lev - n + 1
+        tc = solve_crossing(src.phase, float(target), t, d)
+        return src.next_sample(tc)
+
+
+def solve_crossing(phase: Callable[[float], float], c: float, t0: float, d: int) -> float:
+    """First t > t0 with phase(t) = c, for a phase moving in direction d towards c."""
+    f0 = phase(t0) - c
+    if d * f0 >= 0:  # already there
+        return t0
+    step = 1e-3
+    a, fa = t0, f0
+    for _ in range(200):
+        b = a + step
+        fb = phase(b) - c
+        if d * fb >= 0:
+            break
+        rate = (fb - fa) / step
+        a, fa = b, fb
+        # jump to the predicted crossing (with a margin), never less than doubling the step
+        guess = -fa / rate * 1.05 if d * rate > 0 else step * 4
+        step = max(min(guess, 1e6), step * 0.5, 1e-6)
+    else:
+        raise RuntimeError("pulse line never reaches the requested edge")
+    return brentq(lambda t: phase(t) - c, a, b, xtol=1e-12, rtol=1e-15, maxiter=200)

@@ -1,0 +1,148 @@
+"""One table axis as a piecewise-analytic angle history.
+
+Segments are either polynomial (p0 + v0 dt + a dt^2 / 2) or a critically damped settle
+(pf + d (1 + dt/tau) exp(-dt/tau), which starts at rest). A command at time tc cuts the
+history at tc and appends the new plan, so the past is never rewritten.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+POLY, SETTLE = 0, 1
+
+
+@dataclass(frozen=True)
+class Segment:
+    ts: float
+    kind: int
+    p0: float = 0.0
+    v0: float = 0.0
+    a: float = 0.0
+    pf: float = 0.0
+    d: float = 0.0
+    tau: float = 1.0
+
+
+class Trajectory:
+    """Angle (rad) and rate (rad/s) of one axis as functions of time (s)."""
+
+    def __init__(self, p0: float = 0.0) -> None:
+        self.segments: list[Segment] = [Segment(0.0, POLY, p0)]
+        self._arrays()
+
+    def _arrays(self) -> None:
+        segs = self.segments
+        self._ts = np.array([s.ts for s in segs])
+        self._kind = np.array([s.kind for s in segs])
+        self._par = np.array([[s.p0, s.v0, s.a, s.pf, s.d, s.tau] for s in segs])
+
+    def state(self, t: float) -> tuple[float, float, float]:
+        """(angle, rate, acceleration) at t."""
+        p, v = self.evaluate(np.array([t]))
+        i = int(np.searchsorted(self._ts, t, side="right") - 1)
+        s = self.segments[i]
+        if s.kind == POLY:
+            acc = s.a
+        else:
+            dt = t - s.ts
+            acc = s.d * (dt / s.tau - 1.0) / s.tau**2 * math.exp(-dt / s.tau)
+        return float(p[0]), float(v[0]), acc
+
+    def evaluate(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        t = np.asarray(t, dtype=float)
+        i = np.searchsorted(self._ts, t, side="right") - 1
+        i = np.maximum(i, 0)
+        dt = t - self._ts[i]
+        p0, v0, a, pf, d, tau = (self._par[i, k] for k in range(6))
+        poly_p = p0 + v0 * dt + 0.5 * a * dt * dt
+        poly_v = v0 + a * dt
+        x = dt / tau
+        e = np.exp(-np.minimum(x, 700.0))
+        set_p = pf + d * (1.0 + x) * e
+        set_v = -d * x / tau * e
+        settle = self._kind[i] == SETTLE
+        return np.where(settle, set_p, poly_p), np.where(settle, set_v, poly_v)
+
+    def breakpoints(self, t0: float, t1: float) -> list[float]:
+        """Segment starts strictly inside (t0, t1)."""
+        return [float(x) for x in self._ts if t0 < x < t1]
+
+    def max_rate(self, t0: float, t1: float) -> float:
+        """Upper bound of |rate| over [t0, t1] (segment ends and peaks)."""
+        pts = [t0, t1, *self.breakpoints(t0, t1)]
+        _, v = self.evaluate(np.array(pts))
+        return float(np.max(np.abs(v)))
+
+    def cut(self, tc: float) -> tuple[float, float]:
+        """Drop every segment starting after tc; return (angle, rate) at tc."""
+        p, v, _ = self.state(tc)
+        self.segments = [s for s in self.segments if s.ts <= tc]
+        return p, v
+
+    def append(self, segs: list[Segment]) -> None:
+        # A new segment at the same start time replaces the old one.
+        if segs:
+            self.segments = [s for s in self.segments if s.ts < segs[0].ts] + segs
+        self._arrays()
+
+    def last_change(self) -> float:
+        return float(self._ts[-1])
+
+
+def plan_stop(tc: float, p: float, v: float, amax: float) -> tuple[list[Segment], float, float]:
+    """Decelerate from (p, v) to rest; returns segments, stop time and stop angle."""
+    if v == 0.0:
+        return [Segment(tc, POLY, p)], tc, p
+    a = -math.copysign(amax, v)
+    dur = abs(v) / amax
+    p_stop = p + v * dur + 0.5 * a * dur * dur
+    return [Segment(tc, POLY, p, v, a), Segment(tc + dur, POLY, p_stop)], tc + dur, p_stop
+
+
+def plan_move(
+    tc: float, p0: float, p1: float, vmax: float, amax: float, overshoot: float, tau: float
+) -> tuple[list[Segment], float]:
+    """Trapezoidal slew from rest at p0 to p1 + overshoot, then settle on p1.
+
+    Returns the segments and the time the residual falls below 0.01 of the overshoot.
+    """
+    target = p1 + overshoot
+    d = target - p0
+    s = 1.0 if d >= 0 else -1.0
+    dist = abs(d)
+    segs: list[Segment] = []
+    t = tc
+    if dist > 0:
+        if dist >= vmax * vmax / amax:
+            ta, vp = vmax / amax, vmax
+            tcr = (dist - vmax * vmax / amax) / vmax
+        else:
+            ta = math.sqrt(dist / amax)
+            vp, tcr = amax * ta, 0.0
+        x_a = 0.5 * amax * ta * ta
+        segs.append(Segment(t, POLY, p0, 0.0, s * amax))
+        t += ta
+        if tcr > 0:
+            segs.append(Segment(t, POLY, p0 + s * x_a, s * vp, 0.0))
+            t += tcr
+        segs.append(Segment(t, POLY, target - s * x_a, s * vp, -s * amax))
+        t += ta
+    segs.append(Segment(t, SETTLE, pf=p1, d=overshoot, tau=tau))
+    # (1 + x) e^-x < 0.01 for x > 6.64
+    return segs, t + 6.64 * tau
+
+
+def plan_rate(
+    tc: float, p: float, v: float, v1: float, accel: float
+) -> tuple[list[Segment], float]:
+    """Ramp the rate from v to v1 at |accel|, then hold v1; returns segments and ramp end."""
+    if v1 == v:
+        return [Segment(tc, POLY, p, v, 0.0)], tc
+    a = math.copysign(accel, v1 - v)
+    dur = abs(v1 - v) / accel
+    p_end = p + v * dur + 0.5 * a * dur * dur
+    return [Segment(tc, POLY, p, v, a), Segment(tc + dur, POLY, p_end, v1, 0.0)], tc + dur

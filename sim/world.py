@@ -1,0 +1,141 @@
+"""The ISU laboratory's physical world on one simpy environment (integer ns ticks)."""
+
+from __future__ import annotations
+
+import numpy as np
+import simpy
+
+from sim import units
+from sim.environment import Environment, Site
+from sim.integrator import CellIntegral
+from sim.isu import Isu
+from sim.oscillator import MasterOscillator
+from sim.params import WorldParams
+from sim.pulses import PulseLine
+from sim.table import FourAxisTable
+from sim.timebase import seconds
+
+CELL = 5.0  # s, quadrature cell; aligned with the wobble knots of sim.environment
+
+
+class World:
+    """Site, environment, table, ISU and oscillator; pulse lines by patch-panel name."""
+
+    def __init__(self, params: WorldParams, seed: int, env: simpy.Environment | None = None):
+        self.params = params
+        self.seed = int(seed)
+        self.env = env if env is not None else simpy.Environment()
+        self.site = Site(params.site)
+        self.environment = Environment(params.environment, self.seed)
+        self.table = FourAxisTable(params.table, self.environment, self.seed)
+        self.isu = Isu(params.isu, self.seed)
+        self.oscillator = MasterOscillator(params.oscillator, self.seed)
+        # components: gyro 1..3 smooth rate; accel k: (f2 - f1) and common-mode rate
+        self.integral = CellIntegral(
+            9, CELL, self._integrand, self._increments, self.table.breakpoints,
+            self.table.max_rate, self.table.abs_rate,
+        )
+        self._change = self.env.event()
+        self.lines: dict[str, PulseLine] = {}
+        self._build_lines()
+
+    # ----- time and change notification -----
+    @property
+    def now(self) -> float:
+        """Simulated time, seconds."""
+        return seconds(self.env.now)
+
+    def changed(self) -> None:
+        """Tell the world its future changed at now (a table command): drop predictions."""
+        self.integral.invalidate_after(self.now)
+        ev, self._change = self._change, self.env.event()
+        ev.succeed()
+
+    @property
+    def change_event(self) -> simpy.Event:
+        return self._change
+
+    # ----- kinematics -----
+    def kinematics(self, t) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """T^BE (N,3,3), body angular rate w.r.t. inertial space (N,3), specific force (N,3)."""
+        t = np.atleast_1d(np.asarray(t, dtype=float))
+        f = self.table.frames(t)
+        t_bi = self.isu.t_bi
+        t_bo = t_bi @ f["t_io"]
+        t_br = t_bo @ f["t_or"]
+        t_bt = t_br @ f["t_rt"]
+        t_be = t_bt @ f["t_tf"] @ f["t_fe"]
+        rates = f["rates"]
+        w_rel = (
+            rates[4][:, None] * t_bi[None, :, 0]
+            + rates[3][:, None] * t_bo[:, :, 0]
+            + rates[2][:, None] * t_br[:, :, 0]
+            + rates[1][:, None] * t_bt[:, :, 0]
+            + np.einsum("nij,nj->ni", t_be, f["eps_rate"])
+        )
+        w_b = np.einsum("nij,j->ni", t_be, self.site.earth_rate_e) + w_rel
+        a_b = np.einsum("nij,j->ni", t_be, self.site.gravity_e)
+        return t_be, w_b, a_b
+
+    def attitude(self, t: float) -> np.ndarray:
+        """True T^BE at t."""
+        return self.kinematics(t)[0][0]
+
+    def mirror_normals(self, t: float) -> tuple[np.ndarray, np.ndarray]:
+        """True mirror normals in E components (up, east, north)."""
+        t_eb = self.attitude(t).T
+        return t_eb @ self.isu.mirrors[0], t_eb @ self.isu.mirrors[1]
+
+    def _integrand(self, t: np.ndarray) -> np.ndarray:
+        _, w_b, a_b = self.kinematics(t)
+        cols = [g.rate(w_b, a_b) for g in self.isu.gyros]
+        for acc in self.isu.accels:
+            cols.append(acc.difference_rate(a_b))
+            cols.append(acc.common_rate(a_b))
+        return np.stack(cols, axis=-1)
+
+    def _increments(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+        """Floor vibration seen by each accelerometer over pieces [a, b]: D1 A.dv / g."""
+        out = np.zeros((a.size, 9))
+        dv = self.environment.vibration_velocity(b) - self.environment.vibration_velocity(a)
+        t_be, _, _ = self.kinematics(0.5 * (a + b))
+        dv_b = np.einsum("nij,nj->ni", t_be, dv)
+        for k, acc in enumerate(self.isu.accels):
+            out[:, 3 + 2 * k] = acc.D1 * (dv_b @ acc.A) / units.G0
+        return out
+
+    # ----- pulse lines -----
+    def gyro_phase(self, k: int, t: float) -> float:
+        g = self.isu.gyros[k]
+        _, w_b, _ = self.kinematics(t)
+        ang = self.integral.value(t)[k] + g.J * float(w_b[0] @ g.O) + float(g.noise_angle(t))
+        return ang / g.dphi + g.phase0
+
+    def string_phase(self, k: int, s: int, t: float) -> float:
+        acc = self.isu.accels[k]
+        v = self.integral.value(t)
+        diff = v[3 + 2 * k] + acc.D1 * float(acc.noise.value(t)) / units.G0
+        sign = -0.5 if s == 1 else 0.5
+        return acc.f0 * t + v[4 + 2 * k] + sign * diff + acc.phase0[s - 1]
+
+    def _build_lines(self) -> None:
+        osc = self.oscillator
+        for k, g in enumerate(self.isu.gyros, start=1):
+            net = PulseLine(
+                f"G{k}", lambda t, k=k: self.gyro_phase(k - 1, t), sample=(g.tau, g.sample_offset)
+            )
+            self.lines[f"G{k}"] = net
+            for sign, suffix in ((1, "+"), (-1, "-")):
+                line = PulseLine(f"G{k}{suffix}", net.phase, bipolar_sign=sign)
+                line.net = net
+                self.lines[line.name] = line
+        for k in range(1, 4):
+            for s in (1, 2):
+                name = f"A{k}S{s}"
+                self.lines[name] = PulseLine(name, lambda t, k=k, s=s: self.string_phase(k - 1, s, t))
+        self.lines["TROT"] = PulseLine("TROT", lambda t: float(self.table.rotation_phase(t)))
+        self.lines["OSC1"] = PulseLine("OSC1", lambda t: osc.phase(t) / osc.p.s1_divider)
+        self.lines["OSC2"] = PulseLine("OSC2", lambda t: osc.phase(t) / osc.p.s2_divider)
+
+    def line(self, name: str) -> PulseLine:
+        return self.lines[name]

@@ -63,33 +63,41 @@ class PulseLine:
         d = src.phase(t + 1.0) - src.phase(t)
         return 1 if d >= 0 else -1
 
-    def edge_after(self, t: float, n: int) -> float:
-        """Time of the n-th edge after t (n >= 1) in the line's direction of motion."""
+    def edge_after(self, t: float, n: int) -> float | None:
+        """Time of the n-th edge after t (n >= 1) in the line's direction of motion.
+
+        None if the line does not get there within :data:`HORIZON` (a stopped table).
+        """
         src = self.net if self.net is not None else self
         d = src.direction(t) if self.net is None else self.bipolar_sign
         lev = src.level(t)
         target = lev + n if d > 0 else lev - n + 1
         tc = solve_crossing(src.phase, float(target), t, d)
-        return src.next_sample(tc)
+        return None if tc is None else src.next_sample(tc)
 
 
-def solve_crossing(phase: Callable[[float], float], c: float, t0: float, d: int) -> float:
+HORIZON = 86400.0  # s; how far ahead an edge is looked for
+
+
+def solve_crossing(
+    phase: Callable[[float], float], c: float, t0: float, d: int
+) -> float | None:
     """First t > t0 with phase(t) = c, for a phase moving in direction d towards c."""
     f0 = phase(t0) - c
     if d * f0 >= 0:  # already there
         return t0
     step = 1e-3
     a, fa = t0, f0
-    for _ in range(200):
+    while True:
         b = a + step
+        if b - t0 > HORIZON:
+            return None
         fb = phase(b) - c
         if d * fb >= 0:
             break
         rate = (fb - fa) / step
         a, fa = b, fb
-        # jump to the predicted crossing (with a margin), never less than doubling the step
+        # jump just past the predicted crossing; never shrink the step by more than half
         guess = -fa / rate * 1.05 if d * rate > 0 else step * 4
-        step = max(min(guess, 1e6), step * 0.5, 1e-6)
-    else:
-        raise RuntimeError("pulse line never reaches the requested edge")
+        step = max(min(guess, HORIZON / 8), step * 0.5, 1e-6)
     return brentq(lambda t: phase(t) - c, a, b, xtol=1e-12, rtol=1e-15, maxiter=200)

@@ -1,0 +1,188 @@
+"""Frequency counter with inputs X, Y (differenced) and Z, as used throughout report 000.
+
+Modes, named as the lab names them:
+* "measure Z"  (MODE Z):  the gate is PRESET pulses of Z; the reading is the X-Y count in it.
+* "measure X-Y" (MODE XY): the gate is PRESET pulses of X-Y, opened and closed on their
+  leading edges; the reading is the Z count (clock ticks) in it.
+In OPER the counter opens its gate on the next leading edge of the gating train; on
+reaching the preset it records the reading, clears and starts the next gate on the same
+edge (print and continue) until STBY. Readings queue for the reader (READ? waits for one).
+"""
+
+from __future__ import annotations
+
+from collections import deque
+
+import simpy
+
+from instruments.base import ByteInstrument, Deferred, InstrumentError, as_int, need
+from instruments.patch_panel import PatchPanel
+from sim.pulses import PulseLine
+from sim.timebase import ticks_ceil
+from sim.world import World
+
+MAX_QUEUE = 256
+
+
+class FrequencyCounter(ByteInstrument):
+    def __init__(self, name: str, jack: str, world: World, panel: PatchPanel, latency_s: float):
+        super().__init__(name, world.env, latency_s)
+        self.ident = f"ISU-LAB,FC-1,{jack},1.0"
+        self.world = world
+        self.panel = panel
+        self.jack = jack
+        self.mode = "Z"
+        self.preset = 1000
+        self.operating = False
+        self.readings: deque[int] = deque()
+        self.n_readings = 0
+        self.gate_open: float | None = None
+        self._waiters: deque[Deferred] = deque()
+        self._proc = None
+
+    # ----- wiring -----
+    def _inputs(self) -> tuple[PulseLine | None, PulseLine | None, PulseLine | None]:
+        return tuple(self.panel.source(self.jack, i) for i in ("X", "Y", "Z"))  # type: ignore
+
+    def _difference_line(self, x: PulseLine | None, y: PulseLine | None) -> PulseLine:
+        """The X-Y train as a gating line (measure X-Y)."""
+        if x is None:
+            raise InstrumentError(21, "input X not connected")
+        if y is None:
+            return x
+        if x.net is not None and x.net is y.net and x.bipolar_sign == 1 and y.bipolar_sign == -1:
+            return x.net
+        raise InstrumentError(22, "X-Y gating needs X alone or the +/- lines of one gyro")
+
+    # ----- measurement -----
+    def _gate_line_and_reader(self):
+        x, y, z = self._inputs()
+        if self.mode == "Z":
+            if z is None:
+                raise InstrumentError(21, "input Z not connected")
+            if x is None:
+                raise InstrumentError(21, "input X not connected")
+
+            def read(t0: float, t1: float) -> int:
+                return x.count(t0, t1) - (y.count(t0, t1) if y is not None else 0)
+
+            return z, read
+        gate = self._difference_line(x, y)
+        if z is None:
+            raise InstrumentError(21, "input Z not connected")
+        return gate, lambda t0, t1: z.count(t0, t1)
+
+    def _run(self):
+        try:
+            yield from self._gates()
+        except simpy.Interrupt:
+            return
+
+    def _gates(self):
+        world = self.world
+        while self.operating:
+            try:
+                gate, read = self._gate_line_and_reader()
+            except InstrumentError as e:
+                self.errors.append(f"ERR {e.code} {e.text}")
+                yield world.change_event
+                continue
+            t_open = gate.edge_after(world.now, 1) if self.gate_open is None else self.gate_open
+            if t_open is None or t_open > world.now:
+                if t_open is None:
+                    yield world.change_event
+                    continue
+                yield world.env.timeout(ticks_ceil(t_open) - world.env.now) | world.change_event
+                if world.now < t_open:
+                    continue  # the world changed before the gate opened: re-plan
+            self.gate_open = t_open
+            t_close = gate.edge_after(t_open, self.preset)
+            if t_close is None:
+                yield world.change_event
+                continue
+            wait = ticks_ceil(t_close) - world.env.now
+            if wait > 0:
+                yield world.env.timeout(wait) | world.change_event
+                if not self.operating:
+                    return
+                if world.now < t_close:
+                    continue  # the world changed: recompute the closing edge
+            if not self.operating:
+                return
+            self._record(read(t_open, t_close))
+            self.gate_open = t_close
+
+    def _record(self, value: int) -> None:
+        self.n_readings += 1
+        while self._waiters and self._waiters[0].cancelled:
+            self._waiters.popleft()
+        if self._waiters:
+            self._waiters.popleft().resolve(str(value))
+            return
+        if len(self.readings) >= MAX_QUEUE:
+            self.readings.popleft()
+            self.errors.append("ERR 24 reading queue overflow")
+        self.readings.append(value)
+
+    # ----- protocol -----
+    def command(self, cmd: str, args: list[str]):
+        if cmd == "*RST":
+            self._standby()
+            self.mode, self.preset = "Z", 1000
+            self.readings.clear()
+            return "OK"
+        if cmd == "MODE":
+            need(args, 1, "MODE Z|XY")
+            m = args[0].upper().replace("-", "")
+            if m not in ("Z", "XY"):
+                raise InstrumentError(11, f"mode must be Z or XY, got '{args[0]}'")
+            if self.operating:
+                raise InstrumentError(23, "set STBY before changing mode")
+            self.mode = m
+            return "OK"
+        if cmd == "MODE?":
+            return self.mode
+        if cmd == "PRESET":
+            need(args, 1, "PRESET <count>")
+            if self.operating:
+                raise InstrumentError(23, "set STBY before changing the preset")
+            self.preset = as_int(args[0], "preset", 1, 10**11)
+            return "OK"
+        if cmd == "PRESET?":
+            return str(self.preset)
+        if cmd == "OPER":
+            self._gate_line_and_reader()  # refuse now if unwired
+            if not self.operating:
+                self.operating = True
+                self.gate_open = None
+                self._proc = self.env.process(self._run())
+            return "OK"
+        if cmd == "STBY":
+            self._standby()
+            return "OK"
+        if cmd == "STATE?":
+            return "OPER" if self.operating else "STBY"
+        if cmd == "READ?":
+            d = Deferred(self.env)
+            if self.readings:
+                d.resolve(str(self.readings.popleft()))
+            else:
+                self._waiters.append(d)
+            return d
+        if cmd == "FETC?":
+            return str(self.readings.popleft()) if self.readings else "NONE"
+        if cmd == "COUN?":
+            return str(len(self.readings))
+        if cmd == "CLR":
+            self.readings.clear()
+            return "OK"
+        if cmd == "TEST?":
+            return "PASS"
+        return super().command(cmd, args)
+
+    def _standby(self) -> None:
+        self.operating = False
+        self.gate_open = None
+        if self._proc is not None and self._proc.is_alive:
+            self._proc.interrupt("standby")
+        self._proc = None

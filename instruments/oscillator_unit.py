@@ -1,0 +1,31 @@
+"""Master oscillator front panel (serial): status, countdown settings, self-test.
+
+Protocol: FREQ? (nominal Hz), DIV? <1|2> (countdown ratio of S1^T / S2^T), STAT? (LOCKED),
+TEST? (PASS).
+"""
+
+from __future__ import annotations
+
+from instruments.base import ByteInstrument, as_int, need
+from sim.world import World
+
+
+class OscillatorUnit(ByteInstrument):
+    ident = "ISU-LAB,MO-5M,0,1.0"
+
+    def __init__(self, name: str, world: World, latency_s: float) -> None:
+        super().__init__(name, world.env, latency_s)
+        self.osc = world.oscillator
+
+    def command(self, cmd: str, args: list[str]):
+        if cmd == "FREQ?":
+            return f"{self.osc.p.nominal_hz:.1f}"
+        if cmd == "DIV?":
+            need(args, 1, "DIV? <1|2>")
+            k = as_int(args[0], "output", 1, 2)
+            return str(self.osc.p.s1_divider if k == 1 else self.osc.p.s2_divider)
+        if cmd == "STAT?":
+            return "LOCKED"
+        if cmd == "TEST?":
+            return "PASS"
+        return super().command(cmd, args)

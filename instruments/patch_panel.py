@@ -1,0 +1,65 @@
+"""Patch panel / switch matrix: routes any pulse line to a counter's X, Y or Z input (Chart II-2).
+
+Protocol (line based, one reply per command):
+  CONN <line> <counter> <input>   connect, e.g. CONN G1+ C2 X        -> OK
+  DISC <counter> <input>          disconnect                          -> OK
+  CONN? <counter> <input>         line on that input, or NONE
+  CLR                             disconnect everything               -> OK
+  LINES?                          comma-separated list of line names
+"""
+
+from __future__ import annotations
+
+from instruments.base import ByteInstrument, InstrumentError, need
+from sim.pulses import PulseLine
+from sim.world import World
+
+INPUTS = ("X", "Y", "Z")
+
+
+class PatchPanel(ByteInstrument):
+    ident = "ISU-LAB,PATCH-PANEL,0,1.0"
+
+    def __init__(self, name: str, world: World, n_counters: int, latency_s: float) -> None:
+        super().__init__(name, world.env, latency_s)
+        self.world = world
+        self.counters = tuple(f"C{i}" for i in range(1, n_counters + 1))
+        self.conn: dict[tuple[str, str], str] = {}
+
+    def source(self, counter: str, inp: str) -> PulseLine | None:
+        """The pulse line patched to a counter input (used by the counters)."""
+        name = self.conn.get((counter, inp))
+        return self.world.line(name) if name else None
+
+    def _jack(self, counter: str, inp: str) -> tuple[str, str]:
+        c, i = counter.upper(), inp.upper()
+        if c not in self.counters:
+            raise InstrumentError(12, f"no counter '{counter}' (have {', '.join(self.counters)})")
+        if i not in INPUTS:
+            raise InstrumentError(12, f"no input '{inp}' (inputs X, Y, Z)")
+        return c, i
+
+    def command(self, cmd: str, args: list[str]):
+        if cmd == "CONN":
+            need(args, 3, "CONN <line> <counter> <input>")
+            line = args[0].upper()
+            if line not in self.world.lines:
+                raise InstrumentError(12, f"no line '{args[0]}'")
+            self.conn[self._jack(args[1], args[2])] = line
+            self.world.changed()
+            return "OK"
+        if cmd == "DISC":
+            need(args, 2, "DISC <counter> <input>")
+            self.conn.pop(self._jack(*args), None)
+            self.world.changed()
+            return "OK"
+        if cmd == "CONN?":
+            need(args, 2, "CONN? <counter> <input>")
+            return self.conn.get(self._jack(*args), "NONE")
+        if cmd == "CLR":
+            self.conn.clear()
+            self.world.changed()
+            return "OK"
+        if cmd == "LINES?":
+            return ",".join(sorted(self.world.lines))
+        return super().command(cmd, args)

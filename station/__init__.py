@@ -1,0 +1,1 @@
+"""The rack: configuration, links, drivers, clock, records and the command line."""

@@ -1,0 +1,82 @@
+"""In-process virtual links: endpoints of the simulated racks, and inline stepping of simpy.
+
+A blocking read on a virtual link steps the simulation in the reading thread until the
+awaited bytes or frames exist, or until the timeout expires in simulated time (DESIGN.md).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from urllib.parse import parse_qs, urlparse
+
+import simpy
+
+from sim.timebase import ticks
+from station.errors import Deadlock
+
+
+@dataclass
+class VirtualRack:
+    rack_id: str
+    env: simpy.Environment
+    serial: dict[str, object] = field(default_factory=dict)
+    can: dict[str, object] = field(default_factory=dict)
+
+
+_racks: dict[str, VirtualRack] = {}
+_current: list[str] = []
+
+
+def register(rack: VirtualRack) -> None:
+    _racks[rack.rack_id] = rack
+    _current.append(rack.rack_id)
+
+
+def unregister(rack_id: str) -> None:
+    _racks.pop(rack_id, None)
+    while rack_id in _current:
+        _current.remove(rack_id)
+
+
+def _rack(rack_id: str | None) -> VirtualRack:
+    rid = rack_id or (_current[-1] if _current else None)
+    if rid is None or rid not in _racks:
+        raise LookupError(
+            f"no simulated rack '{rid}' in this process" if rid else "no simulated rack running"
+        )
+    return _racks[rid]
+
+
+def resolve_serial(url: str) -> tuple[object, simpy.Environment]:
+    """Endpoint for ``sim://NAME[?rack=ID]``."""
+    u = urlparse(url)
+    rack_id = parse_qs(u.query).get("rack", [None])[0]
+    rack = _rack(rack_id)
+    name = u.netloc or u.path.lstrip("/")
+    if name not in rack.serial:
+        raise LookupError(f"no simulated serial instrument '{name}' in rack {rack.rack_id}")
+    return rack.serial[name], rack.env
+
+
+def resolve_can(channel: str, rack_id: str | None) -> tuple[object, simpy.Environment]:
+    rack = _rack(rack_id)
+    if channel not in rack.can:
+        raise LookupError(f"no simulated CAN channel '{channel}' in rack {rack.rack_id}")
+    return rack.can[channel], rack.env
+
+
+def run_until(env: simpy.Environment, done: Callable[[], bool], timeout_s: float | None) -> bool:
+    """Step ``env`` until ``done()`` or until ``timeout_s`` simulated seconds have passed."""
+    deadline = None if timeout_s is None else env.now + ticks(timeout_s)
+    while not done():
+        nxt = env.peek()
+        if deadline is not None and nxt > deadline:
+            if deadline > env.now:
+                env.run(until=deadline)
+            return done()
+        if nxt == math.inf:
+            raise Deadlock("waiting with nothing scheduled in the simulation")
+        env.step()
+    return True

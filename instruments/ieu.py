@@ -74,10 +74,15 @@ class Ieu:
             self.seq = 0
         elif cmd != CMD_STATUS:
             return self._refuse(ERR_CMD, arbitration_id)
-        self._send_now("IEU_STATUS", {
-            "State": int(self.running), "PeriodTicks": self.period,
-            "Seq": self.seq, "ErrorCode": self.error_code,
-        })
+        self._send_now(
+            "IEU_STATUS",
+            {
+                "State": int(self.running),
+                "PeriodTicks": self.period,
+                "Seq": self.seq,
+                "ErrorCode": self.error_code,
+            },
+        )
 
     def _refuse(self, code: int, ref: int) -> None:
         self.error_code = code
@@ -115,12 +120,18 @@ class Ieu:
         seq = self.seq
         self.seq = (self.seq + 1) % 65536
         frames = [
-            ("IEU_GYRO", {"Seq": seq, "Gyro1": _clip(g[0]), "Gyro2": _clip(g[1]),
-                          "Gyro3": _clip(g[2])}),
-            ("IEU_ACCEL_A", {"Seq": seq, "A1S1": _uclip(a[0]), "A1S2": _uclip(a[1]),
-                             "A2S1": _uclip(a[2])}),
-            ("IEU_ACCEL_B", {"Seq": seq, "A2S2": _uclip(a[3]), "A3S1": _uclip(a[4]),
-                             "A3S2": _uclip(a[5])}),
+            (
+                "IEU_GYRO",
+                {"Seq": seq, "Gyro1": _clip(g[0]), "Gyro2": _clip(g[1]), "Gyro3": _clip(g[2])},
+            ),
+            (
+                "IEU_ACCEL_A",
+                {"Seq": seq, "A1S1": _uclip(a[0]), "A1S2": _uclip(a[1]), "A2S1": _uclip(a[2])},
+            ),
+            (
+                "IEU_ACCEL_B",
+                {"Seq": seq, "A2S2": _uclip(a[3]), "A3S1": _uclip(a[4]), "A3S2": _uclip(a[5])},
+            ),
             ("IEU_TIMER", {"Seq": seq, "Timer": timer, "Flags": int(overflow)}),
         ]
         if self.drop_every and seq % self.drop_every == self.drop_every - 1:

@@ -6,7 +6,8 @@ the floor's translational acceleration is a(t) in E components.
 
 These are the three noise processes of Chart I-9:
 * rotational noise phi_theta: the tilt eps(t) = diurnal + wander + wobble, with covariance
-  per horizontal axis (A^2/2) cos(w_d tau) + s_w^2 exp(-|tau|/tau_w) + s_b^2 exp(-|tau|/tau_b) cos(w_b tau);
+  per horizontal axis (A^2/2) cos(w_d tau) + s_w^2 exp(-|tau|/tau_w)
+  + s_b^2 exp(-|tau|/tau_b) cos(w_b tau);
 * translational noise phi_alpha: the floor vibration, a multitone with covariance
   sum_k (A_k^2/2) cos(w_k tau) per axis;
 * accelerometer noise phi_n: white, q delta(tau), held in :mod:`sim.isu`.

@@ -14,9 +14,7 @@ def gimbal(p) -> np.ndarray:
     p = np.asarray(p, dtype=float)
     c, s = np.cos(p), np.sin(p)
     z, o = np.zeros_like(p), np.ones_like(p)
-    m = np.stack(
-        [np.stack([z, o, z], -1), np.stack([c, z, -s], -1), np.stack([-s, z, -c], -1)], -2
-    )
+    m = np.stack([np.stack([z, o, z], -1), np.stack([c, z, -s], -1), np.stack([-s, z, -c], -1)], -2)
     return m
 
 

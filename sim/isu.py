@@ -53,11 +53,19 @@ class Gyro:
         c = units.DEG_PER_HR
         self.dphi = units.arcsec(p.scale_factor_arcsec_per_pulse)
         self.R = p.R_deg_hr * c
-        self.B_I, self.B_O, self.B_S = (x * c / units.G0 for x in (p.B_I_deg_hr_g, p.B_O_deg_hr_g, p.B_S_deg_hr_g))
+        self.B_I, self.B_O, self.B_S = (
+            x * c / units.G0 for x in (p.B_I_deg_hr_g, p.B_O_deg_hr_g, p.B_S_deg_hr_g)
+        )
         g2 = units.G0**2
         self.C_II, self.C_SS, self.C_IS, self.C_OS, self.C_IO = (
             x * c / g2
-            for x in (p.C_II_deg_hr_g2, p.C_SS_deg_hr_g2, p.C_IS_deg_hr_g2, p.C_OS_deg_hr_g2, p.C_IO_deg_hr_g2)
+            for x in (
+                p.C_II_deg_hr_g2,
+                p.C_SS_deg_hr_g2,
+                p.C_IS_deg_hr_g2,
+                p.C_OS_deg_hr_g2,
+                p.C_IO_deg_hr_g2,
+            )
         )
         self.Q_II = p.Q_II_hr_deg / c
         self.Q_IS = p.Q_IS_hr_deg / c
@@ -104,7 +112,10 @@ class Gyro:
 
 
 class Accelerometer:
-    """Two-string vibrating-string accelerometer: f2 - f1 = D1 (u + D0 + D2 u^2 + D3 u^3), u = a.A in g."""
+    """Two-string vibrating-string accelerometer (Chart IV-1).
+
+    f2 - f1 = D1 (u + D0 + D2 u^2 + D3 u^3) with u = a.A in g.
+    """
 
     def __init__(self, k: int, p: AccelParams, seed: int) -> None:
         self.k = k

@@ -97,7 +97,7 @@ def _ar1(a: float, x: float, w: np.ndarray, chunk: int = 256) -> np.ndarray:
 
 
 def random_walk(h: float, q: float, seed: int, *names: str | int) -> KnotProcess:
-    """Wiener process W(0)=0 with variance ``q * t`` (q in units^2/s): the integral of white noise."""
+    """Wiener process W(0)=0, variance ``q * t`` (q in units^2/s): integrated white noise."""
     sd = math.sqrt(max(q, 0.0) * h)
 
     def step(rng: np.random.Generator, x: float, n: int) -> np.ndarray:

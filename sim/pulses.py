@@ -79,9 +79,7 @@ class PulseLine:
 HORIZON = 86400.0  # s; how far ahead an edge is looked for
 
 
-def solve_crossing(
-    phase: Callable[[float], float], c: float, t0: float, d: int
-) -> float | None:
+def solve_crossing(phase: Callable[[float], float], c: float, t0: float, d: int) -> float | None:
     """First t > t0 with phase(t) = c, for a phase moving in direction d towards c."""
     f0 = phase(t0) - c
     if d * f0 >= 0:  # already there

@@ -37,9 +37,7 @@ class FourAxisTable:
         rng = stream(seed, "table", "imperfections")
         amp = units.arcsec(p.resolver_error_arcsec)
         # Cyclic resolver error per axis: first and second harmonic with seeded phases.
-        self._res_err = {
-            k: (amp * 0.8, amp * 0.6, *rng.uniform(0, 2 * math.pi, 2)) for k in AXES
-        }
+        self._res_err = {k: (amp * 0.8, amp * 0.6, *rng.uniform(0, 2 * math.pi, 2)) for k in AXES}
         no = units.arcsec(p.nonorthogonality_arcsec)
         # Small fixed rotations at the junctions T->R, R->O, O->I (rotation vectors).
         self.nonortho = {k: rng.normal(0.0, no, 3) for k in ("RT", "OR", "IO")}

@@ -32,8 +32,13 @@ class World:
         self.oscillator = MasterOscillator(params.oscillator, self.seed)
         # components: gyro 1..3 smooth rate; accel k: (f2 - f1) and common-mode rate
         self.integral = CellIntegral(
-            9, CELL, self._integrand, self._increments, self.table.breakpoints,
-            self.table.max_rate, self.table.abs_rate,
+            9,
+            CELL,
+            self._integrand,
+            self._increments,
+            self.table.breakpoints,
+            self.table.max_rate,
+            self.table.abs_rate,
         )
         self._change = self.env.event()
         self.lines: dict[str, PulseLine] = {}
@@ -132,7 +137,9 @@ class World:
         for k in range(1, 4):
             for s in (1, 2):
                 name = f"A{k}S{s}"
-                self.lines[name] = PulseLine(name, lambda t, k=k, s=s: self.string_phase(k - 1, s, t))
+                self.lines[name] = PulseLine(
+                    name, lambda t, k=k, s=s: self.string_phase(k - 1, s, t)
+                )
         self.lines["TROT"] = PulseLine("TROT", lambda t: float(self.table.rotation_phase(t)))
         self.lines["OSC1"] = PulseLine("OSC1", lambda t: osc.phase(t) / osc.p.s1_divider)
         self.lines["OSC2"] = PulseLine("OSC2", lambda t: osc.phase(t) / osc.p.s2_divider)

@@ -15,7 +15,9 @@ from station.config import ConfigError, load_config
 app = typer.Typer(add_completion=False, no_args_is_help=True, help="The simulated ISU laboratory.")
 console = Console()
 
-ConfigOpt = Annotated[Path | None, typer.Option("--config", help="station config TOML (merged over the default)")]
+ConfigOpt = Annotated[
+    Path | None, typer.Option("--config", help="station config TOML (merged over the default)")
+]
 SeedOpt = Annotated[int | None, typer.Option("--seed", help="run seed (default: the config's)")]
 
 
@@ -50,7 +52,9 @@ def check(
         for col in ("instrument", "link", "ok", "identity / error"):
             t.add_column(col)
         for r in results:
-            t.add_row(r.instrument, r.link, "[green]yes[/green]" if r.ok else "[red]NO[/red]", r.identity)
+            t.add_row(
+                r.instrument, r.link, "[green]yes[/green]" if r.ok else "[red]NO[/red]", r.identity
+            )
         console.print(t)
     bad = [r.instrument for r in results if not r.ok]
     if bad:

@@ -98,14 +98,24 @@ class Station:
     links: dict[str, str] = field(default_factory=dict)
 
     def close(self) -> None:
-        for d in (self.table, self.patch_panel, self.bubble_levels, self.oscillator,
-                  *self.counters.values(), *self.autocollimators.values()):
+        for d in (
+            self.table,
+            self.patch_panel,
+            self.bubble_levels,
+            self.oscillator,
+            *self.counters.values(),
+            *self.autocollimators.values(),
+        ):
             d.close()
         self.ieu.close()
 
 
-def open_station(cfg: StationConfig, rack: SimulatedRack | None = None, clock: Clock | None = None,
-                 timeout: float = 5.0) -> Station:
+def open_station(
+    cfg: StationConfig,
+    rack: SimulatedRack | None = None,
+    clock: Clock | None = None,
+    timeout: float = 5.0,
+) -> Station:
     """Drivers for every instrument over the configured links (pinned to ``rack`` if given)."""
     rid = rack.rack_id if rack else None
     if clock is None:
@@ -119,7 +129,9 @@ def open_station(cfg: StationConfig, rack: SimulatedRack | None = None, clock: C
         clock=clock,
         table=TableDriver(links["table"], clock, timeout=timeout),
         patch_panel=PatchPanelDriver("patch_panel", links["patch_panel"], timeout),
-        counters={i: CounterDriver(f"counter{i}", links[f"counter{i}"], timeout) for i in range(1, 7)},
+        counters={
+            i: CounterDriver(f"counter{i}", links[f"counter{i}"], timeout) for i in range(1, 7)
+        },
         autocollimators={
             i: AutocollimatorDriver(f"autocollimator{i}", links[f"autocollimator{i}"], timeout)
             for i in (1, 2)

@@ -78,7 +78,10 @@ class IeuDriver:
                 return sig
             if name == "IEU_ERROR":
                 raise InstrumentRefused(
-                    self.name, self.link, int(sig["Code"]), f"frame 0x{int(sig['RefId']):03x} refused"
+                    self.name,
+                    self.link,
+                    int(sig["Code"]),
+                    f"frame 0x{int(sig['RefId']):03x} refused",
                 )
 
     def identify(self) -> str:
@@ -133,8 +136,12 @@ class IeuDriver:
                     t=tm["_t"],
                     gyro=(int(g["Gyro1"]), int(g["Gyro2"]), int(g["Gyro3"])),
                     accel=(
-                        int(a["A1S1"]), int(a["A1S2"]), int(a["A2S1"]),
-                        int(b["A2S2"]), int(b["A3S1"]), int(b["A3S2"]),
+                        int(a["A1S1"]),
+                        int(a["A1S2"]),
+                        int(a["A2S1"]),
+                        int(b["A2S2"]),
+                        int(b["A3S1"]),
+                        int(b["A3S2"]),
                     ),
                     timer=int(tm["Timer"]),
                     flags=int(tm["Flags"]),

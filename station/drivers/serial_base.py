@@ -41,13 +41,13 @@ class SerialDriver:
         if not raw.endswith(b"\n"):
             waited = self.timeout if timeout is None else timeout
             got = f" (partial reply {raw[:40]!r})" if raw else ""
-            raise LinkTimeout(
-                self.name, self.url, f"no reply to '{cmd}' within {waited:g} s{got}"
-            )
+            raise LinkTimeout(self.name, self.url, f"no reply to '{cmd}' within {waited:g} s{got}")
         try:
             text = raw.decode("ascii").strip()
         except UnicodeDecodeError:
-            raise DriverError(self.name, self.url, f"garbled reply to '{cmd}': {raw[:40]!r}") from None
+            raise DriverError(
+                self.name, self.url, f"garbled reply to '{cmd}': {raw[:40]!r}"
+            ) from None
         if text.startswith("ERR"):
             parts = text.split(" ", 2)
             try:
@@ -69,7 +69,9 @@ class SerialDriver:
         except ValueError:
             vals = []
         if len(vals) != n:
-            raise DriverError(self.name, self.url, f"expected {n} numbers from '{cmd}', got {reply!r}")
+            raise DriverError(
+                self.name, self.url, f"expected {n} numbers from '{cmd}', got {reply!r}"
+            )
         return vals
 
     def identify(self) -> str:

@@ -53,5 +53,7 @@ class TableDriver(SerialDriver):
             if all(s in ("HOLD", "ROTATING") for s in st):
                 return
             if self.clock.now() >= t_end:
-                raise LinkTimeout(self.name, self.url, f"axes not settled after {timeout:g} s: {st}")
+                raise LinkTimeout(
+                    self.name, self.url, f"axes not settled after {timeout:g} s: {st}"
+                )
             self.clock.sleep(poll)

@@ -31,7 +31,11 @@ class SimBus(can.BusABC):
             return None
         t, fid, data = out.popleft()
         return can.Message(
-            timestamp=t, arbitration_id=fid, data=data, is_extended_id=False, channel=self.channel_info
+            timestamp=t,
+            arbitration_id=fid,
+            data=data,
+            is_extended_id=False,
+            channel=self.channel_info,
         )
 
     def recv(self, timeout: float | None = None) -> can.Message | None:

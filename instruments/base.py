@@ -60,6 +60,7 @@ class ByteInstrument:
         self._wake = env.event()
         self.errors: deque[str] = deque(maxlen=32)
         self.silent = False  # fault injection: stops answering
+        self._discarding = False  # skipping the rest of an over-long line up to its newline
         env.process(self._reply_loop())
 
     # --- host side ---
@@ -71,10 +72,18 @@ class ByteInstrument:
             if i < 0:
                 if len(self._inbuf) > MAX_LINE:
                     self._inbuf.clear()
-                    self._queue(self._error(100, "garbled input: line too long"))
+                    if not self._discarding:  # one error reply per over-long line
+                        self._discarding = True
+                        self._queue(self._error(100, "garbled input: line too long"))
                 return
             raw = bytes(self._inbuf[:i]).rstrip(b"\r")
             del self._inbuf[: i + 1]
+            if self._discarding:  # the end of an over-long line, already refused
+                self._discarding = False
+                continue
+            if i > MAX_LINE:  # an over-long line that arrived in one piece
+                self._queue(self._error(100, "garbled input: line too long"))
+                continue
             self._handle_raw(raw)
 
     def _handle_raw(self, raw: bytes) -> None:

@@ -61,7 +61,7 @@ class Ieu:
         cmd = int(sig["Command"])
         if cmd == CMD_START:
             period = int(sig["PeriodTicks"])
-            if not 1 <= period * self.world.oscillator.s2_nominal <= self.p.max_period_s:
+            if period < 1 or period * self.world.oscillator.s2_nominal > self.p.max_period_s:
                 return self._refuse(ERR_PERIOD, arbitration_id)
             self._stop()
             self.period = period

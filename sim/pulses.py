@@ -98,4 +98,11 @@ def solve_crossing(phase: Callable[[float], float], c: float, t0: float, d: int)
         # jump just past the predicted crossing; never shrink the step by more than half
         guess = -fa / rate * 1.05 if d * rate > 0 else step * 4
         step = max(min(guess, HORIZON / 8), step * 0.5, 1e-6)
-    return brentq(lambda t: phase(t) - c, a, b, xtol=1e-12, rtol=1e-15, maxiter=200)
+    t = brentq(lambda t: phase(t) - c, a, b, xtol=1e-12, rtol=1e-15, maxiter=200)
+    # The edge belongs to the instant the phase has reached the level: never return a time
+    # a rounding error short of it, or the count at that time would miss the edge.
+    step = max(abs(t) * 4e-16, 1e-13)
+    while d * (phase(t) - c) < 0:
+        t += step
+        step *= 2
+    return t

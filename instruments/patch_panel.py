@@ -46,19 +46,19 @@ class PatchPanel(ByteInstrument):
             if line not in self.world.lines:
                 raise InstrumentError(12, f"no line '{args[0]}'")
             self.conn[self._jack(args[1], args[2])] = line
-            self.world.changed()
+            self.world.notify()
             return "OK"
         if cmd == "DISC":
             need(args, 2, "DISC <counter> <input>")
             self.conn.pop(self._jack(*args), None)
-            self.world.changed()
+            self.world.notify()
             return "OK"
         if cmd == "CONN?":
             need(args, 2, "CONN? <counter> <input>")
             return self.conn.get(self._jack(*args), "NONE")
         if cmd == "CLR":
             self.conn.clear()
-            self.world.changed()
+            self.world.notify()
             return "OK"
         if cmd == "LINES?":
             return ",".join(sorted(self.world.lines))

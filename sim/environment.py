@@ -7,7 +7,7 @@ the floor's translational acceleration is a(t) in E components.
 These are the three noise processes of Chart I-9:
 * rotational noise phi_theta: the tilt eps(t) = diurnal + wander + wobble, with covariance
   per horizontal axis (A^2/2) cos(w_d tau) + s_w^2 exp(-|tau|/tau_w)
-  + s_b^2 exp(-|tau|/tau_b) cos(w_b tau);
+  + sum_k (B_k^2/2) cos(w_k tau), the last a narrow band of tones about 1 cycle/min;
 * translational noise phi_alpha: the floor vibration, a multitone with covariance
   sum_k (A_k^2/2) cos(w_k tau) per axis;
 * accelerometer noise phi_n: white, q delta(tau), held in :mod:`sim.isu`.
@@ -51,8 +51,8 @@ class Site:
 class Environment:
     """The pier's tilt history and the floor's vibration, seeded from the run seed."""
 
-    WANDER_KNOT = 60.0
-    WOBBLE_KNOT = 5.0
+    WANDER_KNOT = 60.0  # the only kinks of the tilt history: sim.world aligns its cells on them
+    WOBBLE_TONES = 8
 
     def __init__(self, p: EnvironmentParams, seed: int) -> None:
         self.p = p
@@ -69,14 +69,14 @@ class Environment:
             for ax in ("E", "N")
         ]
         wb = p.wobble
-        # A narrow-band process: a(t) cos(w t) + b(t) sin(w t), rms = amplitude/sqrt(2) per axis.
+        # A narrow band of tones about 1/period (width 1/coherence), rms = amplitude/sqrt(2):
+        # smooth and closed form, with a coherence time of about coherence_s.
+        f_b, df = 1.0 / wb.period_s, 1.0 / wb.coherence_s
         s_b = units.arcsec(wb.amplitude_arcsec) / math.sqrt(2.0)
-        self.w_b = 2 * math.pi / wb.period_s
         self.wobble = [
-            [
-                gauss_markov(self.WOBBLE_KNOT, s_b, wb.coherence_s, seed, "env", "wobble", ax, c)
-                for c in ("cos", "sin")
-            ]
+            Multitone(
+                s_b, f_b - 0.5 * df, f_b + 0.5 * df, self.WOBBLE_TONES, seed, "env", "wobble", ax
+            )
             for ax in ("E", "N")
         ]
         v = p.vibration
@@ -94,9 +94,7 @@ class Environment:
         d = self.diurnal_amp * np.sin(self.w_d * t + self.diurnal_phase)
         out += np.outer(d, self.diurnal_dir)
         for i, ax in enumerate((1, 2)):
-            wa, wb = self.wobble[i]
-            out[:, ax] += self.wander[i].value(t)
-            out[:, ax] += wa.value(t) * np.cos(self.w_b * t) + wb.value(t) * np.sin(self.w_b * t)
+            out[:, ax] += self.wander[i].value(t) + self.wobble[i].value(t)
         return out
 
     def tilt_rate(self, t: np.ndarray) -> np.ndarray:
@@ -105,12 +103,8 @@ class Environment:
         out = np.zeros((t.size, 3))
         d = self.diurnal_amp * self.w_d * np.cos(self.w_d * t + self.diurnal_phase)
         out += np.outer(d, self.diurnal_dir)
-        c, s = np.cos(self.w_b * t), np.sin(self.w_b * t)
         for i, ax in enumerate((1, 2)):
-            wa, wb = self.wobble[i]
-            out[:, ax] += self.wander[i].slope(t)
-            out[:, ax] += wa.slope(t) * c - wa.value(t) * self.w_b * s
-            out[:, ax] += wb.slope(t) * s + wb.value(t) * self.w_b * c
+            out[:, ax] += self.wander[i].slope(t) + self.wobble[i].rate(t)
         return out
 
     # --- translational: floor vibration ---
@@ -127,12 +121,11 @@ class Environment:
     def tilt_covariance(self, tau) -> np.ndarray:
         """phi_theta(tau): covariance of one horizontal tilt component, rad^2."""
         tau = np.abs(np.asarray(tau, dtype=float))
-        pt, wb = self.p.pier_tilt, self.p.wobble
+        pt = self.p.pier_tilt
         dd = self.diurnal_dir[1:]
         diurnal = 0.5 * self.diurnal_amp**2 * np.cos(self.w_d * tau) * float(np.mean(dd**2))
         wander = units.arcsec(pt.wander_sigma_arcsec) ** 2 * np.exp(-tau / pt.wander_tau_s)
-        s_b2 = units.arcsec(wb.amplitude_arcsec) ** 2 / 2.0
-        wobble = s_b2 * np.exp(-tau / wb.coherence_s) * np.cos(self.w_b * tau)
+        wobble = 0.5 * (self.wobble[0].covariance(tau) + self.wobble[1].covariance(tau))
         return diurnal + wander + wobble
 
     def vibration_covariance(self, tau, axis: int = 0) -> np.ndarray:

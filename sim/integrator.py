@@ -1,10 +1,19 @@
-"""Running integrals of the ISU's input rates, exact to quadrature precision and O(1) per query.
+"""Running integrals of the ISU's input rates: exact to quadrature precision, O(1) per query.
 
-Time is cut into fixed cells of ``h`` seconds; the integral over each cell is computed once
-(Gauss-Legendre, split at table segment starts and subdivided when the table turns fast)
-and summed into a cumulative table. A query at t costs one partial cell. Because cells are
-fixed, the result does not depend on the order of queries. A world change at tc (a table
-command) drops the cells after tc; they are recomputed with the new plan when needed.
+Time is cut into fixed cells of ``h`` seconds, each split into pieces at table segment
+starts and subdivided when the table turns fast. On each piece the integrand is sampled at
+the 8 Gauss-Legendre nodes once; its Legendre interpolant gives both the piece integral
+(identical to Gauss-Legendre quadrature) and, analytically, the integral up to any time
+inside the piece. A query therefore evaluates a polynomial, never the physics again.
+Because cells are fixed, results do not depend on the order of queries. A world change at
+tc (a table command) drops the cells from the one holding tc on; they are recomputed with
+the new plan when needed.
+
+Components come in two kinds: ``m_int`` integrated rates, and ``m_val`` smooth values that
+are only interpolated (the gyro's w.O for its J term). A third, closed-form part handles
+the floor vibration: per piece, a matrix (m_int, 3) maps the change of a basis function
+(the floor velocity) to increments of the integrated components. ``integrand(nodes, mids)``
+returns the node values (N, m_int + m_val) and the matrices at the piece middles.
 """
 
 from __future__ import annotations
@@ -13,100 +22,148 @@ import math
 from collections.abc import Callable
 
 import numpy as np
+from numpy.polynomial import legendre as leg
 
-GL_X, GL_W = np.polynomial.legendre.leggauss(8)
-MAX_SWEEP = math.pi / 2  # rad of table travel per quadrature piece
+ORDER = 8
+GL_X, GL_W = leg.leggauss(ORDER)
+MAX_SWEEP = math.pi / 2  # rad of table travel per piece
+# Legendre coefficients from node values: c_n = (2n+1)/2 sum_i w_i P_n(x_i) f_i
+_P_NODES = leg.legvander(GL_X, ORDER - 1)  # (8 nodes, 8 degrees)
+TO_COEF = (_P_NODES * GL_W[:, None]).T * ((2 * np.arange(ORDER) + 1) / 2.0)[:, None]
+# Antiderivative from x = -1, as a linear map on coefficients (8 -> 9)
+ANTI = np.stack([leg.legint(np.eye(ORDER)[n], lbnd=-1) for n in range(ORDER)], axis=1)
+
+
+def _legendre_values(x: float, n: int) -> np.ndarray:
+    """P_0(x) .. P_{n-1}(x) by recurrence."""
+    p = np.empty(n)
+    p[0] = 1.0
+    if n > 1:
+        p[1] = x
+    for k in range(2, n):
+        p[k] = ((2 * k - 1) * x * p[k - 1] - (k - 1) * p[k - 2]) / k
+    return p
 
 
 class CellIntegral:
     def __init__(
         self,
-        m: int,
+        m_int: int,
+        m_val: int,
         h: float,
-        integrand: Callable[[np.ndarray], np.ndarray],
-        increments: Callable[[np.ndarray, np.ndarray], np.ndarray],
+        integrand: Callable[[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray]],
+        increment_basis: Callable[[float | np.ndarray], np.ndarray],
         breakpoints: Callable[[float, float], list[float]],
-        max_rate: Callable[[float, float], float],
         abs_rate: Callable[[np.ndarray], np.ndarray],
     ) -> None:
-        self.m = m
-        self.h = h
+        self.m_int, self.m_val, self.h = m_int, m_val, h
         self._integrand = integrand
-        self._increments = increments
+        self._inc_basis = increment_basis
         self._breakpoints = breakpoints
-        self._max_rate = max_rate
         self._abs_rate = abs_rate
-        self.cum = np.zeros((1, m))
+        self._cells = 0  # cells [0, _cells) are held
+        self._a = np.zeros(0)  # piece starts
+        self._b = np.zeros(0)
+        self._cum = np.zeros((0, m_int))  # integral from 0 to each piece start
+        self._anti = np.zeros((0, ORDER + 1, m_int))
+        self._coef = np.zeros((0, ORDER, m_val))
+        self._inc = np.zeros((0, m_int, 3))
+        self._basis_a = np.zeros((0, 3))
 
-    def _pieces(self, t0: float, t1: float) -> list[tuple[float, float]]:
-        edges = [t0, *self._breakpoints(t0, t1), t1]
-        out = []
-        for a, b in zip(edges[:-1], edges[1:], strict=True):
-            if b <= a:
-                continue
-            n = max(1, math.ceil(self._max_rate(a, b) * (b - a) / MAX_SWEEP))
-            xs = np.linspace(a, b, n + 1)
-            out.extend(zip(xs[:-1], xs[1:], strict=True))
-        return out
+    # ----- building pieces -----
+    def _split(self, a: float, b: float, rate: float | None) -> list[tuple[float, float]]:
+        """Pieces of [a, b]: cut at segment starts, then so the table turns <= MAX_SWEEP each."""
+        if rate is None:
+            edges = np.array([a, *self._breakpoints(a, b), b])
+            x, y = edges[:-1], edges[1:]
+            # rates are linear within a segment (or a decaying settle): the ends bound them
+            r = np.maximum(self._abs_rate(x), self._abs_rate(np.maximum(x, y - 1e-9)))
+            out: list[tuple[float, float]] = []
+            for xi, yi, ri in zip(x, y, r, strict=True):
+                if yi > xi:
+                    out.extend(self._split(float(xi), float(yi), float(ri)))
+            return out
+        n = max(1, math.ceil(rate * (b - a) / MAX_SWEEP))
+        if n == 1:
+            return [(a, b)]
+        xs = np.linspace(a, b, n + 1)
+        return list(zip(xs[:-1], xs[1:], strict=True))
 
-    def _integrate(self, groups: list[list[tuple[float, float]]]) -> np.ndarray:
-        """Integral over each group of pieces, shape (len(groups), m)."""
-        flat = [p for g in groups for p in g]
-        if not flat:
-            return np.zeros((len(groups), self.m))
-        ab = np.array(flat)
+    def _ensure_cells(self, k: int) -> None:
+        """Hold cells [0, k)."""
+        if k <= self._cells:
+            return
+        j0 = self._cells
+        busy = {int(x // self.h) for x in self._breakpoints(j0 * self.h, k * self.h)}
+        edges = np.arange(j0, k + 1) * self.h
+        r = self._abs_rate(edges)
+        r = np.maximum(r[:-1], r[1:])
+        pieces: list[tuple[float, float]] = []
+        for j in range(j0, k):
+            a, b = j * self.h, (j + 1) * self.h
+            pieces.extend(self._split(a, b, None if j in busy else float(r[j - j0])))
+        ab = np.array(pieces)
         a, b = ab[:, 0], ab[:, 1]
         half = 0.5 * (b - a)
         mid = 0.5 * (a + b)
         nodes = (mid[:, None] + half[:, None] * GL_X[None, :]).ravel()
-        vals = self._integrand(nodes).reshape(len(flat), GL_X.size, self.m)
-        piece = np.einsum("pkm,k->pm", vals, GL_W) * half[:, None]
-        piece = piece + self._increments(a, b)
-        starts = np.cumsum([0] + [len(g) for g in groups[:-1]])
-        sums = np.zeros((len(groups), self.m))
-        nonempty = np.array([len(g) > 0 for g in groups])
-        if nonempty.any():
-            sums[nonempty] = np.add.reduceat(piece, starts[nonempty], axis=0)
-        return sums
+        # values at the nodes, and the vibration matrices at the piece middles, in one call
+        vals, inc = self._integrand(nodes, mid)
+        vals = vals.reshape(len(pieces), ORDER, -1)
+        f_int, f_val = vals[:, :, : self.m_int], vals[:, :, self.m_int :]
+        coef_int = np.einsum("nk,pkm->pnm", TO_COEF, f_int)
+        anti = np.einsum("jn,pnm->pjm", ANTI, coef_int) * half[:, None, None]
+        coef_val = np.einsum("nk,pkm->pnm", TO_COEF, f_val)
+        basis_a = self._inc_basis(a)  # (P, 3)
+        basis_b = self._inc_basis(b)
+        # piece integral: antiderivative at x = 1 is sum of its coefficients (P_n(1) = 1)
+        total = anti.sum(axis=1) + np.einsum("pmi,pi->pm", inc, basis_b - basis_a)
+        start = self._cum[-1] + self._last_total() if self._a.size else np.zeros(self.m_int)
+        cum = start + np.concatenate((np.zeros((1, self.m_int)), np.cumsum(total, axis=0)[:-1]))
+        self._a = np.concatenate((self._a, a))
+        self._b = np.concatenate((self._b, b))
+        self._cum = np.concatenate((self._cum, cum))
+        self._anti = np.concatenate((self._anti, anti))
+        self._coef = np.concatenate((self._coef, coef_val))
+        self._inc = np.concatenate((self._inc, inc))
+        self._basis_a = np.concatenate((self._basis_a, basis_a))
+        self._cells = k
 
-    def _ensure(self, k: int) -> None:
-        have = self.cum.shape[0] - 1  # cells integrated
-        if k <= have:
-            return
-        t0, t1 = have * self.h, k * self.h
-        bps = self._breakpoints(t0, t1)
-        busy = {int(b // self.h) for b in bps}
-        # Cells without a segment start inside: one rate probe decides the subdivision.
-        edges = np.arange(have, k + 1) * self.h
-        r = self._abs_rate(edges)
-        r = np.maximum(r[:-1], r[1:])
-        groups = []
-        for j in range(have, k):
-            a, b = j * self.h, (j + 1) * self.h
-            if j in busy:
-                groups.append(self._pieces(a, b))
-            else:
-                n = max(1, math.ceil(r[j - have] * self.h / MAX_SWEEP))
-                if n == 1:
-                    groups.append([(a, b)])
-                else:
-                    xs = np.linspace(a, b, n + 1)
-                    groups.append(list(zip(xs[:-1], xs[1:], strict=True)))
-        cells = self._integrate(groups)
-        self.cum = np.vstack((self.cum, self.cum[-1] + np.cumsum(cells, axis=0)))
+    def _last_total(self) -> np.ndarray:
+        p = self._a.size - 1
+        vb = self._inc_basis(self._b[p : p + 1])[0]
+        return self._anti[p].sum(axis=0) + self._inc[p] @ (vb - self._basis_a[p])
+
+    # ----- queries -----
+    def _piece(self, t: float) -> int:
+        self._ensure_cells(int(t // self.h) + 1)
+        return int(np.searchsorted(self._a, t, side="right")) - 1
 
     def value(self, t: float) -> np.ndarray:
-        """Integral from 0 to t of every component, shape (m,)."""
+        """Integral from 0 to t of the integrated components, shape (m_int,)."""
         if t <= 0:
-            return np.zeros(self.m)
-        k = int(t // self.h)
-        self._ensure(k)
-        t0 = k * self.h
-        if t == t0:
-            return self.cum[k].copy()
-        return self.cum[k] + self._integrate([self._pieces(t0, t)])[0]
+            return np.zeros(self.m_int)
+        p = self._piece(t)
+        a, b = self._a[p], self._b[p]
+        x = (2.0 * t - a - b) / (b - a)
+        part = _legendre_values(x, ORDER + 1) @ self._anti[p]
+        vib = self._inc[p] @ (self._inc_basis(np.array([t]))[0] - self._basis_a[p])
+        return self._cum[p] + part + vib
+
+    def interpolated(self, t: float) -> np.ndarray:
+        """The value components at t, shape (m_val,)."""
+        p = self._piece(max(t, 0.0))
+        a, b = self._a[p], self._b[p]
+        x = (2.0 * t - a - b) / (b - a)
+        return _legendre_values(x, ORDER) @ self._coef[p]
 
     def invalidate_after(self, tc: float) -> None:
-        keep = int(max(tc, 0.0) // self.h) + 1
-        if self.cum.shape[0] > keep:
-            self.cum = self.cum[:keep]
+        k = int(max(tc, 0.0) // self.h)
+        if self._cells <= k:
+            return
+        keep = int(np.searchsorted(self._a, k * self.h, side="left"))
+        self._a, self._b = self._a[:keep], self._b[:keep]
+        self._cum, self._anti = self._cum[:keep], self._anti[:keep]
+        self._coef, self._inc = self._coef[:keep], self._inc[:keep]
+        self._basis_a = self._basis_a[:keep]
+        self._cells = k

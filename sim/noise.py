@@ -96,14 +96,74 @@ def _ar1(a: float, x: float, w: np.ndarray, chunk: int = 256) -> np.ndarray:
     return out
 
 
-def random_walk(h: float, q: float, seed: int, *names: str | int) -> KnotProcess:
+class RandomWalk:
+    """Wiener process W(0)=0 with variance ``q * t`` (q in units^2/s): integrated white noise.
+
+    Knots every ``h`` s, linear in between. Block totals are drawn first and each block's path
+    is a Brownian bridge between them, drawn only when a time inside the block is asked for:
+    the value at any time costs O(1) however far it lies, and never depends on query order.
+    """
+
+    def __init__(self, h: float, q: float, seed: int, names: tuple[str | int, ...]) -> None:
+        self.h = float(h)
+        self._sd = math.sqrt(max(q, 0.0) * h)
+        self._seed = seed
+        self._names = names
+        self._starts = np.zeros(1)  # W at the start of each block
+        self._paths: dict[int, np.ndarray] = {}
+
+    def _start(self, b: int) -> float:
+        while self._starts.size <= b:
+            n = self._starts.size
+            more = np.array(
+                [
+                    float(stream(self._seed, *self._names, "total", j).standard_normal())
+                    for j in range(n - 1, max(b, 2 * n))
+                ]
+            )
+            tot = more * self._sd * math.sqrt(BLOCK)
+            self._starts = np.concatenate((self._starts, self._starts[-1] + np.cumsum(tot)))
+        return float(self._starts[b])
+
+    def _path(self, b: int) -> np.ndarray:
+        """W at knots b*BLOCK .. (b+1)*BLOCK inclusive."""
+        p = self._paths.get(b)
+        if p is None:
+            w0, w1 = self._start(b), self._start(b + 1)
+            inc = stream(self._seed, *self._names, "path", b).standard_normal(BLOCK) * self._sd
+            x = np.concatenate(([0.0], np.cumsum(inc)))
+            x -= np.arange(BLOCK + 1) / BLOCK * (x[-1] - (w1 - w0))
+            p = w0 + x
+            self._paths[b] = p
+        return p
+
+    def _knots(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        u = np.maximum(t, 0.0) / self.h
+        k = np.floor(u).astype(np.int64)
+        x0 = np.empty(k.size)
+        x1 = np.empty(k.size)
+        for i, kk in enumerate(k):
+            b, r = divmod(int(kk), BLOCK)
+            p = self._path(b)
+            x0[i], x1[i] = p[r], p[r + 1]
+        return x0, x1, u - k
+
+    def value(self, t):
+        ta = np.asarray(t, dtype=float)
+        x0, x1, f = self._knots(np.atleast_1d(ta))
+        v = x0 + (x1 - x0) * f
+        return v.reshape(ta.shape) if ta.ndim else float(v[0])
+
+    def slope(self, t):
+        ta = np.asarray(t, dtype=float)
+        x0, x1, _ = self._knots(np.atleast_1d(ta))
+        v = (x1 - x0) / self.h
+        return v.reshape(ta.shape) if ta.ndim else float(v[0])
+
+
+def random_walk(h: float, q: float, seed: int, *names: str | int) -> RandomWalk:
     """Wiener process W(0)=0, variance ``q * t`` (q in units^2/s): integrated white noise."""
-    sd = math.sqrt(max(q, 0.0) * h)
-
-    def step(rng: np.random.Generator, x: float, n: int) -> np.ndarray:
-        return x + np.cumsum(rng.standard_normal(n) * sd)
-
-    return KnotProcess(h, seed, names, lambda rng: 0.0, step)
+    return RandomWalk(h, q, seed, names)
 
 
 def gauss_markov(h: float, sigma: float, tau: float, seed: int, *names: str | int) -> KnotProcess:
@@ -132,6 +192,12 @@ class Multitone:
     def value(self, t):
         ta = np.asarray(t, dtype=float)
         v = np.cos(np.multiply.outer(ta, self.w) + self.psi) @ self.amp
+        return v if ta.ndim else float(v)
+
+    def rate(self, t):
+        """Time derivative."""
+        ta = np.asarray(t, dtype=float)
+        v = -np.sin(np.multiply.outer(ta, self.w) + self.psi) @ (self.amp * self.w)
         return v if ta.ndim else float(v)
 
     def integral(self, t):

@@ -98,6 +98,17 @@ def solve_crossing(phase: Callable[[float], float], c: float, t0: float, d: int)
         # jump just past the predicted crossing; never shrink the step by more than half
         guess = -fa / rate * 1.05 if d * rate > 0 else step * 4
         step = max(min(guess, HORIZON / 8), step * 0.5, 1e-6)
+    # A few secant steps shrink the bracket cheaply (phases are nearly linear in time).
+    for _ in range(4):
+        if b - a < 1e-9:
+            break
+        ts = a - fa * (b - a) / (fb - fa)
+        lo, hi = ts - 1e-6 * (b - a), ts + 1e-6 * (b - a)
+        flo, fhi = phase(lo) - c, phase(hi) - c
+        if d * flo < 0 <= d * fhi and a < lo and hi < b:
+            a, fa, b, fb = lo, flo, hi, fhi
+        else:
+            break
     t = brentq(lambda t: phase(t) - c, a, b, xtol=1e-12, rtol=1e-15, maxiter=200)
     # The edge belongs to the instant the phase has reached the level: never return a time
     # a rounding error short of it, or the count at that time would miss the edge.

@@ -142,9 +142,6 @@ class FourAxisTable:
             out.update(tr.breakpoints(t0, t1))
         return sorted(out)
 
-    def max_rate(self, t0: float, t1: float) -> float:
-        return max(tr.max_rate(t0, t1) for tr in self.axes.values())
-
     def abs_rate(self, t: np.ndarray) -> np.ndarray:
         """Largest |axis rate| at each time (rad/s)."""
         return np.max([np.abs(tr.evaluate(t)[1]) for tr in self.axes.values()], axis=0)

@@ -71,12 +71,6 @@ class Trajectory:
         """Segment starts strictly inside (t0, t1)."""
         return [float(x) for x in self._ts if t0 < x < t1]
 
-    def max_rate(self, t0: float, t1: float) -> float:
-        """Upper bound of |rate| over [t0, t1] (segment ends and peaks)."""
-        pts = [t0, t1, *self.breakpoints(t0, t1)]
-        _, v = self.evaluate(np.array(pts))
-        return float(np.max(np.abs(v)))
-
     def cut(self, tc: float) -> tuple[float, float]:
         """Drop every segment starting after tc; return (angle, rate) at tc."""
         p, v, _ = self.state(tc)

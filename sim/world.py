@@ -15,7 +15,7 @@ from sim.pulses import PulseLine
 from sim.table import FourAxisTable
 from sim.timebase import seconds
 
-CELL = 5.0  # s, quadrature cell; aligned with the wobble knots of sim.environment
+CELL = Environment.WANDER_KNOT  # s; quadrature cells end on the tilt history's only kinks
 
 
 class World:
@@ -30,14 +30,15 @@ class World:
         self.table = FourAxisTable(params.table, self.environment, self.seed)
         self.isu = Isu(params.isu, self.seed)
         self.oscillator = MasterOscillator(params.oscillator, self.seed)
-        # components: gyro 1..3 smooth rate; accel k: (f2 - f1) and common-mode rate
+        # integrated: gyro 1..3 smooth rate; accel k: (f2 - f1) and common-mode rate;
+        # interpolated: w.O of gyro 1..3 (the J term)
         self.integral = CellIntegral(
             9,
+            3,
             CELL,
             self._integrand,
-            self._increments,
+            self.environment.vibration_velocity,
             self.table.breakpoints,
-            self.table.max_rate,
             self.table.abs_rate,
         )
         self._change = self.env.event()
@@ -53,6 +54,10 @@ class World:
     def changed(self) -> None:
         """Tell the world its future changed at now (a table command): drop predictions."""
         self.integral.invalidate_after(self.now)
+        self.notify()
+
+    def notify(self) -> None:
+        """Wake everything planning on the world (e.g. a re-patched counter); physics unchanged."""
         ev, self._change = self._change, self.env.event()
         ev.succeed()
 
@@ -91,29 +96,34 @@ class World:
         t_eb = self.attitude(t).T
         return t_eb @ self.isu.mirrors[0], t_eb @ self.isu.mirrors[1]
 
-    def _integrand(self, t: np.ndarray) -> np.ndarray:
-        _, w_b, a_b = self.kinematics(t)
+    def _integrand(self, t: np.ndarray, mid: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Rates at nodes t, and per piece (middles ``mid``) the vibration matrices.
+
+        The matrix maps the floor's velocity change (E axes) to D1 (A.dv)/g on each f2 - f1
+        integral, with the ISU attitude at the piece's middle: exact on a still table.
+        """
+        t_all, w_all, a_all = self.kinematics(np.concatenate((t, mid)))
+        n = t.size
+        w_b, a_b, t_be = w_all[:n], a_all[:n], t_all[n:]
         cols = [g.rate(w_b, a_b) for g in self.isu.gyros]
         for acc in self.isu.accels:
             cols.append(acc.difference_rate(a_b))
             cols.append(acc.common_rate(a_b))
-        return np.stack(cols, axis=-1)
+        cols.extend(w_b @ g.O for g in self.isu.gyros)
+        return np.stack(cols, axis=-1), self._vibration_matrices(t_be)
 
-    def _increments(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
-        """Floor vibration seen by each accelerometer over pieces [a, b]: D1 A.dv / g."""
-        out = np.zeros((a.size, 9))
-        dv = self.environment.vibration_velocity(b) - self.environment.vibration_velocity(a)
-        t_be, _, _ = self.kinematics(0.5 * (a + b))
-        dv_b = np.einsum("nij,nj->ni", t_be, dv)
+    def _vibration_matrices(self, t_be: np.ndarray) -> np.ndarray:
+        out = np.zeros((t_be.shape[0], 9, 3))
         for k, acc in enumerate(self.isu.accels):
-            out[:, 3 + 2 * k] = acc.D1 * (dv_b @ acc.A) / units.G0
+            a_e = np.einsum("nij,i->nj", t_be, acc.A)  # A in E components
+            out[:, 3 + 2 * k, :] = acc.D1 * a_e / units.G0
         return out
 
     # ----- pulse lines -----
     def gyro_phase(self, k: int, t: float) -> float:
         g = self.isu.gyros[k]
-        _, w_b, _ = self.kinematics(t)
-        ang = self.integral.value(t)[k] + g.J * float(w_b[0] @ g.O) + float(g.noise_angle(t))
+        w_o = self.integral.interpolated(t)[k]
+        ang = self.integral.value(t)[k] + g.J * w_o + float(g.noise_angle(t))
         return ang / g.dphi + g.phase0
 
     def string_phase(self, k: int, s: int, t: float) -> float:

@@ -41,8 +41,9 @@ def _gyro_angle_model(world, k: int, t: np.ndarray) -> np.ndarray:
     dT = np.gradient(t_be, dt, axis=0)
     wx = -np.einsum("nij,nkj->nik", dT, t_be)
     w_rel = np.stack([wx[:, 2, 1], wx[:, 0, 2], wx[:, 1, 0]], axis=-1)
-    w_e = world.site.omega_e * np.array([math.cos(world.site.colatitude), 0.0,
-                                         math.sin(world.site.colatitude)])
+    w_e = world.site.omega_e * np.array(
+        [math.cos(world.site.colatitude), 0.0, math.sin(world.site.colatitude)]
+    )
     w = np.einsum("nij,j->ni", t_be, w_e) + w_rel
     a = np.einsum("nij,j->ni", t_be, np.array([world.site.g, 0.0, 0.0])) / units.G0  # in g
     c = units.DEG / units.HOUR
@@ -50,10 +51,17 @@ def _gyro_angle_model(world, k: int, t: np.ndarray) -> np.ndarray:
     ws_lab = (w @ g.S) / c
     ag, ao, as_ = a @ g.G, a @ g.O, a @ g.S
     drift_lab = (
-        p.R_deg_hr + p.B_I_deg_hr_g * ag + p.B_O_deg_hr_g * ao + p.B_S_deg_hr_g * as_
-        + p.C_II_deg_hr_g2 * ag**2 + p.C_SS_deg_hr_g2 * as_**2 + p.C_IS_deg_hr_g2 * ag * as_
-        + p.C_OS_deg_hr_g2 * ao * as_ + p.C_IO_deg_hr_g2 * ag * ao
-        + p.Q_II_hr_deg * wg_lab**2 + p.Q_IS_hr_deg * wg_lab * ws_lab
+        p.R_deg_hr
+        + p.B_I_deg_hr_g * ag
+        + p.B_O_deg_hr_g * ao
+        + p.B_S_deg_hr_g * as_
+        + p.C_II_deg_hr_g2 * ag**2
+        + p.C_SS_deg_hr_g2 * as_**2
+        + p.C_IS_deg_hr_g2 * ag * as_
+        + p.C_OS_deg_hr_g2 * ao * as_
+        + p.C_IO_deg_hr_g2 * ag * ao
+        + p.Q_II_hr_deg * wg_lab**2
+        + p.Q_IS_hr_deg * wg_lab * ws_lab
     )
     rate = (w @ g.G) + drift_lab * c
     return np.array([simpson(rate[: i + 1], x=t[: i + 1]) for i in (0, len(t) - 1)])
@@ -169,13 +177,13 @@ def test_analytic_counter_equals_pulse_by_pulse_reference(lab, line):
     # same edge times (to a hundredth of a clock tick) and the same count
     assert abs(t_open - fired[0]) < 1e-8
     assert abs(t_close - fired[n]) < 1e-8
-    assert x.count(t_cmd, t_close) == int(np.sum(fired <= t_close)) == n + 1
+    # (the two edge-time paths agree to < 1e-8 s, so compare counts half a tick past the edge)
+    assert x.count(t_cmd, t_close) == int(np.sum(fired <= t_close + 5e-7)) == n + 1
     assert ticks_read == w.line("OSC1").count(fired[0], fired[n])
 
 
 def test_ieu_frames_sum_to_counter_count(lab):
-    rack, st = lab
-    w = rack.world
+    _, st = lab
     _position(st, (0.0, 90.0, 0.0, 0.0))
     period, k_samples = 1000, 50  # 0.1 s samples for 5 s
     pp = st.patch_panel

@@ -48,7 +48,10 @@ class IeuDriver:
 
     def _send(self, command: int, period: int = 1) -> None:
         msg = self.db.get_message_by_name("IEU_COMMAND")
-        data = msg.encode({"Command": command, "PeriodTicks": period})
+        try:
+            data = msg.encode({"Command": command, "PeriodTicks": period})
+        except cantools.database.errors.EncodeError as e:
+            raise DriverError(self.name, self.link, f"cannot encode IEU_COMMAND: {e}") from None
         try:
             self.bus.send(can.Message(arbitration_id=msg.frame_id, data=data, is_extended_id=False))
         except can.CanError as e:

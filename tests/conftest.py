@@ -1,0 +1,30 @@
+"""Shared fixtures: the default configuration, a simulated rack and a station bound to it."""
+
+from __future__ import annotations
+
+import pytest
+
+from station.config import load_config
+from station.rack import SimulatedRack, open_station
+
+
+@pytest.fixture
+def cfg():
+    """The embedded default station configuration."""
+    return load_config()
+
+
+@pytest.fixture
+def rack(cfg):
+    """A simulated rack (world and instruments) built from ``cfg``; unregistered afterwards."""
+    r = SimulatedRack(cfg)
+    yield r
+    r.close()
+
+
+@pytest.fixture
+def station(cfg, rack):
+    """Drivers for every instrument of ``rack`` and its virtual clock; closed afterwards."""
+    st = open_station(cfg, rack)
+    yield st
+    st.close()

@@ -157,7 +157,8 @@ class ByteInstrument:
         if cmd == "*IDN?":
             return self.ident
         if cmd == "SYST:ERR?":
-            return self.errors.popleft() if self.errors else "0 no error"
+            # "<code> <text>" (without the ERR prefix: this is an answer, not a refusal)
+            return self.errors.popleft()[4:] if self.errors else "0 no error"
         if cmd in ("*CLS", "DCL"):
             self.errors.clear()
             self.cancel_pending()

@@ -223,9 +223,10 @@ def test_error_queue_returns_errors_in_order_and_clears(station, name):
     assert exchange(d, b"SYST:ERR?\n") == b"0 no error\n"
     exchange(d, b"FROB\n")
     exchange(d, b"\xff\n")
-    # SYST:ERR? answers with the queued error text itself, so read it off the wire
-    assert exchange(d, b"SYST:ERR?\n") == b"ERR 10 unknown command 'FROB'\n"
-    assert exchange(d, b"SYST:ERR?\n") == b"ERR 100 garbled input: not printable ASCII\n"
+    # SYST:ERR? answers "<code> <text>" for the oldest queued error
+    assert exchange(d, b"SYST:ERR?\n") == b"10 unknown command 'FROB'\n"
+    assert exchange(d, b"SYST:ERR?\n") == b"100 garbled input: not printable ASCII\n"
+    assert d.query("SYST:ERR?") == "0 no error"
     assert exchange(d, b"SYST:ERR?\n") == b"0 no error\n"
     exchange(d, b"FROB\n")
     d.clear()

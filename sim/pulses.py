@@ -110,10 +110,11 @@ def solve_crossing(phase: Callable[[float], float], c: float, t0: float, d: int)
         else:
             break
     t = brentq(lambda t: phase(t) - c, a, b, xtol=1e-12, rtol=1e-15, maxiter=200)
-    # The edge belongs to the instant the phase has reached the level: never return a time
-    # a rounding error short of it, or the count at that time would miss the edge.
+    # The edge belongs to the instant the floor of the phase has changed: never return a
+    # time a rounding error short of it, or the count at that time would miss the edge
+    # (rising: phase >= c; falling: phase < c, strictly).
     step = max(abs(t) * 4e-16, 1e-13)
-    while d * (phase(t) - c) < 0:
+    while not (phase(t) >= c if d > 0 else phase(t) < c):
         t += step
         step *= 2
     return t

@@ -35,6 +35,10 @@ class CounterDriver(SerialDriver):
         except ValueError:
             raise DriverError(self.name, self.url, f"reading is not a count: {reply!r}") from None
 
+    def discard_readings(self) -> None:
+        """Drop readings queued from earlier gates (print-and-continue keeps producing them)."""
+        self.command("CLR")
+
     def queued(self) -> int:
         return int(self.query("COUN?"))
 

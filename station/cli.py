@@ -62,5 +62,62 @@ def check(
         raise typer.Exit(1)
 
 
+@app.command()
+def day(
+    config: ConfigOpt = None,
+    seed: SeedOpt = None,
+    out: Annotated[Path, typer.Option("--out", help="run directory")] = Path("runs/day"),
+    only: Annotated[list[str] | None, typer.Option("--only", help="measure only these "
+                    "charts (II-6, II-7, II-1.3, II-11, II-12, II-13, II-14); repeatable")] = None,
+    resume: Annotated[Path | None, typer.Option("--resume", help="continue the interrupted "
+                      "run in this directory")] = None,
+    quiet: Annotated[bool, typer.Option("--quiet", help="no live display")] = False,
+) -> None:
+    """The full virtual calibration day: turn-on, survey, positions 1-15, computations."""
+    from procedures.runner import ProcedureError, ResumeMismatch
+    from station.day_cmd import run_day
+    from station.errors import StationError
+
+    cfg = _load(config, seed)
+    target = resume if resume is not None else out
+    try:
+        res = run_day(cfg, target, tuple(only) if only else None, resume is not None,
+                      console, quiet)
+    except (ProcedureError, ResumeMismatch, StationError) as e:
+        console.print(f"[red]stopped:[/red] {e}")
+        console.print(f"the journal keeps every completed step: {target / 'journal.jsonl'}")
+        raise typer.Exit(1) from None
+    console.print(
+        f"{res['sim_seconds'] / 3600:.2f} h simulated in {res['wall_seconds']:.1f} s; "
+        f"record in {target}"
+    )
+
+
+@app.command()
+def compare(
+    dir_a: Path,
+    dir_b: Path,
+    rel_tol: Annotated[float, typer.Option(help="ignore relative differences up to this")] = 0.0,
+) -> None:
+    """Show which sheet and result values differ between two run directories."""
+    from station.compare import differences
+
+    try:
+        diffs = differences(dir_a, dir_b, rel_tol)
+    except FileNotFoundError as e:
+        console.print(f"[red]{e}[/red]")
+        raise typer.Exit(2) from None
+    if not diffs:
+        console.print("no differences")
+        return
+    t = Table(title=f"{len(diffs)} values differ")
+    for c in ("where", str(dir_a), str(dir_b)):
+        t.add_column(c)
+    for k, a, b in diffs:
+        t.add_row(k, str(a), str(b))
+    console.print(t)
+    raise typer.Exit(1)
+
+
 def main() -> None:
     app()

@@ -1,0 +1,68 @@
+"""`station compare DIR_A DIR_B`: which sheet and result values differ between two runs.
+
+The regression-test use of the product: the same procedure, seed and config must give the
+same record; a code change shows here as the list of values it moved. Wall-clock fields
+are ignored.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+IGNORED = {"wall", "wall_seconds", "t_wall"}
+
+
+def _flatten(x, prefix: str, out: dict) -> None:
+    if isinstance(x, dict):
+        for k, v in x.items():
+            if k in IGNORED:
+                continue
+            _flatten(v, f"{prefix}.{k}" if prefix else str(k), out)
+    elif isinstance(x, list):
+        for i, v in enumerate(x):
+            key = _row_key(v, i)
+            _flatten(v, f"{prefix}[{key}]", out)
+    else:
+        out[prefix] = x
+
+
+def _row_key(v, i: int) -> str:
+    if isinstance(v, dict) and "instrument" in v and "parameter" in v:
+        return f"{v['instrument']}:{v['parameter']}"
+    return str(i)
+
+
+def load_record(d: Path) -> dict:
+    rec: dict = {}
+    res = d / "results.json"
+    if res.exists():
+        rec["results"] = json.loads(res.read_text())
+    sheets = d / "sheets"
+    if sheets.is_dir():
+        for f in sorted(sheets.glob("*.json")):
+            rec[f"sheets/{f.stem}"] = json.loads(f.read_text())
+    if not rec:
+        raise FileNotFoundError(f"{d} holds no results.json and no sheets/")
+    return rec
+
+
+def differences(a: Path, b: Path, rel_tol: float = 0.0) -> list[tuple[str, object, object]]:
+    fa: dict = {}
+    fb: dict = {}
+    _flatten(load_record(a), "", fa)
+    _flatten(load_record(b), "", fb)
+    out = []
+    for k in sorted(set(fa) | set(fb)):
+        va, vb = fa.get(k, "<absent>"), fb.get(k, "<absent>")
+        if va == vb:
+            continue
+        if (
+            rel_tol > 0
+            and isinstance(va, (int, float))
+            and isinstance(vb, (int, float))
+            and abs(va - vb) <= rel_tol * max(abs(va), abs(vb))
+        ):
+            continue
+        out.append((k, va, vb))
+    return out

@@ -1,0 +1,174 @@
+"""`station day`: the full virtual calibration day, its record and its display.
+
+Builds the simulated rack (or, with links to a served rack or hardware, only the drivers),
+runs the procedures of procedures.day with a journal in DIR, then writes the sheets,
+results.json (estimate, truth, error and predicted sigma side by side) and the plots.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import time
+from pathlib import Path
+
+from rich.console import Console
+from rich.progress import BarColumn, Progress, TextColumn
+from rich.table import Table
+
+from procedures.computations import compute_calibration
+from procedures.day import measure_day
+from procedures.journal import Journal, dumps
+from procedures.plan import DayPlan
+from procedures.runner import Run
+from sim import units
+from station.config import StationConfig
+from station.rack import SimulatedRack, open_station
+from station.truth import calibration_truth
+
+EXPECTED_SIM_S = 9.0 * 3600.0  # for the progress bar only
+
+
+def site_info(cfg: StationConfig) -> dict:
+    """Current laboratory survey information (Chart I-2 step 3) from the station config."""
+    lat = math.radians(cfg.site.latitude_deg)
+    w = cfg.site.earth_rate_deg_per_hr
+    return {
+        "g": cfg.site.g_local_mps2 / units.G0,
+        "omega_sin_lambda": w * math.cos(lat),  # lambda = colatitude: north component
+        "omega_cos_lambda": w * math.sin(lat),  # vertical component
+    }
+
+
+class DayDisplay:
+    """Check-sheet ticks as they happen, and a progress bar in simulated time."""
+
+    def __init__(self, console: Console, quiet: bool = False) -> None:
+        self.console = console
+        self.quiet = quiet
+        self.progress = Progress(
+            TextColumn("[bold]{task.description}"), BarColumn(),
+            TextColumn("{task.fields[sim]}"), console=console, transient=True,
+        )
+        self.task = self.progress.add_task("calibration day", total=EXPECTED_SIM_S, sim="")
+
+    def __enter__(self) -> DayDisplay:
+        if not self.quiet:
+            self.progress.start()
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.progress.stop()
+
+    def __call__(self, ev: dict) -> None:
+        if self.quiet:
+            return
+        kind = ev.get("kind")
+        if kind == "sheet_start":
+            self.progress.console.print(f"[bold cyan]Chart {ev['chart']}[/]  {ev['title']}")
+        elif kind == "step":
+            t = ev["t_sim"]
+            self.progress.console.print(
+                f"  [green]\u2713[/] {ev['chart']:>6} {ev['step']:<14} {ev['text'][:70]}"
+                f" [dim]t={t / 3600:6.3f} h[/]", highlight=False,
+            )
+            self.progress.update(self.task, completed=min(t, EXPECTED_SIM_S),
+                                 sim=f"{t / 3600:5.2f} h simulated")
+
+
+def results_rows(calib, truth: dict) -> list[dict]:
+    rows = []
+    for r in calib.rows:
+        tv = truth.get((r.instrument, r.parameter))
+        err = None if r.estimate is None or tv is None else r.estimate - tv
+        rows.append({
+            "instrument": r.instrument, "parameter": r.parameter, "units": r.units,
+            "estimate": r.estimate, "truth": tv, "error": err, "sigma": r.sigma,
+            "positions": r.positions, "note": r.note,
+        })
+    return rows
+
+
+def render_results(console: Console, rows: list[dict]) -> None:
+    t = Table(title="Calibration Results Sheet (Chart II-5)", show_lines=False)
+    for c in ("instrument", "parameter", "units", "estimate", "truth", "error", "sigma",
+              "err/sigma"):
+        t.add_column(c, justify="right" if c not in ("instrument", "parameter", "units")
+                     else "left")
+    for r in rows:
+        def f(x):
+            return "-" if x is None else f"{x:.6g}"
+        z = None
+        if r["error"] is not None and r["sigma"]:
+            z = r["error"] / r["sigma"]
+        zs = "-" if z is None else (f"[red]{z:+.2f}[/]" if abs(z) > 4 else f"{z:+.2f}")
+        est = f(r["estimate"]) if r["estimate"] is not None else "[dim]not determined[/]"
+        t.add_row(r["instrument"], r["parameter"], r["units"], est, f(r["truth"]),
+                  f(r["error"]), f(r["sigma"]), zs)
+    console.print(t)
+
+
+def run_day(cfg: StationConfig, out: Path, only: tuple[str, ...] | None = None,
+            resume: bool = False, console: Console | None = None, quiet: bool = False,
+            plan: DayPlan | None = None) -> dict:
+    console = console or Console()
+    plan = plan or DayPlan()
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "sheets").mkdir(exist_ok=True)
+    wall0 = time.perf_counter()
+    rack = SimulatedRack(cfg)
+    st = open_station(cfg, rack)
+    journal = Journal(out / "journal.jsonl", resume=resume)
+    try:
+        with DayDisplay(console, quiet) as display:
+            run = Run(st.clock, journal, listener=display)
+            run.note(event="start", seed=cfg.seed, only=list(only or ()), resume=resume)
+            data = measure_day(st, run, plan, site_info(cfg), cfg.isu.accels[0].f0_hz, only)
+            calib = compute_calibration(run, data, plan, cfg_noise(cfg), site_info(cfg))
+        for name, model in run.sheets.items():
+            (out / "sheets" / f"{name}.json").write_text(
+                json.dumps(json.loads(dumps({"x": model}))["x"], indent=1, sort_keys=True))
+        rows = results_rows(calib, calibration_truth(rack.world))
+        res = {
+            "seed": cfg.seed,
+            "sim_seconds": st.clock.now(),
+            "wall_seconds": time.perf_counter() - wall0,
+            "calibration": rows,
+        }
+        (out / "results.json").write_text(json.dumps(res, indent=1, sort_keys=True))
+        run.note(event="end", sim_seconds=st.clock.now())
+        if not quiet:
+            render_results(console, rows)
+        return res
+    finally:
+        journal.close()
+        st.close()
+        rack.close()
+
+
+def cfg_noise(cfg: StationConfig) -> dict:
+    """The laboratory's noise specification, as the error model of the computations needs it."""
+    g = cfg.isu.gyros[0]
+    a = cfg.isu.accels[0]
+    env = cfg.environment
+    tb = cfg.table
+    ins = cfg.instruments
+    return {
+        "gyro_arw_deg_rt_hr": g.arw_deg_rt_hr,
+        "gyro_drift_sigma_deg_hr": g.drift_sigma_deg_hr,
+        "gyro_drift_tau_s": g.drift_tau_s,
+        "accel_noise_micro_g_rt_hz": a.noise_micro_g_rt_hz,
+        "bubble_noise_arcsec": ins.bubble_level.noise_arcsec,
+        "bubble_resolution_arcsec": ins.bubble_level.resolution_arcsec,
+        "table_setting_arcsec": tb.setting_noise_arcsec,
+        "resolver_error_arcsec": tb.resolver_error_arcsec,
+        "nonorthogonality_arcsec": tb.nonorthogonality_arcsec,
+        "autocollimator_arcsec": ins.autocollimator.noise_arcsec,
+        "tilt_diurnal_pp_arcsec": env.pier_tilt.diurnal_pp_arcsec,
+        "tilt_diurnal_azimuth_deg": env.pier_tilt.diurnal_azimuth_deg,
+        "tilt_wander_sigma_arcsec": env.pier_tilt.wander_sigma_arcsec,
+        "tilt_wander_tau_s": env.pier_tilt.wander_tau_s,
+        "wobble_amplitude_arcsec": env.wobble.amplitude_arcsec,
+        "wobble_period_s": env.wobble.period_s,
+        "wobble_coherence_s": env.wobble.coherence_s,
+    }

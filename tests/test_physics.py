@@ -264,3 +264,24 @@ def test_same_seed_same_readings_other_seed_differs():
     a, b, c = run(5), run(5), run(6)
     assert a == b
     assert a != c
+
+
+def test_falling_gate_counts_exactly_preset_turns(lab):
+    """A table turning backwards gates a counter on falling phase: N turns, not N - 1."""
+    rack, st = lab
+    st.table.move(1, 90.0)
+    st.table.rotate(2, -12.0)
+    st.table.wait_still()
+    pp = st.patch_panel
+    pp.connect("OSC1", 1, "X")
+    pp.connect("TROT", 1, "Z")
+    st.counters[1].set_mode("measure Z")
+    st.counters[1].set_preset(3)
+    st.counters[1].operate()
+    ticks = st.counters[1].read(timeout=200.0)
+    # three turns at 12 deg/s take 90 s (the resolver's cyclic error cancels over whole turns)
+    assert abs(ticks * rack.world.oscillator.s1_nominal - 90.0) < 1e-4
+    line = rack.world.line("TROT")
+    t0 = line.edge_after(st.clock.now(), 1)
+    t1 = line.edge_after(t0, 2)
+    assert line.count(t0, t1) == -2

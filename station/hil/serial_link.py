@@ -1,0 +1,44 @@
+"""A serial instrument served on a pty: host bytes into the simulation, replies back out.
+
+Host bytes are posted to the simulation thread and reach ``ByteInstrument.receive`` at the
+simulated time of their arrival; the instrument's output chunks go to the pty writer. The
+server is the instrument's only consumer, so its ``output`` buffer is drained as it goes.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from instruments.base import ByteInstrument
+from station.hil.pty_port import PtyPort
+from station.hil.realtime import RealtimeEnv
+
+
+class SerialPtyLink:
+    """Binds one ByteInstrument to one raw pty (build before the simulation thread starts)."""
+
+    def __init__(self, env: RealtimeEnv, instrument: ByteInstrument, link: Path | None) -> None:
+        self.env = env
+        self.instrument = instrument
+        self.port = PtyPort(instrument.name, self._from_host, link)
+        instrument.listeners.append(self._to_host)
+
+    @property
+    def address(self) -> str:
+        return self.port.address
+
+    def _from_host(self, data: bytes) -> None:
+        """Reader thread: hand the bytes to the simulation thread, stamped with their arrival."""
+        inst = self.instrument
+        self.env.post(lambda: inst.receive(data))
+
+    def _to_host(self, data: bytes) -> None:
+        """Simulation thread: one chunk of instrument output."""
+        self.instrument.output.clear()  # nobody else reads it; do not let it grow all day
+        self.port.write(data)
+
+    def start(self) -> None:
+        self.port.start()
+
+    def close(self) -> None:
+        self.port.close()

@@ -1,0 +1,217 @@
+"""The real-time OS-level links: the same drivers talk to a rack served by another process.
+
+A server process (``python -m station.hil.server``) runs the simulated rack in real time
+(times 20) and serves the table on a pty and the IEU on socketcand and on slcan; this
+process reaches them only through pyserial and python-can, exactly as it would reach
+hardware. No assertion depends on wall-clock timing.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import signal
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+import can
+import pytest
+import serial
+
+from station.clock import WallClock
+from station.drivers import IeuDriver, TableDriver
+from station.hil import link_map
+from station.hil.pty_port import PtyPort
+
+SPEED = 20.0
+PERIOD = 1000  # S2^T pulses: 0.1 s of simulated time
+STRING_HZ = 20000.0
+START_DEADLINE_S = 20.0
+
+
+def _stop(proc: subprocess.Popen) -> int:
+    """SIGTERM, then SIGKILL if it does not go; the process is always reaped."""
+    if proc.poll() is None:
+        proc.send_signal(signal.SIGTERM)
+        try:
+            proc.wait(10.0)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.wait(10.0)
+    return proc.returncode
+
+
+@pytest.fixture(scope="module")
+def served(tmp_path_factory):
+    """A running server; yields (links dir, entries, process). Stops and checks the cleanup."""
+    base = tmp_path_factory.mktemp("hil")
+    links = base / "links"
+    cmd = [sys.executable, "-m", "station.hil.server", "--seed", "7", "--speed", str(SPEED)]
+    cmd += ["--links", str(links), "--only", "table,ieu"]
+    with open(base / "server.out", "w") as out, open(base / "server.err", "w") as err:
+        proc = subprocess.Popen(cmd, stdout=out, stderr=err, stdin=subprocess.DEVNULL)
+        try:
+            deadline = time.monotonic() + START_DEADLINE_S
+            map_path = links / link_map.FILENAME
+            while not map_path.exists():
+                if proc.poll() is not None:
+                    pytest.fail(f"server exited {proc.returncode}: {_text(base / 'server.err')}")
+                if time.monotonic() > deadline:
+                    pytest.fail(f"no {map_path} within {START_DEADLINE_S} s: {_text(base)}")
+                time.sleep(0.05)
+            yield links, link_map.read(map_path), proc
+            assert proc.poll() is None, f"server died: {_text(base / 'server.err')}"
+        finally:
+            code = _stop(proc)
+    assert code == 0, f"server exit status {code}: {_text(base / 'server.err')}"
+    assert not any(links.iterdir()), f"left behind: {sorted(p.name for p in links.iterdir())}"
+    assert "stopped at t =" in _text(base / "server.out")
+
+
+def _text(path: Path) -> str:
+    if path.is_dir():
+        return " | ".join(_text(p) for p in sorted(path.glob("server.*")))
+    return path.read_text()[-2000:]
+
+
+def _address(entries, instrument: str, kind: str, scheme: str | None = None) -> str:
+    for e in entries:
+        if e.instrument == instrument and e.kind == kind:
+            is_socketcand = e.address.startswith("socketcand://")
+            if scheme is None or (scheme == "socketcand") == is_socketcand:
+                return e.address
+    raise AssertionError(f"no {kind} link for {instrument} in {entries}")
+
+
+def test_link_map(served):
+    links, entries, _ = served
+    kinds = sorted((e.instrument, e.kind) for e in entries)
+    assert kinds == [("ieu", "can"), ("ieu", "can"), ("table", "serial")]
+    table = Path(_address(entries, "table", "serial"))
+    assert table == links / "table" and os.readlink(table).startswith("/dev/pts/")
+    cfg = link_map.can_config(_address(entries, "ieu", "can", "socketcand"))
+    assert cfg["interface"] == "socketcand" and cfg["host"] == "127.0.0.1" and cfg["port"] > 0
+
+
+def test_table_over_pty(served):
+    _, entries, _ = served
+    table = TableDriver(_address(entries, "table", "serial"), WallClock(), timeout=10.0)
+    try:
+        assert table.identify().startswith("ISU-LAB,TT-4AX")
+        target = 37.25
+        table.move(3, target)
+        table.wait_still(timeout=60.0, poll=0.1)
+        err_arcsec = abs(table.position(3) - target) * 3600.0
+        assert err_arcsec < 2.0
+        table.move(3, 0.0)
+    finally:
+        table.close()
+
+
+def _check_samples(ieu: IeuDriver, n: int = 6) -> None:
+    ieu.start(PERIOD)
+    try:
+        samples = [ieu.next_sample(timeout=10.0) for _ in range(n)]
+    finally:
+        ieu.stop()
+    for a, b in zip(samples, samples[1:], strict=False):
+        assert b.seq == (a.seq + 1) % 65536
+    expect = STRING_HZ * PERIOD * 1e-4  # S2^T is 10 kHz
+    for s in samples:
+        assert s.timer == PERIOD
+        assert s.flags == 0
+        for count in s.accel:
+            assert math.isclose(count, expect, rel_tol=0.10), s
+
+
+def test_ieu_over_socketcand(served):
+    _, entries, _ = served
+    cfg = link_map.can_config(_address(entries, "ieu", "can", "socketcand"))
+    ieu = IeuDriver(cfg, timeout=10.0)
+    try:
+        assert ieu.identify().startswith("ISU-LAB,IEU")
+        _check_samples(ieu)
+    finally:
+        ieu.close()
+
+
+def test_ieu_over_slcan(served):
+    _, entries, _ = served
+    cfg = link_map.can_config(_address(entries, "ieu", "can", "slcan")) | {"bitrate": 500000}
+    ieu = IeuDriver(cfg, timeout=10.0)
+    try:
+        assert ieu.identify().startswith("ISU-LAB,IEU")
+        _check_samples(ieu)
+    finally:
+        ieu.close()
+
+
+def test_sniffer_sees_commands_and_samples(served):
+    """A second socketcand client sees the bus: the host's command and the IEU's frames."""
+    _, entries, _ = served
+    cfg = link_map.can_config(_address(entries, "ieu", "can", "socketcand"))
+    sniffer = can.Bus(**cfg)
+    ieu = IeuDriver(cfg, timeout=10.0)
+    try:
+        ieu.start(PERIOD)
+        first = ieu.next_sample(timeout=10.0)
+        ieu.stop()
+        seen: list[can.Message] = []
+        deadline = time.monotonic() + 10.0
+        while time.monotonic() < deadline:
+            m = sniffer.recv(0.5)
+            if m is None:
+                if seen:
+                    break
+                continue
+            seen.append(m)
+        ids = [m.arbitration_id for m in seen]
+        assert 0x080 in ids  # the START command, sent by the other client
+        assert 0x104 in ids  # a timer frame
+        ts = [m.timestamp for m in seen]
+        assert ts == sorted(ts) and first.t in ts  # simulated time, the same for both clients
+    finally:
+        ieu.close()
+        sniffer.shutdown()
+
+
+def test_pty_port_is_transparent_and_drops_stale_output(tmp_path):
+    """Every byte value passes unchanged both ways; a new client never gets old output."""
+    got = bytearray()
+    arrived = threading.Event()
+
+    def on_input(data: bytes) -> None:
+        got.extend(data)
+        if len(got) >= 1024:
+            arrived.set()
+
+    port = PtyPort("raw", on_input, tmp_path / "raw", max_pending=64 * 1024)
+    port.start()
+    try:
+        every = bytes(range(256)) * 4
+        with serial.serial_for_url(str(tmp_path / "raw"), timeout=10.0) as client:
+            client.write(every)
+            assert arrived.wait(10.0) and bytes(got) == every
+            port.write(every)
+            assert client.read(len(every)) == every
+        for _ in range(100):  # nobody reads: far more than the pty and the queue hold
+            port.write(b"y" * 4096)
+        assert port.dropped > 0
+        deadline = time.monotonic() + 10.0
+        while not port.stalled and time.monotonic() < deadline:  # the pty is full
+            time.sleep(0.01)
+        assert port.stalled
+        with serial.serial_for_url(str(tmp_path / "raw"), timeout=0.1) as client:
+            before = b""
+            for _ in range(100):  # the first markers may go with the flush; repeat until one lands
+                port.write(b"fresh\n")
+                before += client.read_until(b"fresh\n")
+                if before.endswith(b"fresh\n"):
+                    break
+            assert before.endswith(b"fresh\n") and b"y" not in before
+    finally:
+        port.close()
+    assert not (tmp_path / "raw").exists()

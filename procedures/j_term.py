@@ -55,9 +55,15 @@ def gate_integrals(phi, t0: float, t1: float) -> tuple[float, float, float]:
 
 
 def j_experiment(st, run: Run, settings: ResolverSettings, plan: DayPlan, s1: float,
-                 pairs: int = 4, gate_s: float = 20.0, lead_s: float = 2.0) -> dict:
-    """Run the up/down gates in positions 7 and 11; return the raw records per position."""
+                 pairs: int = 4, gate_s: float = 20.0) -> dict:
+    """Run the up/down gates in positions 7 and 11; return the raw records per position.
+
+    The ramp starts at gate_s/2 - t_ramp/2 into each gate, so the two gates of a pair turn
+    the table through the same angle: the input-axis misalignment term (G.R1) theta then
+    cancels in the difference, and J does not depend on how well G.R1 is known.
+    """
     w1, acc = plan.j_rate_deg_s, plan.j_accel_deg_s2
+    lead_s = 0.5 * (gate_s - w1 / acc)
     n_ticks = int(round(gate_s / s1))
     out: dict[int, list[dict]] = {}
     with run.sheet("II-1.3", TITLE) as sheet:

@@ -16,6 +16,7 @@ from rich.console import Console
 from rich.progress import BarColumn, Progress, TextColumn
 from rich.table import Table
 
+from procedures.calibration import NoiseSpec
 from procedures.computations import compute_calibration
 from procedures.day import measure_day
 from procedures.journal import Journal, dumps
@@ -124,7 +125,7 @@ def run_day(cfg: StationConfig, out: Path, only: tuple[str, ...] | None = None,
             run = Run(st.clock, journal, listener=display)
             run.note(event="start", seed=cfg.seed, only=list(only or ()), resume=resume)
             data = measure_day(st, run, plan, site_info(cfg), cfg.isu.accels[0].f0_hz, only)
-            calib = compute_calibration(run, data, plan, cfg_noise(cfg), site_info(cfg))
+            calib = compute_calibration(run, data, plan, noise_spec(cfg), site_info(cfg))
         for name, model in run.sheets.items():
             (out / "sheets" / f"{name}.json").write_text(
                 json.dumps(json.loads(dumps({"x": model}))["x"], indent=1, sort_keys=True))
@@ -146,29 +147,32 @@ def run_day(cfg: StationConfig, out: Path, only: tuple[str, ...] | None = None,
         rack.close()
 
 
-def cfg_noise(cfg: StationConfig) -> dict:
-    """The laboratory's noise specification, as the error model of the computations needs it."""
+def noise_spec(cfg: StationConfig) -> NoiseSpec:
+    """The laboratory's noise specification (what the error model of II-4 assumes)."""
     g = cfg.isu.gyros[0]
     a = cfg.isu.accels[0]
     env = cfg.environment
     tb = cfg.table
     ins = cfg.instruments
-    return {
-        "gyro_arw_deg_rt_hr": g.arw_deg_rt_hr,
-        "gyro_drift_sigma_deg_hr": g.drift_sigma_deg_hr,
-        "gyro_drift_tau_s": g.drift_tau_s,
-        "accel_noise_micro_g_rt_hz": a.noise_micro_g_rt_hz,
-        "bubble_noise_arcsec": ins.bubble_level.noise_arcsec,
-        "bubble_resolution_arcsec": ins.bubble_level.resolution_arcsec,
-        "table_setting_arcsec": tb.setting_noise_arcsec,
-        "resolver_error_arcsec": tb.resolver_error_arcsec,
-        "nonorthogonality_arcsec": tb.nonorthogonality_arcsec,
-        "autocollimator_arcsec": ins.autocollimator.noise_arcsec,
-        "tilt_diurnal_pp_arcsec": env.pier_tilt.diurnal_pp_arcsec,
-        "tilt_diurnal_azimuth_deg": env.pier_tilt.diurnal_azimuth_deg,
-        "tilt_wander_sigma_arcsec": env.pier_tilt.wander_sigma_arcsec,
-        "tilt_wander_tau_s": env.pier_tilt.wander_tau_s,
-        "wobble_amplitude_arcsec": env.wobble.amplitude_arcsec,
-        "wobble_period_s": env.wobble.period_s,
-        "wobble_coherence_s": env.wobble.coherence_s,
-    }
+    return NoiseSpec(
+        gyro_arw_deg_rt_hr=g.arw_deg_rt_hr,
+        gyro_drift_sigma_deg_hr=g.drift_sigma_deg_hr,
+        gyro_drift_tau_s=g.drift_tau_s,
+        gyro_sample_rate_hz=g.pulse_rate_hz,
+        accel_white_micro_g_rt_hz=a.noise_micro_g_rt_hz,
+        vibration_rms_micro_g=env.vibration.rms_micro_g,
+        vibration_band_hz=tuple(env.vibration.band_hz),
+        bubble_noise_arcsec=ins.bubble_level.noise_arcsec,
+        bubble_graduation_arcsec=ins.bubble_level.resolution_arcsec,
+        table_setting_arcsec=tb.setting_noise_arcsec,
+        resolver_cyclic_arcsec=tb.resolver_error_arcsec,
+        nonorthogonality_arcsec=tb.nonorthogonality_arcsec,
+        autocollimator_arcsec=ins.autocollimator.noise_arcsec,
+        tilt_diurnal_pp_arcsec=env.pier_tilt.diurnal_pp_arcsec,
+        tilt_diurnal_azimuth_deg=env.pier_tilt.diurnal_azimuth_deg,
+        tilt_wander_sigma_arcsec=env.pier_tilt.wander_sigma_arcsec,
+        tilt_wander_tau_s=env.pier_tilt.wander_tau_s,
+        wobble_amplitude_arcsec=env.wobble.amplitude_arcsec,
+        wobble_period_s=env.wobble.period_s,
+        wobble_coherence_s=env.wobble.coherence_s,
+    )

@@ -1,0 +1,139 @@
+"""II-4 (Chart II-15): the calibration computations as a check-sheet.
+
+Gathers the survey's constants, the counter settings and outputs of every position
+measured, computes the constants Chart II-16 allows (procedures.calibration), fills Q_II
+from the nonlinearity fits (II-1.2) and J from the designed J experiment (II-1.3), and
+records the Calibration Results Sheet (Chart II-5).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from procedures import survey_math as sm
+from procedures.calibration import (
+    AccelPosition,
+    CalibrationData,
+    Constants,
+    GyroPosition,
+    NoiseSpec,
+    TableGeometry,
+    calibrate,
+)
+from procedures.day import DayData
+from procedures.j_term import j_estimate
+from procedures.nonlinearity import fit_nonlinearity
+from procedures.plan import DayPlan
+from procedures.runner import Run
+from procedures.settings import STRINGS
+from procedures.sheets import CalibrationResults, ResultRow
+
+TITLE = "Calibration computations"
+STRING_KEY = {c: (int(name[1]), int(name[3])) for c, name in STRINGS.items()}
+J_COUNTERS = {7: {3: 2, 4: 3}, 11: {2: 1}}  # position -> counter -> gyro
+
+
+def calibration_data(data: DayData, plan: DayPlan, site: dict,
+                     last_d1d3: dict[int, float] | None = None) -> CalibrationData:
+    sv = data.survey
+    const = Constants(
+        g=site["g"],
+        w_sin_lambda=site["omega_sin_lambda"],
+        w_cos_lambda=site["omega_cos_lambda"],
+        s1_t=data.s1,
+        s_phi=360.0 / plan.rotation_pulses_per_rev,
+        t_br_column2={int(m): tuple(v) for m, v in sv.t_br_column2.items()},
+    )
+    gyro = {m: GyroPosition(**d) for m, d in data.gyro.items()}
+    accel = {
+        m: AccelPosition(
+            gamma={STRING_KEY[int(c)]: v for c, v in d["gamma"].items()},
+            n1={STRING_KEY[int(c)]: v for c, v in d["n1"].items()},
+            t0=d["t0"], t1=d["t1"], t_level=d["t_level"],
+        )
+        for m, d in data.accel.items()
+    }
+    geometry = TableGeometry(
+        t_bi=tuple(tuple(r) for r in sv.t_bi),
+        phi0_deg=sv.position0_deg,
+        settings_deg={int(m): v for m, v in sv.settings_deg.items()},
+    )
+    return CalibrationData(constants=const, gyro=gyro, accel=accel,
+                           last_d1d3=last_d1d3 or {}, geometry=geometry)
+
+
+def _row(rows: list[ResultRow], inst: str, par: str) -> ResultRow:
+    return next(r for r in rows if r.instrument == inst and r.parameter == par)
+
+
+def _count_sigma(noise: NoiseSpec, gate_s: float, dphi_arcsec: float) -> float:
+    """One gyro count's standard error (pulses) over a gate: quantization, ARW, drift."""
+    arw = noise.gyro_arw_deg_rt_hr * 3600.0 / 60.0 * math.sqrt(gate_s)  # arcsec
+    drift = noise.gyro_drift_sigma_deg_hr * gate_s  # arcsec (deg/hr = arcsec/s)
+    return math.sqrt(noise.count_quantization_var + (arw**2 + drift**2) / dphi_arcsec**2)
+
+
+def special_experiments(rows: list[ResultRow], data: DayData, plan: DayPlan, site: dict,
+                        noise: NoiseSpec) -> None:
+    """Q_II from II-1.2 and J from II-1.3, in place (Chart II-16: special experiments)."""
+    for k, pts in data.nonlinearity.items():
+        dphi = _row(rows, f"gyro{k}", "DeltaPhi").estimate or 3.0
+        gates = np.array([abs(p["counts"] / p["p_dot"]) for p in pts])
+        sig = np.array([_count_sigma(noise, g, dphi) for g in gates])
+        fit = fit_nonlinearity(pts, sig)
+        r = _row(rows, f"gyro{k}", "Q_II")
+        r.estimate, r.sigma = fit["Q_II"], fit["sigma"]
+        r.note = "II-1.2 nonlinearity fit (positions 1, 3, 5 at several speeds)"
+    if not data.j_term:
+        return
+    sv = data.survey
+    for m, counters in J_COUNTERS.items():
+        recs = data.j_term.get(m)
+        if not recs:
+            continue
+        phi3, phi4 = sv.settings_deg["1" if m == 7 else "5"]
+        t_br = sm.t_br(np.array(sv.t_bi), phi3, phi4)
+        for c, k in counters.items():
+            rdp = _row(rows, f"gyro{k}", "DeltaPhi")
+            gb = [_row(rows, f"gyro{k}", f"G.B{j}").estimate for j in (1, 2, 3)]
+            if rdp.estimate is None or any(x is None for x in gb):
+                continue  # J needs the scale factor and (Q^G)^-1 (positions 1-6)
+            g_r = np.array(gb) @ t_br
+            sig_c = _count_sigma(noise, recs[0]["gate_s"], rdp.estimate)
+            j, sj = j_estimate(recs, c, rdp.estimate, g_r, site["omega_sin_lambda"],
+                               plan.j_accel_deg_s2, sig_c)
+            r = _row(rows, f"gyro{k}", "J")
+            r.estimate, r.sigma = j, sj
+            r.note = f"II-1.3 designed experiment, position {m} (docs/j-term.md)"
+
+
+def compute_calibration(run: Run, data: DayData, plan: DayPlan, noise: NoiseSpec,
+                        site: dict, last_d1d3: dict[int, float] | None = None
+                        ) -> CalibrationResults:
+    with run.sheet("II-15", TITLE) as sheet:
+        with sheet.step("1", "Prepare the data for entry") as s:
+            cd = calibration_data(data, plan, site, last_d1d3)
+            s.reading = {"gyro_positions": sorted(cd.gyro), "accel_positions": sorted(cd.accel)}
+        sheet.done("2", "Load the calibration program")
+        sheet.done("3", "Enter g and the Earth-rate components (Survey Results Sheet)",
+                   cd.constants.model_dump(exclude={"t_br_column2"}))
+        sheet.done("4", "Enter T12, T22, T32 of T^BRm for m = 1, 3, 5, 13, 14, 15",
+                   {str(m): v for m, v in cd.constants.t_br_column2.items()})
+        sheet.done("5", "Enter the counter settings", {"positions": len(cd.gyro) + len(cd.accel)})
+        sheet.done("6", "Enter the counter outputs")
+        sheet.done("7", "Last (D1 D3) for accelerometers without positions 13, 14",
+                   {str(k): v for k, v in (last_d1d3 or {}).items()} or None)
+        with sheet.step("8", "Compute the constants") as s:
+            rows = calibrate(cd, noise)
+            special_experiments(rows, data, plan, site, noise)
+            s.reading = {"determined": sum(r.estimate is not None for r in rows),
+                         "rows": len(rows)}
+        with sheet.step("9", "Record the valid constants (Chart II-16) on the Calibration "
+                        "Results Sheet") as s:
+            used = sorted({*data.gyro, *data.accel})
+            results = CalibrationResults(rows=rows, positions_used=used)
+            s.reading = {"positions_used": used}
+    run.save_sheet("calibration_results", results)
+    return results

@@ -13,7 +13,7 @@ from rich.table import Table
 from station.config import ConfigError, load_config
 
 app = typer.Typer(add_completion=False, no_args_is_help=True, help="The simulated ISU laboratory.")
-console = Console()
+console = Console() if Console().is_terminal else Console(width=110)
 
 ConfigOpt = Annotated[
     Path | None, typer.Option("--config", help="station config TOML (merged over the default)")

@@ -12,6 +12,7 @@ import math
 import time
 from pathlib import Path
 
+from rich import box
 from rich.console import Console
 from rich.progress import BarColumn, Progress, TextColumn
 from rich.table import Table
@@ -70,8 +71,9 @@ class DayDisplay:
         elif kind == "step":
             t = ev["t_sim"]
             self.progress.console.print(
-                f"  [green]\u2713[/] {ev['chart']:>6} {ev['step']:<14} {ev['text'][:70]}"
-                f" [dim]t={t / 3600:6.3f} h[/]", highlight=False,
+                f"  [green]\u2713[/] [dim]{t / 3600:6.3f} h[/] {ev['chart']:>6} "
+                f"{ev['step']:<12} {ev['text'][:48]}", highlight=False, no_wrap=True,
+                overflow="ellipsis",
             )
             self.progress.update(self.task, completed=min(t, EXPECTED_SIM_S),
                                  sim=f"{t / 3600:5.2f} h simulated")
@@ -91,21 +93,21 @@ def results_rows(calib, truth: dict) -> list[dict]:
 
 
 def render_results(console: Console, rows: list[dict]) -> None:
-    t = Table(title="Calibration Results Sheet (Chart II-5)", show_lines=False)
-    for c in ("instrument", "parameter", "units", "estimate", "truth", "error", "sigma",
-              "err/sigma"):
-        t.add_column(c, justify="right" if c not in ("instrument", "parameter", "units")
-                     else "left")
+    t = Table(title="Calibration Results Sheet (Chart II-5)", box=box.SIMPLE_HEAD,
+              pad_edge=False, collapse_padding=True)
+    for c in ("inst", "param", "units", "estimate", "truth", "error", "sigma", "err/sig"):
+        t.add_column(c, justify="left" if c in ("inst", "param", "units") else "right",
+                     no_wrap=True)
     for r in rows:
-        def f(x):
-            return "-" if x is None else f"{x:.6g}"
+        def g(x, fmt):
+            return "-" if x is None else format(x, fmt)
         z = None
         if r["error"] is not None and r["sigma"]:
             z = r["error"] / r["sigma"]
         zs = "-" if z is None else (f"[red]{z:+.2f}[/]" if abs(z) > 4 else f"{z:+.2f}")
-        est = f(r["estimate"]) if r["estimate"] is not None else "[dim]not determined[/]"
-        t.add_row(r["instrument"], r["parameter"], r["units"], est, f(r["truth"]),
-                  f(r["error"]), f(r["sigma"]), zs)
+        est = g(r["estimate"], ".8g") if r["estimate"] is not None else "[dim]not determined[/]"
+        t.add_row(r["instrument"], r["parameter"], r["units"], est, g(r["truth"], ".8g"),
+                  g(r["error"], ".2e"), g(r["sigma"], ".2e"), zs)
     console.print(t)
 
 

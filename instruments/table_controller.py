@@ -30,7 +30,8 @@ class TableController(ByteInstrument):
         self.world = world
         self.table = world.table
         self.interlock_closed = True
-        self.stalled: set[int] = set()  # fault injection: axes that do not move
+        # fault injection: axes that accept commands but do not move (a stalled drive)
+        self.stalled: set[int] = set()
 
     def _axis(self, x: str) -> int:
         return as_int(x, "axis", 1, 4)
@@ -61,7 +62,10 @@ class TableController(ByteInstrument):
             ax = self._axis(args[0])
             if ax not in CONTINUOUS:
                 raise InstrumentError(12, f"axis {ax} cannot rotate continuously")
-            return self._apply(tb.rotate, ax, math.radians(as_float(args[1], "rate")))
+            rate = math.radians(as_float(args[1], "rate"))
+            if ax in self.stalled:
+                return "OK"
+            return self._apply(tb.rotate, ax, rate)
         if cmd == "RAMP":
             need(args, 3, "RAMP <axis> <deg/s^2> <deg/s>")
             ax = self._axis(args[0])
@@ -69,6 +73,8 @@ class TableController(ByteInstrument):
                 raise InstrumentError(12, f"axis {ax} cannot rotate continuously")
             acc = math.radians(as_float(args[1], "acceleration"))
             rate = math.radians(as_float(args[2], "rate"))
+            if ax in self.stalled:
+                return "OK"
             return self._apply(lambda a, r, c, t: tb.rotate(a, r, t, accel=c), ax, rate, acc)
         if cmd == "STOP":
             axes = [self._axis(args[0])] if args else list(AXES)

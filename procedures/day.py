@@ -31,7 +31,7 @@ EXPERIMENTS = ("II-6", "II-7", "II-1.3", "II-11", "II-12", "II-13", "II-14")
 class DayData:
     """Everything measured: the inputs of the calibration computations."""
 
-    survey: SurveyResults
+    survey: SurveyResults | None
     s1: float
     f0: float
     gyro: dict[int, dict] = field(default_factory=dict)

@@ -49,6 +49,7 @@ class FourAxisTable:
         self._mode = {k: "HOLD" for k in AXES}
         self._setting_count = 0
         self.pulses_per_rev = 1
+        self.rotation_output = True  # False: the rotary pulse output is dead (a fault)
 
     # ----- resolvers -----
     def resolver_error(self, axis: int, p):
@@ -171,5 +172,7 @@ class FourAxisTable:
     def rotation_phase(self, t: np.ndarray) -> np.ndarray:
         """Phase (cycles) of the rotary-axis pulse output: one pulse per 1/n turn of resolver 2."""
         p, _ = self.axes[2].evaluate(np.asarray(t, dtype=float))
+        if not self.rotation_output:
+            return np.zeros_like(p)
         r = p + self.resolver_error(2, p)
         return r * self.pulses_per_rev / (2 * math.pi)

@@ -121,3 +121,7 @@ def compare(
 
 def main() -> None:
     app()
+
+
+if __name__ == "__main__":
+    main()

@@ -10,6 +10,7 @@ from __future__ import annotations
 import json
 import math
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 from rich import box
@@ -113,13 +114,17 @@ def render_results(console: Console, rows: list[dict]) -> None:
 
 def run_day(cfg: StationConfig, out: Path, only: tuple[str, ...] | None = None,
             resume: bool = False, console: Console | None = None, quiet: bool = False,
-            plan: DayPlan | None = None) -> dict:
+            plan: DayPlan | None = None,
+            rack_hook: Callable[[SimulatedRack], None] | None = None) -> dict:
+    """Run the day into ``out``; ``rack_hook`` may inject faults into the simulated rack."""
     console = console or Console()
     plan = plan or DayPlan()
     out.mkdir(parents=True, exist_ok=True)
     (out / "sheets").mkdir(exist_ok=True)
     wall0 = time.perf_counter()
     rack = SimulatedRack(cfg)
+    if rack_hook is not None:
+        rack_hook(rack)
     st = open_station(cfg, rack)
     journal = Journal(out / "journal.jsonl", resume=resume)
     try:

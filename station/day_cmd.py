@@ -26,6 +26,7 @@ from procedures.plan import DayPlan
 from procedures.runner import Run
 from sim import units
 from station.config import StationConfig
+from station.plots import nonlinearity_plot
 from station.rack import SimulatedRack, open_station
 from station.truth import calibration_truth
 
@@ -136,6 +137,7 @@ def run_day(cfg: StationConfig, out: Path, only: tuple[str, ...] | None = None,
         for name, model in run.sheets.items():
             (out / "sheets" / f"{name}.json").write_text(
                 json.dumps(json.loads(dumps({"x": model}))["x"], indent=1, sort_keys=True))
+        nonlinearity_plot(data.nonlinearity, out / "nonlinearity.png")
         rows = results_rows(calib, calibration_truth(rack.world))
         res = {
             "seed": cfg.seed,

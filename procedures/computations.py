@@ -24,7 +24,7 @@ from procedures.calibration import (
 )
 from procedures.day import DayData
 from procedures.j_term import j_estimate
-from procedures.nonlinearity import fit_nonlinearity
+from procedures.nonlinearity import fit_nonlinearity, q_is_from_fit
 from procedures.plan import DayPlan
 from procedures.runner import Run
 from procedures.settings import STRINGS
@@ -86,6 +86,18 @@ def special_experiments(rows: list[ResultRow], data: DayData, plan: DayPlan, sit
         r = _row(rows, f"gyro{k}", "Q_II")
         r.estimate, r.sigma = fit["Q_II"], fit["sigma"]
         r.note = "II-1.2 nonlinearity fit (positions 1, 3, 5 at several speeds)"
+    for k, pts in data.q_is.items():
+        rq = _row(rows, f"gyro{k}", "Q_II")
+        dphi = _row(rows, f"gyro{k}", "DeltaPhi").estimate or 3.0
+        gb = [_row(rows, f"gyro{k}", f"G.B{j}").estimate for j in (1, 2, 3)]
+        if rq.estimate is None or any(x is None for x in gb):
+            continue  # needs Q_II (II-7) and (Q^G)^-1 (positions 1-6)
+        gates = np.array([abs(p["counts"] / p["p_dot"]) for p in pts])
+        fit = fit_nonlinearity(pts, np.array([_count_sigma(noise, g, dphi) for g in gates]))
+        q, sq = q_is_from_fit(fit["Q_II"], fit["sigma"], rq.estimate, rq.sigma, np.array(gb), k)
+        r = _row(rows, f"gyro{k}", "Q_IS")
+        r.estimate, r.sigma = q, sq
+        r.note = "designed speed series along (G + S)/sqrt2 (docs/special-experiments.md)"
     if not data.j_term:
         return
     sv = data.survey
@@ -106,7 +118,7 @@ def special_experiments(rows: list[ResultRow], data: DayData, plan: DayPlan, sit
                                plan.j_accel_deg_s2, sig_c)
             r = _row(rows, f"gyro{k}", "J")
             r.estimate, r.sigma = j, sj
-            r.note = f"II-1.3 designed experiment, position {m} (docs/j-term.md)"
+            r.note = f"II-1.3 designed experiment, position {m} (docs/special-experiments.md)"
 
 
 def compute_calibration(run: Run, data: DayData, plan: DayPlan, noise: NoiseSpec,

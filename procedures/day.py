@@ -16,7 +16,7 @@ from procedures.accel_static import accel_positions_7_12, accel_positions_13_14
 from procedures.gyro_rotating import scale_factor_positions
 from procedures.gyro_static import gyro_positions_7_12, gyro_positions_13_15
 from procedures.j_term import j_experiment
-from procedures.nonlinearity import nonlinearity_experiment
+from procedures.nonlinearity import nonlinearity_experiment, q_is_experiment
 from procedures.plan import DayPlan
 from procedures.positions import resolver_settings
 from procedures.runner import Run
@@ -24,7 +24,7 @@ from procedures.sheets import CounterOutputs, SurveyResults
 from procedures.system_survey import system_survey
 from procedures.turn_on import turn_on
 
-EXPERIMENTS = ("II-6", "II-7", "II-1.3", "II-11", "II-12", "II-13", "II-14")
+EXPERIMENTS = ("II-6", "II-7", "II-7Q", "II-1.3", "II-11", "II-12", "II-13", "II-14")
 
 
 @dataclass
@@ -37,6 +37,7 @@ class DayData:
     gyro: dict[int, dict] = field(default_factory=dict)
     accel: dict[int, dict] = field(default_factory=dict)
     nonlinearity: dict[int, list[dict]] = field(default_factory=dict)
+    q_is: dict[int, list[dict]] = field(default_factory=dict)
     j_term: dict[int, list[dict]] = field(default_factory=dict)
 
 
@@ -72,6 +73,8 @@ def measure_day(st, run: Run, plan: DayPlan, site: dict, f0: float,
         data.nonlinearity = nonlinearity_experiment(
             st, run, settings, plan, s1, site["omega_sin_lambda"]
         )
+    if "II-7Q" in wanted:
+        data.q_is = q_is_experiment(st, run, survey.t_bi, plan, s1, site["omega_sin_lambda"])
     if "II-1.3" in wanted:
         data.j_term = j_experiment(st, run, settings, plan, s1)
     if "II-11" in wanted:

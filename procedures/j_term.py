@@ -1,6 +1,6 @@
 """II-1.3 J term experiment: designed here (report 000 leaves the sheet blank).
 
-Design (docs/j-term.md): with the rotary axis up and a gyro's output axis O along it
+Design (docs/special-experiments.md): with the rotary axis up and a gyro's output axis O along it
 (position 7 for gyros 2 and 3, whose O = B1; position 11 for gyro 1, O = B3), the J term
 adds J * delta(w.O) to the gyro's angle over a gate: J times the change of the table rate,
 whatever the acceleration profile. Two gates of equal length are taken back to back:

@@ -92,20 +92,21 @@ class FrequencyCounter(ByteInstrument):
                 if t_open is None:
                     yield world.change_event
                     continue
-                yield world.env.timeout(ticks_ceil(t_open) - world.env.now) | world.change_event
-                if world.now < t_open:
+                due = ticks_ceil(t_open)
+                yield world.env.timeout(due - world.env.now) | world.change_event
+                if world.env.now < due:  # compare ticks: t_open may lie inside the due tick
                     continue  # the world changed before the gate opened: re-plan
             self.gate_open = t_open
             t_close = gate.edge_after(t_open, self.preset)
             if t_close is None:
                 yield world.change_event
                 continue
-            wait = ticks_ceil(t_close) - world.env.now
-            if wait > 0:
-                yield world.env.timeout(wait) | world.change_event
+            due = ticks_ceil(t_close)
+            if due > world.env.now:
+                yield world.env.timeout(due - world.env.now) | world.change_event
                 if not self.operating:
                     return
-                if world.now < t_close:
+                if world.env.now < due:
                     continue  # the world changed: recompute the closing edge
             if not self.operating:
                 return

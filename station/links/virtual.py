@@ -16,6 +16,8 @@ import simpy
 from sim.timebase import ticks
 from station.errors import Deadlock
 
+LIVELOCK_STEPS = 1_000_000  # events at one instant before a wait is declared stuck
+
 
 @dataclass
 class VirtualRack:
@@ -70,6 +72,7 @@ def resolve_can(channel: str, rack_id: str | None) -> tuple[object, simpy.Enviro
 def run_until(env: simpy.Environment, done: Callable[[], bool], timeout_s: float | None) -> bool:
     """Step ``env`` until ``done()`` or until ``timeout_s`` simulated seconds have passed."""
     deadline = None if timeout_s is None else env.now + ticks(timeout_s)
+    still, last = 0, env.now
     while not done():
         nxt = env.peek()
         if deadline is not None and nxt > deadline:
@@ -79,4 +82,11 @@ def run_until(env: simpy.Environment, done: Callable[[], bool], timeout_s: float
         if nxt == math.inf:
             raise Deadlock("waiting with nothing scheduled in the simulation")
         env.step()
+        if env.now == last:
+            still += 1
+            if still > LIVELOCK_STEPS:
+                raise Deadlock(f"simulation stuck at t = {env.now} ns: {still} events "
+                               "without time advancing (livelock)")
+        else:
+            still, last = 0, env.now
     return True

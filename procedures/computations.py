@@ -75,6 +75,18 @@ def _count_sigma(noise: NoiseSpec, gate_s: float, dphi_arcsec: float) -> float:
     return math.sqrt(noise.count_quantization_var + (arw**2 + drift**2) / dphi_arcsec**2)
 
 
+def _tilt_change_sigma_arcsec(noise: NoiseSpec, gate_s: float) -> float:
+    """Pier-tilt change over a gate about a horizontal axis of random azimuth, arcsec.
+
+    A gyro whose input axis is horizontal sees it as an angle (wobble: about 1.2 arcsec in
+    20 s); var = (ee(0) - ee(T)) + (nn(0) - nn(T)) from the tilt covariance.
+    """
+    ee0, nn0, _ = noise.tilt_covariance(0.0)
+    ee1, nn1, _ = noise.tilt_covariance(gate_s)
+    var = float(ee0 - ee1 + nn0 - nn1)
+    return math.sqrt(max(var, 0.0)) * 180.0 / math.pi * 3600.0
+
+
 def special_experiments(rows: list[ResultRow], data: DayData, plan: DayPlan, site: dict,
                         noise: NoiseSpec) -> None:
     """Q_II from II-1.2 and J from II-1.3, in place (Chart II-16: special experiments)."""
@@ -113,7 +125,10 @@ def special_experiments(rows: list[ResultRow], data: DayData, plan: DayPlan, sit
             if rdp.estimate is None or any(x is None for x in gb):
                 continue  # J needs the scale factor and (Q^G)^-1 (positions 1-6)
             g_r = np.array(gb) @ t_br
-            sig_c = _count_sigma(noise, recs[0]["gate_s"], rdp.estimate)
+            gate = recs[0]["gate_s"]
+            # count noise, and the pier's tilt change seen by the horizontal input axis
+            sig_c = math.hypot(_count_sigma(noise, gate, rdp.estimate),
+                               _tilt_change_sigma_arcsec(noise, gate) / rdp.estimate)
             j, sj = j_estimate(recs, c, rdp.estimate, g_r, site["omega_sin_lambda"],
                                plan.j_accel_deg_s2, sig_c)
             r = _row(rows, f"gyro{k}", "J")

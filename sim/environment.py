@@ -107,6 +107,21 @@ class Environment:
             out[:, ax] += self.wander[i].slope(t) + self.wobble[i].rate(t)
         return out
 
+    def tilt_and_rate(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`tilt` and :meth:`tilt_rate` together (one pass over the processes)."""
+        t = np.atleast_1d(np.asarray(t, dtype=float))
+        eps = np.zeros((t.size, 3))
+        rate = np.zeros((t.size, 3))
+        arg = self.w_d * t + self.diurnal_phase
+        eps += np.outer(self.diurnal_amp * np.sin(arg), self.diurnal_dir)
+        rate += np.outer(self.diurnal_amp * self.w_d * np.cos(arg), self.diurnal_dir)
+        for i, ax in enumerate((1, 2)):
+            v, r = self.wander[i].value_and_slope(t)
+            mv, mr = self.wobble[i].value_and_rate(t)
+            eps[:, ax] += v + mv
+            rate[:, ax] += r + mr
+        return eps, rate
+
     # --- translational: floor vibration ---
     def vibration_accel(self, t) -> np.ndarray:
         t = np.atleast_1d(np.asarray(t, dtype=float))

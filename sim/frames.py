@@ -13,8 +13,12 @@ def gimbal(p) -> np.ndarray:
     """Chart I-4 gimbal transform [[0,1,0],[cos p,0,-sin p],[-sin p,0,-cos p]]; p scalar or (N,)."""
     p = np.asarray(p, dtype=float)
     c, s = np.cos(p), np.sin(p)
-    z, o = np.zeros_like(p), np.ones_like(p)
-    m = np.stack([np.stack([z, o, z], -1), np.stack([c, z, -s], -1), np.stack([-s, z, -c], -1)], -2)
+    m = np.zeros(p.shape + (3, 3))
+    m[..., 0, 1] = 1.0
+    m[..., 1, 0] = c
+    m[..., 1, 2] = -s
+    m[..., 2, 0] = -s
+    m[..., 2, 2] = -c
     return m
 
 
@@ -37,11 +41,12 @@ def rotation(v) -> np.ndarray:
 def skew(v) -> np.ndarray:
     """Cross-product matrix [v x] for v of shape (..., 3)."""
     v = np.asarray(v, dtype=float)
-    z = np.zeros(v.shape[:-1])
+    k = np.zeros(v.shape[:-1] + (3, 3))
     x, y, w = v[..., 0], v[..., 1], v[..., 2]
-    return np.stack(
-        [np.stack([z, -w, y], -1), np.stack([w, z, -x], -1), np.stack([-y, x, z], -1)], -2
-    )
+    k[..., 0, 1], k[..., 0, 2] = -w, y
+    k[..., 1, 0], k[..., 1, 2] = w, -x
+    k[..., 2, 0], k[..., 2, 1] = -y, x
+    return k
 
 
 def transform_of_rotated(v) -> np.ndarray:

@@ -114,11 +114,12 @@ class CellIntegral:
         coef_int = np.einsum("nk,pkm->pnm", TO_COEF, f_int)
         anti = np.einsum("jn,pnm->pjm", ANTI, coef_int) * half[:, None, None]
         coef_val = np.einsum("nk,pkm->pnm", TO_COEF, f_val)
-        basis_a = self._inc_basis(a)  # (P, 3)
-        basis_b = self._inc_basis(b)
+        # pieces are contiguous: one evaluation of the basis at every edge serves both ends
+        edges = self._inc_basis(np.concatenate((a, b[-1:])))  # (P + 1, 3)
+        basis_a, basis_b = edges[:-1], edges[1:]
         # piece integral: antiderivative at x = 1 is sum of its coefficients (P_n(1) = 1)
         total = anti.sum(axis=1) + np.einsum("pmi,pi->pm", inc, basis_b - basis_a)
-        start = self._cum[-1] + self._last_total() if self._a.size else np.zeros(self.m_int)
+        start = self._end if self._a.size else np.zeros(self.m_int)
         cum = start + np.concatenate((np.zeros((1, self.m_int)), np.cumsum(total, axis=0)[:-1]))
         self._a = np.concatenate((self._a, a))
         self._b = np.concatenate((self._b, b))
@@ -127,12 +128,8 @@ class CellIntegral:
         self._coef = np.concatenate((self._coef, coef_val))
         self._inc = np.concatenate((self._inc, inc))
         self._basis_a = np.concatenate((self._basis_a, basis_a))
+        self._end = cum[-1] + total[-1]  # integral from 0 to the end of the last piece
         self._cells = k
-
-    def _last_total(self) -> np.ndarray:
-        p = self._a.size - 1
-        vb = self._inc_basis(self._b[p : p + 1])[0]
-        return self._anti[p].sum(axis=0) + self._inc[p] @ (vb - self._basis_a[p])
 
     # ----- queries -----
     def _piece(self, t: float) -> int:
@@ -167,3 +164,9 @@ class CellIntegral:
         self._coef, self._inc = self._coef[:keep], self._inc[:keep]
         self._basis_a = self._basis_a[:keep]
         self._cells = k
+        if keep:
+            p = keep - 1  # the end of the last kept piece, for the next batch's start
+            vb = self._inc_basis(self._b[p : p + 1])[0]
+            self._end = self._cum[p] + self._anti[p].sum(axis=0) + self._inc[p] @ (
+                vb - self._basis_a[p]
+            )

@@ -14,7 +14,9 @@ import numpy as np
 
 from sim.rng import stream
 
-BLOCK = 4096
+BLOCK = 4096  # knots generated at a time by a sequential (Gauss-Markov) process
+PATH_BLOCK = 1024  # knots of one Brownian-bridge block of a random walk
+TOTALS_CHUNK = 64  # random-walk block totals drawn at a time
 
 
 class KnotProcess:
@@ -70,6 +72,12 @@ class KnotProcess:
         v = (self._x[k + 1] - self._x[k]) / self.h
         return v.reshape(ta.shape) if ta.ndim else float(v[0])
 
+    def value_and_slope(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`value` and :meth:`slope` at an array of times, sharing the knot lookup."""
+        k, f = self._locate(np.atleast_1d(np.asarray(t, dtype=float)))
+        x0, x1 = self._x[k], self._x[k + 1]
+        return x0 + (x1 - x0) * f, (x1 - x0) / self.h
+
     def integral(self, t):
         """Integral of the process from 0 to time(s) t."""
         ta = np.asarray(t, dtype=float)
@@ -114,25 +122,20 @@ class RandomWalk:
 
     def _start(self, b: int) -> float:
         while self._starts.size <= b:
-            n = self._starts.size
-            more = np.array(
-                [
-                    float(stream(self._seed, *self._names, "total", j).standard_normal())
-                    for j in range(n - 1, max(b, 2 * n))
-                ]
-            )
-            tot = more * self._sd * math.sqrt(BLOCK)
+            c = (self._starts.size - 1) // TOTALS_CHUNK  # next chunk of block totals
+            z = stream(self._seed, *self._names, "totals", c).standard_normal(TOTALS_CHUNK)
+            tot = z * self._sd * math.sqrt(PATH_BLOCK)
             self._starts = np.concatenate((self._starts, self._starts[-1] + np.cumsum(tot)))
         return float(self._starts[b])
 
     def _path(self, b: int) -> np.ndarray:
-        """W at knots b*BLOCK .. (b+1)*BLOCK inclusive."""
+        """W at knots b*PATH_BLOCK .. (b+1)*PATH_BLOCK inclusive."""
         p = self._paths.get(b)
         if p is None:
             w0, w1 = self._start(b), self._start(b + 1)
-            inc = stream(self._seed, *self._names, "path", b).standard_normal(BLOCK) * self._sd
-            x = np.concatenate(([0.0], np.cumsum(inc)))
-            x -= np.arange(BLOCK + 1) / BLOCK * (x[-1] - (w1 - w0))
+            z = stream(self._seed, *self._names, "path", b).standard_normal(PATH_BLOCK)
+            x = np.concatenate(([0.0], np.cumsum(z * self._sd)))
+            x -= np.arange(PATH_BLOCK + 1) / PATH_BLOCK * (x[-1] - (w1 - w0))
             p = w0 + x
             self._paths[b] = p
         return p
@@ -143,7 +146,7 @@ class RandomWalk:
         x0 = np.empty(k.size)
         x1 = np.empty(k.size)
         for i, kk in enumerate(k):
-            b, r = divmod(int(kk), BLOCK)
+            b, r = divmod(int(kk), PATH_BLOCK)
             p = self._path(b)
             x0[i], x1[i] = p[r], p[r + 1]
         return x0, x1, u - k
@@ -193,6 +196,11 @@ class Multitone:
         ta = np.asarray(t, dtype=float)
         v = np.cos(np.multiply.outer(ta, self.w) + self.psi) @ self.amp
         return v if ta.ndim else float(v)
+
+    def value_and_rate(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`value` and :meth:`rate` at an array of times, sharing the phases."""
+        ph = np.multiply.outer(np.atleast_1d(np.asarray(t, dtype=float)), self.w) + self.psi
+        return np.cos(ph) @ self.amp, -np.sin(ph) @ (self.amp * self.w)
 
     def rate(self, t):
         """Time derivative."""

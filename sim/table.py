@@ -157,14 +157,15 @@ class FourAxisTable:
         ang, rate = {}, {}
         for k in AXES:
             ang[k], rate[k] = self.axes[k].evaluate(t)
-        eps = self.env.tilt(t) + self.base_rotation
+        eps, eps_rate = self.env.tilt_and_rate(t)
+        eps = eps + self.base_rotation
         return {
             "t_io": gimbal(ang[4]) @ self._n["IO"],
             "t_or": gimbal(ang[3]) @ self._n["OR"],
             "t_rt": gimbal(ang[2]) @ self._n["RT"],
             "t_tf": gimbal(ang[1]),
             "t_fe": transform_of_rotated(eps),
-            "eps_rate": self.env.tilt_rate(t),
+            "eps_rate": eps_rate,
             "angles": ang,
             "rates": rate,
         }

@@ -57,7 +57,7 @@ class Trajectory:
         i = np.searchsorted(self._ts, t, side="right") - 1
         i = np.maximum(i, 0)
         dt = t - self._ts[i]
-        p0, v0, a, pf, d, tau = (self._par[i, k] for k in range(6))
+        p0, v0, a, pf, d, tau = self._par[i].T
         poly_p = p0 + v0 * dt + 0.5 * a * dt * dt
         poly_v = v0 + a * dt
         x = dt / tau

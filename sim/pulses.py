@@ -110,7 +110,7 @@ def solve_crossing(phase: Callable[[float], float], c: float, t0: float, d: int)
         rate = (fb - fa) / step
         a, fa = b, fb
         # jump just past the predicted crossing; never shrink the step by more than half
-        guess = -fa / rate * 1.05 if d * rate > 0 else step * 4
+        guess = -fa / rate * 1.001 + 1e-3 if d * rate > 0 else step * 4
         step = max(min(guess, HORIZON / 8), step * 0.5, 1e-6)
     # A few secant steps shrink the bracket cheaply (phases are nearly linear in time).
     for _ in range(4):

@@ -2,7 +2,7 @@
 
 Gathers the survey's constants, the counter settings and outputs of every position
 measured, computes the constants Chart II-16 allows (procedures.calibration), fills Q_II
-from the nonlinearity fits (II-1.2) and J from the designed J experiment (II-1.3), and
+from the nonlinearity fits (II-1.2) and J from the designed J experiment (II-1.3, Chart II-10), and
 records the Calibration Results Sheet (Chart II-5).
 """
 
@@ -133,7 +133,8 @@ def special_experiments(rows: list[ResultRow], data: DayData, plan: DayPlan, sit
                                plan.j_accel_deg_s2, sig_c)
             r = _row(rows, f"gyro{k}", "J")
             r.estimate, r.sigma = j, sj
-            r.note = f"II-1.3 designed experiment, position {m} (docs/special-experiments.md)"
+            r.note = (f"Chart II-10 designed experiment, position {m} "
+                      "(docs/special-experiments.md)")
 
 
 def compute_calibration(run: Run, data: DayData, plan: DayPlan, noise: NoiseSpec,

@@ -1,7 +1,7 @@
 """The full calibration day of report 000, Parts I and II, in the laboratory's order.
 
 Turn-on (I-1), system survey (I-2), resolver and counter settings (II-6), the measurement
-check-sheets (II-6, II-7, II-1.3, II-11, II-12, II-13, II-14) and the calibration
+check-sheets (II-6, II-7, II-7Q, II-10, II-11, II-12, II-13, II-14) and the calibration
 computations (II-15). ``only`` restricts the measurements to some charts (turn-on and survey
 always run: everything needs them); the computations then give exactly what Chart II-16
 allows from the positions measured.
@@ -24,7 +24,7 @@ from procedures.sheets import CounterOutputs, SurveyResults
 from procedures.system_survey import system_survey
 from procedures.turn_on import turn_on
 
-EXPERIMENTS = ("II-6", "II-7", "II-7Q", "II-1.3", "II-11", "II-12", "II-13", "II-14")
+EXPERIMENTS = ("II-6", "II-7", "II-7Q", "II-10", "II-11", "II-12", "II-13", "II-14")
 
 
 @dataclass
@@ -75,7 +75,7 @@ def measure_day(st, run: Run, plan: DayPlan, site: dict, f0: float,
         )
     if "II-7Q" in wanted:
         data.q_is = q_is_experiment(st, run, survey.t_bi, plan, s1, site["omega_sin_lambda"])
-    if "II-1.3" in wanted:
+    if "II-10" in wanted:
         data.j_term = j_experiment(st, run, settings, plan, s1)
     if "II-11" in wanted:
         data.gyro.update(gyro_positions_7_12(st, run, settings, presets, outputs, s1))

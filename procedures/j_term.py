@@ -1,4 +1,4 @@
-"""II-1.3 J term experiment: designed here (report 000 leaves the sheet blank).
+"""II-1.3 J term experiment (Chart II-10, left blank in report 000): designed here.
 
 Design (docs/special-experiments.md): with the rotary axis up and a gyro's output axis O along it
 (position 7 for gyros 2 and 3, whose O = B1; position 11 for gyro 1, O = B3), the J term
@@ -66,7 +66,7 @@ def j_experiment(st, run: Run, settings: ResolverSettings, plan: DayPlan, s1: fl
     lead_s = 0.5 * (gate_s - w1 / acc)
     n_ticks = int(round(gate_s / s1))
     out: dict[int, list[dict]] = {}
-    with run.sheet("II-1.3", TITLE) as sheet:
+    with run.sheet("II-10", TITLE) as sheet:
         sheet.done("1", "Scale factors and (Q^G)^-1 known (Chart II-6); survey done")
         with sheet.step("2", "Patch gyros and master oscillator to counters 2-4 (positions "
                         "7-15 wiring); measure Z"):

@@ -67,8 +67,8 @@ def day(
     config: ConfigOpt = None,
     seed: SeedOpt = None,
     out: Annotated[Path, typer.Option("--out", help="run directory")] = Path("runs/day"),
-    only: Annotated[list[str] | None, typer.Option("--only", help="measure only these "
-                    "charts (II-6, II-7, II-1.3, II-11, II-12, II-13, II-14); repeatable")] = None,
+    only: Annotated[list[str] | None, typer.Option("--only", help="measure only these charts "
+                    "(II-6, II-7, II-7Q, II-10, II-11..II-14); repeatable")] = None,
     resume: Annotated[Path | None, typer.Option("--resume", help="continue the interrupted "
                       "run in this directory")] = None,
     quiet: Annotated[bool, typer.Option("--quiet", help="no live display")] = False,

@@ -4,6 +4,12 @@ On START the IEU latches its registers on every PeriodTicks-th S2^T pulse and se
 sample as four frames (gyro, accelerometer A and B, timer) sharing a sequence number.
 Registers are read and cleared at the same edge, so consecutive samples telescope: no
 count is ever lost between reads. Frames are defined in config/ieu.dbc.
+
+The IEU keeps the frames of its last ``history_len`` samples. RESEND (Command 4, with the
+sample's sequence number in the command's ``Seq``) sends that sample's four frames again,
+exactly as first sent; it is the host's way of recovering a frame lost on the bus. A
+sample no longer (or never) held is refused with IEU_ERROR code 5. A resend is answered by
+the frames themselves, not by IEU_STATUS, so it never disturbs the command/status pairing.
 """
 
 from __future__ import annotations
@@ -20,8 +26,9 @@ from sim.world import World
 
 GYRO_LINES = ("G1", "G2", "G3")
 ACCEL_LINES = ("A1S1", "A1S2", "A2S1", "A2S2", "A3S1", "A3S2")
-CMD_STOP, CMD_START, CMD_RESET, CMD_STATUS = 0, 1, 2, 3
-ERR_ID, ERR_DLC, ERR_CMD, ERR_PERIOD = 1, 2, 3, 4
+CMD_STOP, CMD_START, CMD_RESET, CMD_STATUS, CMD_RESEND = 0, 1, 2, 3, 4
+ERR_ID, ERR_DLC, ERR_CMD, ERR_PERIOD, ERR_RESEND = 1, 2, 3, 4, 5
+HISTORY_LEN = 16  # samples held for RESEND (8 s at 0.5 s samples)
 
 
 def load_dbc() -> cantools.database.Database:
@@ -46,6 +53,8 @@ class Ieu:
         self._proc = None
         self.drop_every = 0  # fault injection: drop every n-th sample's gyro frame
         self.silent = False
+        self.history_len = HISTORY_LEN  # fault injection: 0 makes every RESEND fail
+        self.history: deque[tuple[int, list[tuple[str, dict]]]] = deque()
 
     # ----- frames in -----
     def receive_frame(self, arbitration_id: int, data: bytes) -> None:
@@ -72,6 +81,9 @@ class Ieu:
         elif cmd == CMD_RESET:
             self._stop()
             self.seq = 0
+            self.history.clear()
+        elif cmd == CMD_RESEND:
+            return self._resend(int(sig["Seq"]), arbitration_id)
         elif cmd != CMD_STATUS:
             return self._refuse(ERR_CMD, arbitration_id)
         self._send_now(
@@ -83,6 +95,14 @@ class Ieu:
                 "ErrorCode": self.error_code,
             },
         )
+
+    def _resend(self, seq: int, ref: int) -> None:
+        held = dict(self.history)
+        if seq not in held:
+            return self._refuse(ERR_RESEND, ref)
+        t = self.world.now
+        for i, (name, sig) in enumerate(held[seq], start=1):
+            self._send_at(t + i * self.p.frame_gap_s, name, sig)
 
     def _refuse(self, code: int, ref: int) -> None:
         self.error_code = code
@@ -134,6 +154,9 @@ class Ieu:
             ),
             ("IEU_TIMER", {"Seq": seq, "Timer": timer, "Flags": int(overflow)}),
         ]
+        self.history.append((seq, frames))
+        while len(self.history) > self.history_len:
+            self.history.popleft()
         if self.drop_every and seq % self.drop_every == self.drop_every - 1:
             frames = frames[1:]
         for i, (name, sig) in enumerate(frames):

@@ -94,6 +94,42 @@ def day(
 
 
 @app.command()
+def align(
+    method: Annotated[str, typer.Option("--method", help="mirror | level | gyrocompass")],
+    estimator: Annotated[str, typer.Option("--estimator", help="average | posterior | "
+                         "hybrid")] = "average",
+    calibration: Annotated[Path | None, typer.Option("--calibration", help="run directory "
+                           "whose Calibration Results Sheet to use (default: calibrate "
+                           "first)")] = None,
+    config: ConfigOpt = None,
+    seed: SeedOpt = None,
+    out: Annotated[Path, typer.Option("--out", help="run directory")] = Path("runs/align"),
+    quiet: Annotated[bool, typer.Option("--quiet", help="no live display")] = False,
+) -> None:
+    """One alignment (Part III): mirror, level or gyrocompass, with the chosen estimator."""
+    from procedures.runner import ProcedureError
+    from station.align_cmd import run_align
+    from station.errors import StationError
+
+    if method not in ("mirror", "level", "gyrocompass"):
+        console.print(f"[red]unknown method {method!r}: mirror, level or gyrocompass[/red]")
+        raise typer.Exit(2)
+    if estimator not in ("average", "posterior", "hybrid"):
+        console.print(f"[red]unknown estimator {estimator!r}: average, posterior or "
+                      "hybrid[/red]")
+        raise typer.Exit(2)
+    cfg = _load(config, seed)
+    try:
+        res = run_align(cfg, out, method, estimator, calibration, console=console,
+                        quiet=quiet)
+    except (ProcedureError, StationError, FileNotFoundError, ValueError) as e:
+        console.print(f"[red]stopped:[/red] {e}")
+        raise typer.Exit(1) from None
+    console.print(f"{res['sim_seconds'] / 3600:.2f} h simulated in {res['wall_seconds']:.1f} s;"
+                  f" record in {out}")
+
+
+@app.command()
 def compare(
     dir_a: Path,
     dir_b: Path,

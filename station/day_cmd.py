@@ -116,8 +116,12 @@ def render_results(console: Console, rows: list[dict]) -> None:
 def run_day(cfg: StationConfig, out: Path, only: tuple[str, ...] | None = None,
             resume: bool = False, console: Console | None = None, quiet: bool = False,
             plan: DayPlan | None = None,
-            rack_hook: Callable[[SimulatedRack], None] | None = None) -> dict:
-    """Run the day into ``out``; ``rack_hook`` may inject faults into the simulated rack."""
+            rack_hook: Callable[[SimulatedRack], None] | None = None,
+            align: bool = True) -> dict:
+    """Run the day into ``out``; ``rack_hook`` may inject faults into the simulated rack.
+
+    After the calibration the three alignments of Part III run (``align=False`` skips them).
+    """
     console = console or Console()
     plan = plan or DayPlan()
     out.mkdir(parents=True, exist_ok=True)
@@ -134,6 +138,12 @@ def run_day(cfg: StationConfig, out: Path, only: tuple[str, ...] | None = None,
             run.note(event="start", seed=cfg.seed, only=list(only or ()), resume=resume)
             data = measure_day(st, run, plan, site_info(cfg), cfg.isu.accels[0].f0_hz, only)
             calib = compute_calibration(run, data, plan, noise_spec(cfg), site_info(cfg))
+            alignment = []
+            if align and data.survey is not None:
+                from station.align_cmd import day_alignments
+
+                alignment = day_alignments(st, run, calib, cfg, rack.world,
+                                           tape_dir=out / "tapes")
         for name, model in run.sheets.items():
             (out / "sheets" / f"{name}.json").write_text(
                 json.dumps(json.loads(dumps({"x": model}))["x"], indent=1, sort_keys=True))
@@ -144,11 +154,16 @@ def run_day(cfg: StationConfig, out: Path, only: tuple[str, ...] | None = None,
             "sim_seconds": st.clock.now(),
             "wall_seconds": time.perf_counter() - wall0,
             "calibration": rows,
+            "alignment": alignment,
         }
         (out / "results.json").write_text(json.dumps(res, indent=1, sort_keys=True))
         run.note(event="end", sim_seconds=st.clock.now())
         if not quiet:
             render_results(console, rows)
+            if alignment:
+                from station.align_cmd import render_alignment
+
+                render_alignment(console, alignment)
         return res
     finally:
         journal.close()

@@ -3,6 +3,15 @@
 Works on any python-can interface: ``sim`` (virtual), ``socketcand``/``slcan`` (a served
 rack), ``socketcan`` (hardware). A missing frame or sample is detected from the sequence
 numbers and reported, never papered over.
+
+Recovery (``start(period, recover=True)``): a sample whose frames are missing when a later
+sample's frames arrive (frames travel in order on one bus), or a sequence number skipped,
+is asked for again with RESEND (IEU_COMMAND 4 with its ``Seq``); samples are still
+returned strictly in sequence, each complete, and every recovery is listed in
+``recoveries``. If the IEU no longer holds the sample (IEU_ERROR 5), or a resend comes back
+incomplete ``MAX_RESENDS`` times, ``next_sample`` raises ``DriverError`` naming the sample:
+counts are never guessed. Undecodable frames are counted in ``garbled`` and otherwise
+ignored in this mode (the frame they replaced is then missing and is asked for again).
 """
 
 from __future__ import annotations
@@ -17,6 +26,19 @@ import station.links  # noqa: F401
 from station.errors import DriverError, InstrumentRefused, LinkTimeout
 
 PARTS = ("IEU_GYRO", "IEU_ACCEL_A", "IEU_ACCEL_B", "IEU_TIMER")
+CMD_STOP, CMD_START, CMD_RESET, CMD_STATUS, CMD_RESEND = 0, 1, 2, 3, 4
+ERR_RESEND = 5
+MAX_RESENDS = 3  # resends of one sample before giving up
+SEQ_MOD = 65536
+
+
+def _after(a: int, b: int) -> bool:
+    """Sequence number ``a`` comes after ``b`` (modulo 65536)."""
+    return 0 < (a - b) % SEQ_MOD < SEQ_MOD // 2
+
+
+class GarbledFrame(DriverError):
+    """A frame that cannot be decoded (unknown identifier, wrong length)."""
 
 
 @dataclass(frozen=True)
@@ -42,14 +64,21 @@ class IeuDriver:
             raise DriverError(name, self.link, f"cannot open CAN link: {e}") from None
         self._pending: dict[int, dict[str, dict]] = {}
         self._last_seq: int | None = None
+        self.recover = False
+        self._expected: int | None = None  # next sequence number to return (recover mode)
+        self._resends: dict[int, int] = {}  # seq -> resends asked
+        self._resend_newest: dict[int, int | None] = {}  # seq -> newest seen when last asked
+        self._newest: int | None = None  # newest sequence number seen (recover mode)
+        self.recoveries: list[dict] = []  # recover mode: {"seq", "missing", "resends"}
+        self.garbled = 0  # recover mode: undecodable frames ignored
 
     def close(self) -> None:
         self.bus.shutdown()
 
-    def _send(self, command: int, period: int = 1) -> None:
+    def _send(self, command: int, period: int = 1, seq: int = 0) -> None:
         msg = self.db.get_message_by_name("IEU_COMMAND")
         try:
-            data = msg.encode({"Command": command, "PeriodTicks": period})
+            data = msg.encode({"Command": command, "PeriodTicks": period, "Seq": seq})
         except cantools.database.errors.EncodeError as e:
             raise DriverError(self.name, self.link, f"cannot encode IEU_COMMAND: {e}") from None
         try:
@@ -68,7 +97,7 @@ class IeuDriver:
             spec = self.db.get_message_by_frame_id(m.arbitration_id)
             sig = spec.decode(bytes(m.data), decode_choices=False)
         except (KeyError, ValueError, cantools.database.errors.DecodeError) as e:
-            raise DriverError(
+            raise GarbledFrame(
                 self.name, self.link, f"garbled frame id 0x{m.arbitration_id:03x}: {e}"
             ) from None
         return spec.name, sig, float(m.timestamp)
@@ -94,11 +123,18 @@ class IeuDriver:
     def status(self) -> dict:
         return self._reply(3)
 
-    def start(self, period_ticks: int) -> None:
-        """Sample every ``period_ticks`` S2^T pulses."""
+    def start(self, period_ticks: int, recover: bool = False) -> None:
+        """Sample every ``period_ticks`` S2^T pulses; ``recover``: ask for lost samples again."""
         self._pending.clear()
         self._last_seq = None
-        self._reply(1, period_ticks)
+        self._resends.clear()
+        self._resend_newest.clear()
+        self._newest = None
+        self.recoveries = []
+        self.garbled = 0
+        self.recover = recover
+        st = self._reply(CMD_START, period_ticks)
+        self._expected = int(st["Seq"])  # the sequence number the first sample will carry
 
     def stop(self) -> None:
         self._reply(0)
@@ -106,9 +142,18 @@ class IeuDriver:
     def reset(self) -> None:
         self._reply(2)
 
+    def resend(self, seq: int) -> None:
+        """Ask the IEU for the frames of sample ``seq`` again (answered by the frames)."""
+        self._send(CMD_RESEND, 1, seq)
+
     def next_sample(self, timeout: float | None = None) -> IeuSample:
-        """The next complete sample; raises DriverError on a lost frame or sample."""
+        """The next complete sample; raises DriverError on a lost frame or sample.
+
+        In recover mode (``start(..., recover=True)``) lost frames are asked for again.
+        """
         wait = self.timeout if timeout is None else timeout
+        if self.recover:
+            return self._next_recovering(wait)
         while True:
             name, sig, t = self._recv(wait)
             if name not in PARTS:
@@ -133,19 +178,81 @@ class IeuDriver:
                         self.name, self.link, f"lost {lost} sample(s) before sequence {seq}"
                     )
                 self._last_seq = seq
-                g, a, b, tm = (parts[p] for p in PARTS)
-                return IeuSample(
-                    seq=seq,
-                    t=tm["_t"],
-                    gyro=(int(g["Gyro1"]), int(g["Gyro2"]), int(g["Gyro3"])),
-                    accel=(
-                        int(a["A1S1"]),
-                        int(a["A1S2"]),
-                        int(a["A2S1"]),
-                        int(b["A2S2"]),
-                        int(b["A3S1"]),
-                        int(b["A3S2"]),
-                    ),
-                    timer=int(tm["Timer"]),
-                    flags=int(tm["Flags"]),
+                return _sample(seq, parts)
+
+    def _next_recovering(self, wait: float) -> IeuSample:
+        exp = self._expected
+        if exp is None:
+            raise DriverError(self.name, self.link, "recover mode needs start() first")
+        while True:
+            parts = self._pending.get(exp, {})
+            if len(parts) == len(PARTS):
+                del self._pending[exp]
+                self._resends.pop(exp, None)
+                self._resend_newest.pop(exp, None)
+                self._expected = (exp + 1) % SEQ_MOD
+                return _sample(exp, parts)
+            if self._newest is not None and _after(self._newest, exp):
+                self._ask_again(exp, parts)
+            try:
+                name, sig, t = self._recv(wait)
+            except GarbledFrame:  # undecodable: the frame it replaced is asked for again
+                self.garbled += 1
+                continue
+            if name == "IEU_ERROR":
+                if int(sig["Code"]) == ERR_RESEND:
+                    have = sorted(self._pending.get(exp, {}))
+                    raise DriverError(
+                        self.name, self.link,
+                        f"sample {exp} lost (received only {have}) and the IEU no longer "
+                        "holds it (RESEND refused, code 5)",
+                    )
+                raise InstrumentRefused(
+                    self.name, self.link, int(sig["Code"]),
+                    f"frame 0x{int(sig['RefId']):03x} refused",
                 )
+            if name not in PARTS:
+                continue
+            seq = int(sig["Seq"])
+            if seq != exp and not _after(seq, exp):
+                continue  # a duplicate of a sample already returned
+            if self._newest is None or _after(seq, self._newest):
+                self._newest = seq
+            self._pending.setdefault(seq, {}).setdefault(name, sig | {"_t": t})
+
+    def _ask_again(self, seq: int, parts: dict) -> None:
+        """Sample ``seq`` is incomplete while a later one has begun: RESEND it (bounded)."""
+        n = self._resends.get(seq, 0)
+        pending_resend = n > 0 and self._resend_newest.get(seq) == self._newest
+        if pending_resend:
+            return  # asked already; nothing newer has arrived since
+        if n >= MAX_RESENDS:
+            raise DriverError(
+                self.name, self.link,
+                f"sample {seq} still incomplete after {n} resends (received only "
+                f"{sorted(parts)})",
+            )
+        self._resends[seq] = n + 1
+        self._resend_newest[seq] = self._newest
+        rec = {"seq": seq, "missing": [p for p in PARTS if p not in parts], "resends": n + 1}
+        self.recoveries.append(rec)
+        self.resend(seq)
+
+
+def _sample(seq: int, parts: dict[str, dict]) -> IeuSample:
+    g, a, b, tm = (parts[p] for p in PARTS)
+    return IeuSample(
+        seq=seq,
+        t=tm["_t"],
+        gyro=(int(g["Gyro1"]), int(g["Gyro2"]), int(g["Gyro3"])),
+        accel=(
+            int(a["A1S1"]),
+            int(a["A1S2"]),
+            int(a["A2S1"]),
+            int(b["A2S2"]),
+            int(b["A3S1"]),
+            int(b["A3S2"]),
+        ),
+        timer=int(tm["Timer"]),
+        flags=int(tm["Flags"]),
+    )

@@ -1,0 +1,103 @@
+"""Mirror alignment (Chart III-2, steps 1-7; computation Chart III-3; sheet Chart III-1).
+
+Both autocollimators read their mirror alternately, ``n`` readings each; the means go into
+Chart III-3. T refers to the mean time of the readings: the readings are short (about a
+second a pair), so the pier's motion during them (a 1 arcsec wobble at 1 cycle/min) is
+nearly linear and cancels about that time; what remains is in the error model.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from procedures.alignment import error_model as em
+from procedures.alignment.align_math import ARCSEC, mirror_alignment
+from procedures.alignment.common import (
+    Outcome,
+    ac_sigma_arcsec,
+    acquire_mirrors,
+    read_autocollimators,
+    require_turn_on,
+    set_position0,
+    table_record,
+)
+from procedures.alignment.results_sheet import AlignmentResults, AlignPlan
+from procedures.calibration.noise_spec import NoiseSpec
+from procedures.runner import Run
+from procedures.sheets import SurveyResults
+
+if TYPE_CHECKING:
+    from station.rack import Station
+
+CHART = "III-2"
+TITLE = "Mirror alignment"
+
+
+def mirror_error_model(ac_deg, times, t_ref: float, n: int, noise: NoiseSpec) -> dict:
+    """Predicted covariance of phi (U, E, N) and the physical limit, for Chart III-3."""
+    x0 = np.asarray(ac_deg, dtype=float)
+    t0 = mirror_alignment(*x0)
+    s = ac_sigma_arcsec(noise, n) / 3600.0  # deg, across the line of sight
+    # an azimuth reading's noise is s / sin(zenith) in azimuth angle
+    sig = np.array([s / np.sin(np.radians(x0[1])), s, s / np.sin(np.radians(x0[3])), s])
+    jac = em.jacobian(em.phi_of(t0, lambda x: mirror_alignment(*x)), x0, 1e-5)
+    cov = jac @ np.diag(sig**2) @ jac.T
+    motion = em.tilt_motion_cov(noise, times, t_ref)
+    cov_total = cov.copy()
+    cov_total[1:, 1:] += motion
+    limit = ac_sigma_arcsec(noise, n)
+    return {"cov": cov_total, "predicted": em.as_enu_arcsec(cov_total),
+            "limit": [limit, limit, limit],
+            "motion_arcsec": [float(np.sqrt(motion[i, i]) / ARCSEC) for i in (0, 1)]}
+
+
+def mirror_alignment_procedure(st: Station, run: Run, noise: NoiseSpec,
+                               survey: SurveyResults | None = None,
+                               plan: AlignPlan | None = None) -> Outcome:
+    """Tick Chart III-2 and return the mirror alignment (Chart III-1 saved in the run)."""
+    plan = plan or AlignPlan()
+    n = plan.mirror_readings
+    with run.sheet(CHART, TITLE) as sheet:
+        with sheet.step("1", "Verify turn-on procedures are completed (Part I, Section 1)") as s:
+            s.reading = require_turn_on(run)
+        with sheet.step("1a", "(project addition) Set position 0 with bubble-level "
+                        "corrections on phi1 and phi3") as s:
+            s.reading = set_position0(st)
+        with sheet.step("2", "Align autocollimators to mirrors") as s:
+            s.reading = acquire_mirrors(st, (1, 2), survey)
+        sheet.done("3", "Load the mirror alignment program",
+                   {"program": "procedures.alignment.mirror", "chart": "III-3"})
+        with sheet.step("4", f"Enter azimuths and zeniths from the autocollimators "
+                        f"({n} readings each, averaged) on the Alignment Results Sheet") as s:
+            rd = read_autocollimators(st, (1, 2), n, survey)
+            ac = (rd[1]["azimuth_deg"], rd[1]["zenith_deg"], rd[2]["azimuth_deg"],
+                  rd[2]["zenith_deg"])
+            times = rd[1]["times_s"] + rd[2]["times_s"]
+            t_ref = float(np.mean(times))
+            s.reading = {"autocollimator_deg": list(ac), "n_readings": n, "t_ref_s": t_ref,
+                         "spread_arcsec": {str(k): rd[k]["spread_arcsec"] for k in (1, 2)},
+                         "span_s": [min(times), max(times)]}
+        sheet.done("5", "Enter alpha1, alpha2, theta1, theta2 into the computer",
+                   {"autocollimator_deg": list(ac)})
+        with sheet.step("6", "Compute and output the alignment matrix T (Chart III-3)") as s:
+            t = mirror_alignment(*ac)
+            model = mirror_error_model(ac, times, t_ref, n, noise)
+            s.reading = {"t": t.tolist(), "predicted_sigma_arcsec": model["predicted"]}
+        with sheet.step("7", "Record T, table resolver settings and bubble levels on the "
+                        "Alignment Results Sheet (Chart III-1)") as s:
+            pos, lev = table_record(st)
+            results = AlignmentResults(
+                procedure="mirror", estimator="average", K=n,
+                autocollimator_deg=ac, table_position_deg=pos, bubble_levels_arcsec=lev,
+                t=t.tolist(), t_ref_s=t_ref,
+                predicted_sigma_arcsec=tuple(model["predicted"]),
+                physical_limit_arcsec=tuple(model["limit"]),
+                notes=[f"{n} readings per mirror, alternating; T at their mean time"],
+            )
+            run.save_sheet("alignment_results_mirror", results)
+            s.reading = {"sheet": "alignment_results_mirror"}
+    dt = (max(times) - min(times)) / max(n - 1, 1) if n > 1 else 0.0
+    return Outcome("mirror", "average", n, float(dt), t, t_ref, model["predicted"],
+                   model["limit"], results, {"motion_arcsec": model["motion_arcsec"]})

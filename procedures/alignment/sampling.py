@@ -1,0 +1,128 @@
+"""IEU data collection for alignment (Flow Diagrams 16 and 19).
+
+The IEU latches and clears its registers every ``period_ticks`` S2^T pulses and sends the
+sample; the computer adds consecutive samples until Delta t has elapsed (an interval), and
+repeats until K intervals are held. Nothing is lost between samples (the registers
+telescope) or between intervals (an interval is a whole number of samples). Delta t of each
+interval is S2^T times the sum of its samples' timer counts, the IEU's own measure of it.
+
+Every sample is checked: consecutive sequence numbers (the driver; in recover mode a lost
+sample is asked for again with RESEND), the timer count equal to the commanded period (a
+sample that is not one whole period means the IEU restarted or a count was lost) and no
+register overflow. Anything else stops the collection with a RuntimeError that says what.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from station.errors import DriverError
+
+
+@dataclass
+class IeuRecord:
+    """K intervals of summed IEU samples."""
+
+    period_ticks: int
+    samples_per_interval: int
+    s2_t: float  # S2^T, s per timer pulse
+    gyro: np.ndarray  # K x 3 net pulses
+    strings: np.ndarray  # K x 6 string counts (A1S1, A1S2, ..., A3S2)
+    timer: np.ndarray  # K timer counts
+    t_start: float  # link time of the latch that opens the data, s
+    first_seq: int
+    last_seq: int
+    recoveries: list[dict] = field(default_factory=list)
+    garbled: int = 0
+
+    @property
+    def K(self) -> int:
+        return int(self.timer.size)
+
+    @property
+    def dt(self) -> np.ndarray:
+        """Interval lengths Delta t = S2^T (Sigma n2^T), s."""
+        return self.s2_t * self.timer.astype(float)
+
+    @property
+    def t_end(self) -> float:
+        return self.t_start + float(np.sum(self.dt))
+
+    def summary(self) -> dict:
+        return {
+            "K": self.K,
+            "period_ticks": self.period_ticks,
+            "samples_per_interval": self.samples_per_interval,
+            "samples": self.K * self.samples_per_interval,
+            "seq": [self.first_seq, self.last_seq],
+            "t_start_s": self.t_start,
+            "t_end_s": self.t_end,
+            "dt_s": [float(self.dt.min()), float(self.dt.max())],
+            "recovered_samples": self.recoveries,
+            "garbled_frames_ignored": self.garbled,
+        }
+
+
+def collect(
+    st,
+    period_ticks: int,
+    samples_per_interval: int,
+    K: int,
+    recover: bool = True,
+    timeout: float = 5.0,
+) -> IeuRecord:
+    """Sample the IEU and sum ``samples_per_interval`` samples into each of K intervals."""
+    if period_ticks < 1 or samples_per_interval < 1 or K < 1:
+        raise ValueError("period, samples per interval and K must be positive")
+    s2 = st.oscillator.s_t(2)
+    n = K * samples_per_interval
+    gyro = np.zeros((n, 3), dtype=np.int64)
+    strings = np.zeros((n, 6), dtype=np.int64)
+    timer = np.zeros(n, dtype=np.int64)
+    stamps = np.zeros(n)
+    st.ieu.start(period_ticks, recover=recover)
+    try:
+        first = None
+        for i in range(n):
+            s = st.ieu.next_sample(timeout=timeout)
+            if first is None:
+                first = s
+            if s.flags & 1:
+                raise RuntimeError(f"IEU register overflow in sample {s.seq}: shorten the period")
+            if s.timer != period_ticks:
+                raise RuntimeError(
+                    f"IEU sample {s.seq} timer counted {s.timer} S2^T pulses, not the "
+                    f"commanded {period_ticks}: the sample is not one whole period"
+                )
+            gyro[i] = s.gyro
+            strings[i] = s.accel
+            timer[i] = s.timer
+            stamps[i] = s.t
+        last = s
+    finally:
+        recoveries = list(st.ieu.recoveries)
+        garbled = st.ieu.garbled
+        try:
+            st.ieu.stop()
+        except DriverError:
+            pass  # the error being raised (if any) is the one to report
+    assert first is not None
+    # A sample's frames leave at its closing latch, so each stamp less the timer pulses so
+    # far dates the opening latch; a resent sample's stamp is late: take the earliest.
+    t_start = float(np.min(stamps - s2 * np.cumsum(timer)))
+    shape = (K, samples_per_interval)
+    return IeuRecord(
+        period_ticks=period_ticks,
+        samples_per_interval=samples_per_interval,
+        s2_t=s2,
+        gyro=gyro.reshape(*shape, 3).sum(axis=1),
+        strings=strings.reshape(*shape, 6).sum(axis=1),
+        timer=timer.reshape(shape).sum(axis=1),
+        t_start=float(t_start),
+        first_seq=first.seq,
+        last_seq=last.seq,
+        recoveries=recoveries,
+        garbled=garbled,
+    )

@@ -1,0 +1,213 @@
+"""`station align`: the alignments of Part III on the simulated laboratory, and their record.
+
+``run_align`` runs one alignment (method and estimation technique) after a calibration,
+either the calibration of an earlier run directory (``calibration_dir``: its Calibration
+Results and Survey Results sheets) or a full calibration day measured first in the same run,
+and writes ``DIR/results.json`` with an ``alignment`` list, ``DIR/sheets/*.json``, the tapes
+of the parameter evaluation in ``DIR/tapes`` and the journal.
+
+``day_alignments`` is what ``station day`` calls after its calibration: all three methods,
+level and gyrocompass alignment each processed by both techniques.
+
+Errors are taken against the simulator's true attitude at the time each alignment refers to
+(``Outcome.t_ref``): the small rotation between the estimated and the true T in earth axes,
+about east and north (level errors) and about up (azimuth error). Only this module and
+``station.truth`` look at the simulator; the predicted sigmas come from the procedures.
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from collections.abc import Callable
+from pathlib import Path
+
+from rich import box
+from rich.console import Console
+from rich.table import Table
+
+from procedures.alignment.align_math import rotation_error_arcsec
+from procedures.alignment.common import Outcome, canonical_estimator
+from procedures.alignment.parameter_sheet import read_tape
+from procedures.alignment.preprocess import Constants, MissingConstants
+from procedures.alignment.results_sheet import AlignPlan
+from procedures.alignment.run import DAY_ESTIMATORS, run_alignments
+from procedures.journal import Journal, dumps
+from procedures.runner import Run
+from procedures.sheets import CalibrationResults, SurveyResults
+from procedures.turn_on import turn_on
+from station.config import StationConfig
+from station.rack import SimulatedRack, open_station
+
+
+def alignment_entries(outcomes: list[Outcome], world) -> list[dict]:
+    """results.json entries: estimate against the true attitude at each ``t_ref``."""
+    out = []
+    for o in outcomes:
+        t_true = world.attitude(o.t_ref).T  # world.attitude is T^BE; T = T^EB
+        err = rotation_error_arcsec(o.t, t_true)
+        level = [err["east"], err["north"]]
+        sig = o.predicted_sigma_arcsec
+        out.append({
+            "method": o.method,
+            "estimator": o.estimator,
+            "K": int(o.K),
+            "dt": float(o.dt),
+            "level_error_arcsec": level,
+            "azimuth_error_arcsec": err["azimuth"],
+            "predicted_sigma_arcsec": list(sig),
+            "physical_limit_arcsec": list(o.physical_limit_arcsec),
+            "error_over_sigma": [level[0] / sig[0], level[1] / sig[1],
+                                 err["azimuth"] / sig[2]],
+            "t_ref_s": o.t_ref,
+            "T": o.t.tolist(),
+            "T_true": t_true.tolist(),
+        })
+    return out
+
+
+def day_methods(calib: CalibrationResults) -> dict[str, tuple[str, ...]]:
+    """The day's alignments that ``calib`` allows: mirror always, level with every
+    accelerometer constant, gyrocompass with every gyro constant too (a partial day,
+    ``station day --only``, leaves some out instead of stopping)."""
+    est = dict(DAY_ESTIMATORS)
+    for method, gyros in (("level", False), ("gyrocompass", True)):
+        try:
+            Constants.from_sheet(calib, gyros)
+        except MissingConstants:
+            est.pop(method)
+    return est
+
+
+def day_alignments(st, run: Run, calib: CalibrationResults, cfg: StationConfig, world,
+                   tape_dir: Path | None = None, plan: AlignPlan | None = None) -> list[dict]:
+    """After the calibration of ``station day``: the three alignments (those the
+    calibration allows, ``day_methods``), as results entries."""
+    from station.day_cmd import noise_spec, site_info  # (day_cmd may import this module)
+
+    outcomes = run_alignments(st, run, noise_spec(cfg), calib, None, site_info(cfg), plan,
+                              estimators=day_methods(calib), tape_dir=tape_dir,
+                              calibration_id="this run (Chart II-15)")
+    return alignment_entries(outcomes, world)
+
+
+def load_calibration(d: Path) -> tuple[CalibrationResults, SurveyResults | None]:
+    """Calibration Results (and Survey Results) sheets of an earlier run directory."""
+    sheets = Path(d) / "sheets"
+    f = sheets / "calibration_results.json"
+    if not f.exists():
+        raise FileNotFoundError(f"no Calibration Results Sheet in {sheets} (run station day)")
+    calib = CalibrationResults.model_validate_json(f.read_text())
+    s = sheets / "survey_results.json"
+    survey = SurveyResults.model_validate_json(s.read_text()) if s.exists() else None
+    return calib, survey
+
+
+def render_alignment(console: Console, entries: list[dict]) -> None:
+    t = Table(title="Alignment Results (Chart III-1): error vs truth, predicted sigma, "
+              "physical limit (arcsec)", box=box.SIMPLE_HEAD, pad_edge=False)
+    for c in ("method", "technique", "K x dt", "about E", "about N", "azimuth",
+              "sigma E/N/az", "limit E/N/az"):
+        t.add_column(c, justify="left" if c in ("method", "technique") else "right",
+                     no_wrap=True)
+    for e in entries:
+        z = e["error_over_sigma"]
+
+        def f(x, zz):
+            s = f"{x:+.2f}"
+            return f"[red]{s}[/]" if abs(zz) > 4 else s
+
+        t.add_row(e["method"], e["estimator"], f"{e['K']} x {e['dt']:g} s",
+                  f(e["level_error_arcsec"][0], z[0]), f(e["level_error_arcsec"][1], z[1]),
+                  f(e["azimuth_error_arcsec"], z[2]),
+                  "/".join(f"{x:.2f}" for x in e["predicted_sigma_arcsec"]),
+                  "/".join(f"{x:.2f}" for x in e["physical_limit_arcsec"]))
+    console.print(t)
+
+
+def run_align(
+    cfg: StationConfig,
+    out: Path,
+    method: str,
+    estimator: str,
+    calibration_dir: Path | None = None,
+    tape: Path | None = None,
+    plan: AlignPlan | None = None,
+    console: Console | None = None,
+    quiet: bool = False,
+    warmup_s: float | None = None,
+    rack_hook: Callable[[SimulatedRack], None] | None = None,
+) -> dict:
+    """One alignment into ``out``; returns the results dict (also ``out/results.json``).
+
+    ``method``: mirror | level | gyrocompass; ``estimator``: average | posterior | hybrid
+    (level's hybrid is its posterior mean, the gyrocompass's posterior mean its hybrid).
+    ``tape``: a parameter tape to use instead of producing one (checked against the
+    experiment: a mismatch stops Chart III-4 step 8 / III-8 step 7 naming the parameter).
+    ``rack_hook`` may inject faults into the simulated rack before anything runs.
+    """
+    from procedures.computations import compute_calibration
+    from procedures.day import measure_day
+    from procedures.plan import DayPlan
+    from station.day_cmd import DayDisplay, noise_spec, site_info
+
+    est = canonical_estimator(method, estimator)
+    console = console or Console()
+    day_plan = DayPlan()
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "sheets").mkdir(exist_ok=True)
+    calib = survey = None
+    if calibration_dir is not None:
+        calib, survey = load_calibration(calibration_dir)
+    tapes = None
+    if tape is not None:
+        tapes = {method: read_tape(tape)}
+    wall0 = time.perf_counter()
+    rack = SimulatedRack(cfg)
+    if rack_hook is not None:
+        rack_hook(rack)
+    st = open_station(cfg, rack)
+    journal = Journal(out / "journal.jsonl")
+    site = site_info(cfg)
+    noise = noise_spec(cfg)
+    try:
+        with DayDisplay(console, quiet) as display:
+            run = Run(st.clock, journal, listener=display)
+            run.note(event="start", seed=cfg.seed, command="align", method=method,
+                     estimator=est, calibration=str(calibration_dir) if calibration_dir
+                     else None)
+            if calib is None:
+                data = measure_day(st, run, day_plan, site, cfg.isu.accels[0].f0_hz)
+                calib = compute_calibration(run, data, day_plan, noise, site)
+                survey = data.survey
+                cal_id = "this run (Chart II-15)"
+            else:
+                turn_on(st, run, day_plan.warmup_s if warmup_s is None else warmup_s)
+                cal_id = str(calibration_dir)
+            outcomes = run_alignments(st, run, noise, calib, survey, site, plan,
+                                      estimators={method: (est,)}, tapes=tapes,
+                                      tape_dir=out / "tapes", calibration_id=cal_id)
+        for name, model in run.sheets.items():
+            (out / "sheets" / f"{name}.json").write_text(
+                json.dumps(json.loads(dumps({"x": model}))["x"], indent=1, sort_keys=True))
+        entries = alignment_entries(outcomes, rack.world)
+        res = {
+            "seed": cfg.seed,
+            "sim_seconds": st.clock.now(),
+            "wall_seconds": time.perf_counter() - wall0,
+            "calibration": cal_id,
+            "estimator_requested": estimator,
+            "alignment": entries,
+        }
+        (out / "results.json").write_text(json.dumps(res, indent=1, sort_keys=True))
+        run.note(event="end", sim_seconds=st.clock.now())
+        if not quiet:
+            render_alignment(console, entries)
+            if est != estimator:
+                console.print(f"note: {method} alignment with the {estimator} technique is "
+                              f"the {est} technique (Charts III-6, III-10)")
+        return res
+    finally:
+        journal.close()
+        st.close()
+        rack.close()

@@ -17,7 +17,6 @@ about east and north (level errors) and about up (azimuth error). Only this modu
 
 from __future__ import annotations
 
-import json
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -32,12 +31,13 @@ from procedures.alignment.parameter_sheet import read_tape
 from procedures.alignment.preprocess import Constants, MissingConstants
 from procedures.alignment.results_sheet import AlignPlan
 from procedures.alignment.run import DAY_ESTIMATORS, run_alignments
-from procedures.journal import Journal, dumps
+from procedures.journal import Journal
 from procedures.runner import Run
 from procedures.sheets import CalibrationResults, SurveyResults
 from procedures.turn_on import turn_on
 from station.config import StationConfig
 from station.rack import SimulatedRack, open_station
+from station.record import write_results, write_sheets
 
 
 def alignment_entries(outcomes: list[Outcome], world) -> list[dict]:
@@ -187,9 +187,7 @@ def run_align(
             outcomes = run_alignments(st, run, noise, calib, survey, site, plan,
                                       estimators={method: (est,)}, tapes=tapes,
                                       tape_dir=out / "tapes", calibration_id=cal_id)
-        for name, model in run.sheets.items():
-            (out / "sheets" / f"{name}.json").write_text(
-                json.dumps(json.loads(dumps({"x": model}))["x"], indent=1, sort_keys=True))
+        write_sheets(out, run)
         entries = alignment_entries(outcomes, rack.world)
         res = {
             "seed": cfg.seed,
@@ -199,7 +197,7 @@ def run_align(
             "estimator_requested": estimator,
             "alignment": entries,
         }
-        (out / "results.json").write_text(json.dumps(res, indent=1, sort_keys=True))
+        write_results(out, res)
         run.note(event="end", sim_seconds=st.clock.now())
         if not quiet:
             render_alignment(console, entries)

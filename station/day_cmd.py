@@ -7,7 +7,6 @@ results.json (estimate, truth, error and predicted sigma side by side) and the p
 
 from __future__ import annotations
 
-import json
 import math
 import time
 from collections.abc import Callable
@@ -21,13 +20,14 @@ from rich.table import Table
 from procedures.calibration import NoiseSpec
 from procedures.computations import compute_calibration
 from procedures.day import measure_day
-from procedures.journal import Journal, dumps
+from procedures.journal import Journal
 from procedures.plan import DayPlan
 from procedures.runner import Run
 from sim import units
 from station.config import StationConfig
 from station.plots import nonlinearity_plot
 from station.rack import SimulatedRack, open_station
+from station.record import write_results, write_sheets
 from station.truth import calibration_truth
 
 EXPECTED_SIM_S = 9.0 * 3600.0  # for the progress bar only
@@ -144,9 +144,7 @@ def run_day(cfg: StationConfig, out: Path, only: tuple[str, ...] | None = None,
 
                 alignment = day_alignments(st, run, calib, cfg, rack.world,
                                            tape_dir=out / "tapes")
-        for name, model in run.sheets.items():
-            (out / "sheets" / f"{name}.json").write_text(
-                json.dumps(json.loads(dumps({"x": model}))["x"], indent=1, sort_keys=True))
+        write_sheets(out, run)
         nonlinearity_plot(data.nonlinearity, out / "nonlinearity.png")
         rows = results_rows(calib, calibration_truth(rack.world))
         res = {
@@ -156,7 +154,7 @@ def run_day(cfg: StationConfig, out: Path, only: tuple[str, ...] | None = None,
             "calibration": rows,
             "alignment": alignment,
         }
-        (out / "results.json").write_text(json.dumps(res, indent=1, sort_keys=True))
+        write_results(out, res)
         run.note(event="end", sim_seconds=st.clock.now())
         if not quiet:
             render_results(console, rows)

@@ -155,6 +155,31 @@ def compare(
     raise typer.Exit(1)
 
 
+@app.command("gyrocompass-test")
+def gyrocompass_test(
+    seed: Annotated[int, typer.Option("--seed", help="run seed")] = 1,
+    out: Annotated[Path, typer.Option("--out", help="run directory")] = Path("runs/gyrocompass"),
+) -> None:
+    """The CIGTF gyrocompassing accuracy test (report 001) on the simulated fixture."""
+    from procedures.runner import ProcedureError
+    from station.cigtf_cmd import run_gyrocompass_test
+    from station.errors import StationError
+
+    try:
+        res = run_gyrocompass_test(seed, out)
+    except (ProcedureError, StationError) as e:
+        console.print(f"[red]stopped:[/red] {e}")
+        console.print(f"the journal keeps every completed run: {out / 'journal.jsonl'}")
+        raise typer.Exit(1) from None
+    for p in res["phases"]:
+        console.print(f"{p['phase']:>9}: theta {p['theta_arcsec']:+.2f} +/- "
+                      f"{p['sigma_arcsec']:.2f} arcsec (n = {p['n']})")
+    console.print(f"truth (eq. 26) {res['truth']['theta_arcsec']:+.2f} arcsec; delta "
+                  f"{res['delta_arcsec']:.2f}, Delta {res['Delta_arcsec']:.2f} arcsec")
+    console.print(f"{res['sim_seconds'] / 3600:.1f} h simulated in {res['wall_seconds']:.1f} s;"
+                  f" record in {out}")
+
+
 def main() -> None:
     app()
 

@@ -1,0 +1,123 @@
+"""`station gyrocompass-test`: the CIGTF gyrocompassing accuracy test (report 001) in
+virtual time, its journal, sheets (run table, phase table, conclusions), gyrocompass.json
+and a plot of theta per run."""
+
+from __future__ import annotations
+
+import json
+import time
+from collections.abc import Callable
+from pathlib import Path
+
+from procedures.gyrocompass_test.analysis import phase_values
+from procedures.gyrocompass_test.procedure import TestPlan, gyrocompass_test
+from procedures.gyrocompass_test.significance import TestOutcome, judge
+from procedures.journal import Journal
+from procedures.runner import Run
+from sim.cigtf_world import CigtfParams
+from station.cigtf_rack import CigtfRack, open_cigtf_station
+from station.record import write_sheets
+
+PHASES = ("operating", "shutdown")
+
+
+def _test(name: str, t: TestOutcome) -> dict:
+    return {"name": name, "statistic": t.statistic, "threshold": t.threshold,
+            "dof": list(t.dof), "significant": t.significant}
+
+
+def theta_plot(res: dict, path: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(8, 4))
+    n = 0
+    for ph, colour in zip(PHASES, ("tab:blue", "tab:orange"), strict=True):
+        rows = [r for r in res["runs"] if r["phase"] == ph]
+        x = list(range(n + 1, n + len(rows) + 1))
+        n += len(rows)
+        ax.errorbar(x, [r["theta_arcsec"] for r in rows], [r["sigma_arcsec"] for r in rows],
+                    fmt="o", color=colour, capsize=2, label=f"{ph} runs")
+        p = next((q for q in res["phases"] if q["phase"] == ph), None)
+        if p is not None and x:
+            ax.hlines(p["theta_arcsec"], x[0], x[-1], colors=colour, linestyles="--")
+    ax.axhline(res["truth"]["theta_arcsec"], color="k", lw=0.8, label="truth (eq. 26)")
+    ax.set_xlabel("run")
+    ax.set_ylabel("gyrocompassing error theta (arcsec)")
+    ax.set_title("CIGTF gyrocompassing accuracy test")
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def run_gyrocompass_test(seed: int, out: Path, params: CigtfParams | None = None,
+                         plan: TestPlan | None = None,
+                         rack_hook: Callable[[CigtfRack], None] | None = None) -> dict:
+    """Run the whole test into ``out``; ``rack_hook`` may inject faults into the rack."""
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    wall0 = time.perf_counter()
+    rack = CigtfRack(seed, params)
+    if rack_hook is not None:
+        rack_hook(rack)
+    st = open_cigtf_station(rack)
+    journal = Journal(out / "journal.jsonl")
+    try:
+        run = Run(st.clock, journal)
+        run.note(event="start", seed=seed, test="gyrocompass")
+        data = gyrocompass_test(st, run, plan)
+        runs = [{"phase": ph, "run": i, "theta_arcsec": r.theta, "sigma_arcsec": r.sigma}
+                for ph in PHASES for i, r in enumerate(data.runs[ph], start=1)]
+        pv = {ph: phase_values(data.runs[ph]) for ph in PHASES}
+        phases = [{"phase": ph, "theta_arcsec": p.theta, "sigma_arcsec": p.sigma,
+                   "s_arcsec": p.s, "n": p.n, "instability_arcsec": p.instability}
+                  for ph, p in pv.items()]
+        rep = judge(pv["operating"], pv["shutdown"])
+        tests = [
+            _test("5.4.2 operating F (delta^2 / s1^2)", rep.operating.noise_test),
+            _test("5.4.1 operating t |theta1 / se|", rep.operating.mean_test),
+            _test("5.4.3 shutdown F (Delta^2 / s2^2)", rep.shutdown.noise_test),
+            _test("5.4.1 shutdown t |theta2 / se|", rep.shutdown.mean_test),
+            _test("5.4.4 shutdown vs operating F (Delta^2 / delta^2)", rep.shutdown_test),
+        ]
+        conclusions = {
+            "gsf_arcsec_per_ma": data.gsf,
+            "operating": {"theta_arcsec": pv["operating"].theta,
+                          "standard_error_arcsec": rep.operating.standard_error,
+                          "bias_significant": rep.operating.mean_test.significant,
+                          "instability_exceeds_noise": rep.operating.noise_test.significant},
+            "shutdown": {"theta_arcsec": pv["shutdown"].theta,
+                         "standard_error_arcsec": rep.shutdown.standard_error,
+                         "bias_significant": rep.shutdown.mean_test.significant,
+                         "instability_exceeds_noise": rep.shutdown.noise_test.significant},
+            "operating_instability_arcsec": pv["operating"].instability,
+            "shutdown_instability_arcsec": pv["shutdown"].instability,
+            "shutdown_adds_instability": rep.shutdown_test.significant,
+        }
+        run.save_sheet("gyrocompass_runs", runs)
+        run.save_sheet("gyrocompass_phases", phases)
+        run.save_sheet("gyrocompass_conclusions", conclusions)
+        write_sheets(out, run)
+        res = {
+            "seed": seed,
+            "gsf": data.gsf,
+            "runs": runs,
+            "phases": phases,
+            "delta_arcsec": pv["operating"].instability,
+            "Delta_arcsec": pv["shutdown"].instability,
+            "tests": tests,
+            "truth": {"theta_arcsec": rack.world.truth_theta_arcsec()},
+            "sim_seconds": st.clock.now(),
+            "wall_seconds": time.perf_counter() - wall0,
+        }
+        (out / "gyrocompass.json").write_text(json.dumps(res, indent=1, sort_keys=True))
+        theta_plot(res, out / "gyrocompass.png")
+        run.note(event="end", sim_seconds=st.clock.now())
+        return res
+    finally:
+        journal.close()
+        st.close()
+        rack.close()

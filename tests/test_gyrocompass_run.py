@@ -1,0 +1,71 @@
+"""The whole CIGTF gyrocompassing accuracy test on the simulated station (report 001)."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from procedures.runner import ProcedureError
+from station.cigtf_cmd import run_gyrocompass_test
+from station.cigtf_rack import CigtfRack, open_cigtf_station
+from station.errors import InstrumentRefused
+
+
+def test_whole_test_recovers_truth_and_writes_record(tmp_path):
+    res = run_gyrocompass_test(1, tmp_path)
+    truth = res["truth"]["theta_arcsec"]
+    for p in res["phases"]:
+        assert abs(p["theta_arcsec"] - truth) < 4 * p["sigma_arcsec"], p
+    assert [p["n"] for p in res["phases"]] == [25, 10]
+    assert res["gsf"] == pytest.approx(4094.0, rel=0.02)  # S_T = 1 deg/hr/mA
+    assert res["sim_seconds"] > 40 * 3600
+    saved = json.loads((tmp_path / "gyrocompass.json").read_text())
+    for k in ("gsf", "runs", "phases", "delta_arcsec", "Delta_arcsec", "tests", "truth",
+              "sim_seconds", "wall_seconds"):
+        assert k in saved
+    assert set(saved["runs"][0]) >= {"phase", "theta_arcsec", "sigma_arcsec"}
+    assert set(saved["phases"][0]) >= {"phase", "theta_arcsec", "sigma_arcsec", "s_arcsec", "n"}
+    assert {t["dof"][0] for t in saved["tests"]} >= {24, 9}
+    assert all(set(t) >= {"name", "statistic", "threshold", "dof", "significant"}
+               for t in saved["tests"])
+    assert (tmp_path / "gyrocompass.png").stat().st_size > 0
+    for name in ("gyrocompass_runs", "gyrocompass_phases", "gyrocompass_conclusions",
+                 "check_4.1", "check_4.3-R25", "check_4.4-R10"):
+        assert (tmp_path / "sheets" / f"{name}.json").exists()
+
+
+def test_silent_dvm_stops_with_named_instrument_and_step(tmp_path):
+    stop_at = 2 * 3600 + 4 * 950.0  # during the fourth or fifth operating run
+
+    def hook(rack: CigtfRack) -> None:
+        def silence():
+            yield rack.env.timeout(int(stop_at * 1e9))
+            rack.dvm.silent = True
+        rack.env.process(silence())
+
+    with pytest.raises(ProcedureError) as ei:
+        run_gyrocompass_test(2, tmp_path, rack_hook=hook)
+    msg = str(ei.value)
+    assert "dvm" in msg and "AVG?" in msg and "Chart 4.3-R" in msg and "step 4.2." in msg
+    recs = [json.loads(x) for x in (tmp_path / "journal.jsonl").read_text().splitlines()]
+    done = [r for r in recs if r.get("kind") == "step" and r["step"] == "5.2"]
+    assert len(done) >= 3
+    assert all("theta_arcsec" in r["reading"] for r in done)
+    assert recs[-1]["kind"] == "failed" and "dvm" in recs[-1]["error"]
+
+
+def test_fixture_refuses_bad_moves_and_reports_drive_fault():
+    with CigtfRack(3) as rack:
+        st = open_cigtf_station(rack)
+        try:
+            for cmd in ("MOVE V 1.5", "MOVE V 360", "TURN H 400", "MOVE X 10"):
+                with pytest.raises(InstrumentRefused):
+                    st.fixture.command(cmd)
+            rack.fixture.fail_moves = True
+            st.fixture.turn("V", 180)
+            with pytest.raises(Exception, match="drive fault"):
+                st.fixture.wait_hold()
+            assert st.fixture.position() == (0, 0)
+        finally:
+            st.close()

@@ -9,8 +9,8 @@ import time
 from collections.abc import Callable
 from pathlib import Path
 
-from procedures.gyrocompass_test.analysis import phase_values
-from procedures.gyrocompass_test.procedure import TestPlan, gyrocompass_test
+from procedures.gyrocompass_test.analysis import phase_values, run_values
+from procedures.gyrocompass_test.procedure import TestData, TestPlan, gyrocompass_test
 from procedures.gyrocompass_test.significance import TestOutcome, judge
 from procedures.journal import Journal
 from procedures.runner import Run
@@ -53,6 +53,87 @@ def theta_plot(res: dict, path: Path) -> None:
     plt.close(fig)
 
 
+def analyse(data: TestData) -> tuple[list[dict], list[dict], list[dict], dict]:
+    """Section 5: run table, phase table, significance tests and conclusions of a test."""
+    runs = [{"phase": ph, "run": i, "theta_arcsec": r.theta, "sigma_arcsec": r.sigma}
+            for ph in PHASES for i, r in enumerate(data.runs[ph], start=1)]
+    pv = {ph: phase_values(data.runs[ph]) for ph in PHASES}
+    phases = [{"phase": ph, "theta_arcsec": p.theta, "sigma_arcsec": p.sigma,
+               "s_arcsec": p.s, "n": p.n, "instability_arcsec": p.instability}
+              for ph, p in pv.items()]
+    rep = judge(pv["operating"], pv["shutdown"])
+    tests = [
+        _test("5.4.2 operating F (delta^2 / s1^2)", rep.operating.noise_test),
+        _test("5.4.1 operating t |theta1 / se|", rep.operating.mean_test),
+        _test("5.4.3 shutdown F (Delta^2 / s2^2)", rep.shutdown.noise_test),
+        _test("5.4.1 shutdown t |theta2 / se|", rep.shutdown.mean_test),
+        _test("5.4.4 shutdown vs operating F (Delta^2 / delta^2)", rep.shutdown_test),
+    ]
+    conclusions = {
+        "gsf_arcsec_per_ma": data.gsf,
+        "operating": {"theta_arcsec": pv["operating"].theta,
+                      "standard_error_arcsec": rep.operating.standard_error,
+                      "bias_significant": rep.operating.mean_test.significant,
+                      "instability_exceeds_noise": rep.operating.noise_test.significant},
+        "shutdown": {"theta_arcsec": pv["shutdown"].theta,
+                     "standard_error_arcsec": rep.shutdown.standard_error,
+                     "bias_significant": rep.shutdown.mean_test.significant,
+                     "instability_exceeds_noise": rep.shutdown.noise_test.significant},
+        "operating_instability_arcsec": pv["operating"].instability,
+        "shutdown_instability_arcsec": pv["shutdown"].instability,
+        "shutdown_adds_instability": rep.shutdown_test.significant,
+    }
+    return runs, phases, tests, conclusions
+
+
+def data_from_journal(path: Path) -> tuple[TestData, int | None]:
+    """Rebuild the test data from a journal: every completed run (its step 5.2 recorded)."""
+    data = TestData()
+    seed = None
+    currents: dict[str, dict[int, list[float]]] = {}
+    for line in Path(path).read_text(encoding="utf-8").splitlines():
+        try:
+            rec = json.loads(line)
+        except json.JSONDecodeError:
+            break  # a record cut by a kill ends the usable journal
+        if rec.get("kind") == "note" and rec.get("event") == "start":
+            seed = rec.get("seed")
+        if rec.get("kind") != "step":
+            continue
+        chart, step, reading = rec["chart"], rec["step"], rec.get("reading") or {}
+        if "gsf_arcsec_per_ma" in reading:
+            data.gsf = reading["gsf_arcsec_per_ma"]
+        if "orientation" in reading and "-R" in chart:
+            currents.setdefault(chart, {})[int(reading["orientation"])] = reading["currents_ma"]
+        if step == "5.2" and chart in currents and len(currents[chart]) == 4:
+            phase = "operating" if chart.startswith("4.3") else "shutdown"
+            samples = [currents[chart][k] for k in (1, 2, 3, 4)]
+            data.runs[phase].append(run_values(samples, data.gsf))
+    return data, seed
+
+
+def analyse_journal(d: Path) -> dict:
+    """`station gyrocompass-test --analyse DIR`: the phase analysis again, from the journal."""
+    d = Path(d)
+    data, seed = data_from_journal(d / "journal.jsonl")
+    if not data.gsf:
+        raise ValueError(f"{d / 'journal.jsonl'} holds no scale factor (section 4.1)")
+    for ph in PHASES:
+        if len(data.runs[ph]) < 2:
+            raise ValueError(f"{d / 'journal.jsonl'} holds {len(data.runs[ph])} completed "
+                             f"{ph} run(s): at least 2 are needed")
+    runs, phases, tests, conclusions = analyse(data)
+    truth = CigtfRack(seed).world.truth_theta_arcsec() if seed is not None else None
+    res = {
+        "seed": seed, "gsf": data.gsf, "runs": runs, "phases": phases,
+        "delta_arcsec": conclusions["operating_instability_arcsec"],
+        "Delta_arcsec": conclusions["shutdown_instability_arcsec"], "tests": tests,
+        "truth": {"theta_arcsec": truth}, "from_journal": True,
+    }
+    (d / "gyrocompass_analysis.json").write_text(json.dumps(res, indent=1, sort_keys=True))
+    return res
+
+
 def run_gyrocompass_test(seed: int, out: Path, params: CigtfParams | None = None,
                          plan: TestPlan | None = None,
                          rack_hook: Callable[[CigtfRack], None] | None = None) -> dict:
@@ -69,34 +150,7 @@ def run_gyrocompass_test(seed: int, out: Path, params: CigtfParams | None = None
         run = Run(st.clock, journal)
         run.note(event="start", seed=seed, test="gyrocompass")
         data = gyrocompass_test(st, run, plan)
-        runs = [{"phase": ph, "run": i, "theta_arcsec": r.theta, "sigma_arcsec": r.sigma}
-                for ph in PHASES for i, r in enumerate(data.runs[ph], start=1)]
-        pv = {ph: phase_values(data.runs[ph]) for ph in PHASES}
-        phases = [{"phase": ph, "theta_arcsec": p.theta, "sigma_arcsec": p.sigma,
-                   "s_arcsec": p.s, "n": p.n, "instability_arcsec": p.instability}
-                  for ph, p in pv.items()]
-        rep = judge(pv["operating"], pv["shutdown"])
-        tests = [
-            _test("5.4.2 operating F (delta^2 / s1^2)", rep.operating.noise_test),
-            _test("5.4.1 operating t |theta1 / se|", rep.operating.mean_test),
-            _test("5.4.3 shutdown F (Delta^2 / s2^2)", rep.shutdown.noise_test),
-            _test("5.4.1 shutdown t |theta2 / se|", rep.shutdown.mean_test),
-            _test("5.4.4 shutdown vs operating F (Delta^2 / delta^2)", rep.shutdown_test),
-        ]
-        conclusions = {
-            "gsf_arcsec_per_ma": data.gsf,
-            "operating": {"theta_arcsec": pv["operating"].theta,
-                          "standard_error_arcsec": rep.operating.standard_error,
-                          "bias_significant": rep.operating.mean_test.significant,
-                          "instability_exceeds_noise": rep.operating.noise_test.significant},
-            "shutdown": {"theta_arcsec": pv["shutdown"].theta,
-                         "standard_error_arcsec": rep.shutdown.standard_error,
-                         "bias_significant": rep.shutdown.mean_test.significant,
-                         "instability_exceeds_noise": rep.shutdown.noise_test.significant},
-            "operating_instability_arcsec": pv["operating"].instability,
-            "shutdown_instability_arcsec": pv["shutdown"].instability,
-            "shutdown_adds_instability": rep.shutdown_test.significant,
-        }
+        runs, phases, tests, conclusions = analyse(data)
         run.save_sheet("gyrocompass_runs", runs)
         run.save_sheet("gyrocompass_phases", phases)
         run.save_sheet("gyrocompass_conclusions", conclusions)
@@ -106,8 +160,8 @@ def run_gyrocompass_test(seed: int, out: Path, params: CigtfParams | None = None
             "gsf": data.gsf,
             "runs": runs,
             "phases": phases,
-            "delta_arcsec": pv["operating"].instability,
-            "Delta_arcsec": pv["shutdown"].instability,
+            "delta_arcsec": conclusions["operating_instability_arcsec"],
+            "Delta_arcsec": conclusions["shutdown_instability_arcsec"],
             "tests": tests,
             "truth": {"theta_arcsec": rack.world.truth_theta_arcsec()},
             "sim_seconds": st.clock.now(),

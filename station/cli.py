@@ -159,12 +159,25 @@ def compare(
 def gyrocompass_test(
     seed: Annotated[int, typer.Option("--seed", help="run seed")] = 1,
     out: Annotated[Path, typer.Option("--out", help="run directory")] = Path("runs/gyrocompass"),
+    analyse: Annotated[Path | None, typer.Option("--analyse", help="recompute the phase "
+                       "analysis from the journal in this directory (e.g. after a stop)")] = None,
 ) -> None:
     """The CIGTF gyrocompassing accuracy test (report 001) on the simulated fixture."""
     from procedures.runner import ProcedureError
-    from station.cigtf_cmd import run_gyrocompass_test
+    from station.cigtf_cmd import analyse_journal, run_gyrocompass_test
     from station.errors import StationError
 
+    if analyse is not None:
+        try:
+            res = analyse_journal(analyse)
+        except (ValueError, FileNotFoundError) as e:
+            console.print(f"[red]{e}[/red]")
+            raise typer.Exit(1) from None
+        for p in res["phases"]:
+            console.print(f"{p['phase']:>9}: theta {p['theta_arcsec']:+.2f} +/- "
+                          f"{p['sigma_arcsec']:.2f} arcsec (n = {p['n']}, from the journal)")
+        console.print(f"written {analyse / 'gyrocompass_analysis.json'}")
+        return
     try:
         res = run_gyrocompass_test(seed, out)
     except (ProcedureError, StationError) as e:

@@ -69,3 +69,19 @@ def test_fixture_refuses_bad_moves_and_reports_drive_fault():
             assert st.fixture.position() == (0, 0)
         finally:
             st.close()
+
+
+def test_analysis_recomputed_from_the_journal(tmp_path):
+    """`station gyrocompass-test --analyse DIR` gives the run's own phase analysis back."""
+    from typer.testing import CliRunner
+
+    from station.cigtf_cmd import analyse_journal, run_gyrocompass_test
+    from station.cli import app
+
+    res = run_gyrocompass_test(5, tmp_path)
+    again = analyse_journal(tmp_path)
+    assert again["phases"] == res["phases"]
+    assert again["tests"] == res["tests"]
+    assert again["truth"] == res["truth"]
+    r = CliRunner().invoke(app, ["gyrocompass-test", "--analyse", str(tmp_path)])
+    assert r.exit_code == 0 and "from the journal" in r.output

@@ -134,6 +134,35 @@ def analyse_journal(d: Path) -> dict:
     return res
 
 
+def render_tables(console, res: dict) -> None:
+    """Run table, phase table and the section 5.4 tests, with rich."""
+    from rich import box
+    from rich.table import Table
+
+    t = Table(title="Runs: theta and its standard error (arcsec)", box=box.SIMPLE_HEAD)
+    for c in ("phase", "run", "theta", "sigma"):
+        t.add_column(c, justify="right")
+    for r in res["runs"]:
+        t.add_row(r["phase"], str(r["run"]), f"{r['theta_arcsec']:+.2f}",
+                  f"{r['sigma_arcsec']:.2f}")
+    console.print(t)
+    p = Table(title="Phases (eqs. 20-25)", box=box.SIMPLE_HEAD)
+    for c in ("phase", "n", "theta", "sigma", "s", "instability"):
+        p.add_column(c, justify="right")
+    for ph in res["phases"]:
+        p.add_row(ph["phase"], str(ph["n"]), f"{ph['theta_arcsec']:+.2f}",
+                  f"{ph['sigma_arcsec']:.2f}", f"{ph['s_arcsec']:.2f}",
+                  f"{ph['instability_arcsec']:.2f}")
+    console.print(p)
+    q = Table(title="Significance tests (section 5.4)", box=box.SIMPLE_HEAD)
+    for c in ("test", "statistic", "threshold", "dof", "significant"):
+        q.add_column(c, justify="left" if c == "test" else "right")
+    for x in res["tests"]:
+        q.add_row(x["name"], f"{x['statistic']:.3f}", f"{x['threshold']:.3f}",
+                  str(x["dof"]), "yes" if x["significant"] else "no")
+    console.print(q)
+
+
 def run_gyrocompass_test(seed: int, out: Path, params: CigtfParams | None = None,
                          plan: TestPlan | None = None,
                          rack_hook: Callable[[CigtfRack], None] | None = None) -> dict:

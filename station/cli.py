@@ -161,6 +161,8 @@ def gyrocompass_test(
     out: Annotated[Path, typer.Option("--out", help="run directory")] = Path("runs/gyrocompass"),
     analyse: Annotated[Path | None, typer.Option("--analyse", help="recompute the phase "
                        "analysis from the journal in this directory (e.g. after a stop)")] = None,
+    config: Annotated[Path | None, typer.Option("--config", help="TOML with a [cigtf] "
+                      "section (latitude_deg, noise and misalignment magnitudes)")] = None,
 ) -> None:
     """The CIGTF gyrocompassing accuracy test (report 001) on the simulated fixture."""
     from procedures.runner import ProcedureError
@@ -178,12 +180,23 @@ def gyrocompass_test(
                           f"{p['sigma_arcsec']:.2f} arcsec (n = {p['n']}, from the journal)")
         console.print(f"written {analyse / 'gyrocompass_analysis.json'}")
         return
+    from station.cigtf_config import load_cigtf_params
+    from station.config import ConfigError
+
     try:
-        res = run_gyrocompass_test(seed, out)
+        params = load_cigtf_params(config)
+    except ConfigError as e:
+        console.print(f"[red]{e}[/red]")
+        raise typer.Exit(2) from None
+    try:
+        res = run_gyrocompass_test(seed, out, params=params)
     except (ProcedureError, StationError) as e:
         console.print(f"[red]stopped:[/red] {e}")
         console.print(f"the journal keeps every completed run: {out / 'journal.jsonl'}")
         raise typer.Exit(1) from None
+    from station.cigtf_cmd import render_tables
+
+    render_tables(console, res)
     for p in res["phases"]:
         console.print(f"{p['phase']:>9}: theta {p['theta_arcsec']:+.2f} +/- "
                       f"{p['sigma_arcsec']:.2f} arcsec (n = {p['n']})")

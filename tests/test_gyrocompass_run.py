@@ -85,3 +85,44 @@ def test_analysis_recomputed_from_the_journal(tmp_path):
     assert again["truth"] == res["truth"]
     r = CliRunner().invoke(app, ["gyrocompass-test", "--analyse", str(tmp_path)])
     assert r.exit_code == 0 and "from the journal" in r.output
+
+
+def test_fixture_failing_mid_test_stops_and_keeps_completed_runs(tmp_path):
+    """A drive fault some hours in ends the test naming the fixture and the step."""
+    import json
+
+    from procedures.runner import ProcedureError
+    from sim.timebase import ticks
+    from station.cigtf_cmd import run_gyrocompass_test
+
+    def fail_later(rack):
+        env = rack.world.env
+
+        def fault():
+            yield env.timeout(ticks(8 * 3600.0))
+            rack.fixture.fail_moves = True
+
+        env.process(fault())
+
+    with pytest.raises(ProcedureError) as e:
+        run_gyrocompass_test(2, tmp_path, rack_hook=fail_later)
+    assert "fixture" in str(e.value) and "fault" in str(e.value).lower()
+    recs = [json.loads(x) for x in (tmp_path / "journal.jsonl").read_text().splitlines()]
+    done = [r for r in recs if r["kind"] == "step" and r["step"] == "5.2"]
+    assert len(done) >= 5  # the runs completed before the fault are all in the journal
+    assert recs[-1]["kind"] == "failed"
+
+
+def test_config_sets_latitude_and_refuses_bad_fields(tmp_path):
+    import math
+
+    from station.cigtf_config import load_cigtf_params
+    from station.config import ConfigError
+
+    f = tmp_path / "c.toml"
+    f.write_text("[cigtf]\nlatitude_deg = 45.0\n")
+    assert load_cigtf_params(f).latitude_deg == 45.0
+    assert math.isclose(load_cigtf_params(None).latitude_deg, 32.89, abs_tol=0.01)
+    f.write_text("[cigtf]\nlatitude = 45.0\n")
+    with pytest.raises(ConfigError, match="cigtf.latitude"):
+        load_cigtf_params(f)

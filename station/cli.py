@@ -130,6 +130,29 @@ def align(
 
 
 @app.command()
+def serve(
+    config: ConfigOpt = None,
+    seed: SeedOpt = None,
+    speed: Annotated[float, typer.Option("--speed", help="simulated seconds per wall "
+                     "second")] = 1.0,
+    links: Annotated[Path, typer.Option("--links", help="directory for the pty symlinks "
+                     "and links.json")] = Path("runs/links"),
+    only: Annotated[list[str] | None, typer.Option("--only", help="serve only these "
+                    "instruments; repeatable")] = None,
+    can_port: Annotated[int, typer.Option("--can-port", help="socketcand TCP port (0: any "
+                        "free port)")] = 0,
+) -> None:
+    """Serve the simulated ISU rack in real time on ptys and CAN (socketcand, slcan)."""
+    from station.hil.server import serve as serve_rack
+
+    if speed <= 0:
+        console.print("[red]--speed must be > 0[/red]")
+        raise typer.Exit(2)
+    cfg = _load(config, seed)
+    serve_rack(cfg, speed, links, only or None, can_port=can_port)
+
+
+@app.command()
 def compare(
     dir_a: Path,
     dir_b: Path,

@@ -89,26 +89,14 @@ class Environment:
     # --- rotational: pier tilt eps(t) ---
     def tilt(self, t: np.ndarray) -> np.ndarray:
         """Rotation vector of the pier relative to the Earth, shape (N, 3), E components."""
-        t = np.atleast_1d(np.asarray(t, dtype=float))
-        out = np.zeros((t.size, 3))
-        d = self.diurnal_amp * np.sin(self.w_d * t + self.diurnal_phase)
-        out += np.outer(d, self.diurnal_dir)
-        for i, ax in enumerate((1, 2)):
-            out[:, ax] += self.wander[i].value(t) + self.wobble[i].value(t)
-        return out
+        return self.tilt_and_rate(t)[0]
 
     def tilt_rate(self, t: np.ndarray) -> np.ndarray:
         """Time derivative of :meth:`tilt` (E components), shape (N, 3)."""
-        t = np.atleast_1d(np.asarray(t, dtype=float))
-        out = np.zeros((t.size, 3))
-        d = self.diurnal_amp * self.w_d * np.cos(self.w_d * t + self.diurnal_phase)
-        out += np.outer(d, self.diurnal_dir)
-        for i, ax in enumerate((1, 2)):
-            out[:, ax] += self.wander[i].slope(t) + self.wobble[i].rate(t)
-        return out
+        return self.tilt_and_rate(t)[1]
 
     def tilt_and_rate(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """:meth:`tilt` and :meth:`tilt_rate` together (one pass over the processes)."""
+        """The tilt and its rate, in one pass over the processes."""
         t = np.atleast_1d(np.asarray(t, dtype=float))
         eps = np.zeros((t.size, 3))
         rate = np.zeros((t.size, 3))

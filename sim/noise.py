@@ -65,15 +65,8 @@ class KnotProcess:
         v = self._x[k] * (1.0 - f) + self._x[k + 1] * f
         return v.reshape(ta.shape) if ta.ndim else float(v[0])
 
-    def slope(self, t):
-        """Time derivative (piecewise constant) at time(s) t."""
-        ta = np.asarray(t, dtype=float)
-        k, _ = self._locate(np.atleast_1d(ta))
-        v = (self._x[k + 1] - self._x[k]) / self.h
-        return v.reshape(ta.shape) if ta.ndim else float(v[0])
-
     def value_and_slope(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """:meth:`value` and :meth:`slope` at an array of times, sharing the knot lookup."""
+        """Value and time derivative (piecewise constant) at an array of times."""
         k, f = self._locate(np.atleast_1d(np.asarray(t, dtype=float)))
         x0, x1 = self._x[k], self._x[k + 1]
         return x0 + (x1 - x0) * f, (x1 - x0) / self.h
@@ -157,11 +150,6 @@ class RandomWalk:
         v = x0 + (x1 - x0) * f
         return v.reshape(ta.shape) if ta.ndim else float(v[0])
 
-    def slope(self, t):
-        ta = np.asarray(t, dtype=float)
-        x0, x1, _ = self._knots(np.atleast_1d(ta))
-        v = (x1 - x0) / self.h
-        return v.reshape(ta.shape) if ta.ndim else float(v[0])
 
 
 def random_walk(h: float, q: float, seed: int, *names: str | int) -> RandomWalk:
@@ -198,15 +186,9 @@ class Multitone:
         return v if ta.ndim else float(v)
 
     def value_and_rate(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """:meth:`value` and :meth:`rate` at an array of times, sharing the phases."""
+        """Value and time derivative at an array of times, sharing the phases."""
         ph = np.multiply.outer(np.atleast_1d(np.asarray(t, dtype=float)), self.w) + self.psi
         return np.cos(ph) @ self.amp, -np.sin(ph) @ (self.amp * self.w)
-
-    def rate(self, t):
-        """Time derivative."""
-        ta = np.asarray(t, dtype=float)
-        v = -np.sin(np.multiply.outer(ta, self.w) + self.psi) @ (self.amp * self.w)
-        return v if ta.ndim else float(v)
 
     def integral(self, t):
         """Integral from 0 to t."""

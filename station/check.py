@@ -8,7 +8,7 @@ from station.config import SERIAL_INSTRUMENTS, StationConfig
 from station.drivers.ieu import IeuDriver
 from station.drivers.serial_base import SerialDriver
 from station.errors import StationError
-from station.rack import SimulatedRack, _bind
+from station.rack import SimulatedRack, _bind, can_config
 
 
 @dataclass
@@ -40,9 +40,7 @@ def check_all(cfg: StationConfig, timeout: float = 2.0) -> list[CheckResult]:
                     drv.close()
             except StationError as e:
                 out.append(CheckResult(name, url, False, str(e)))
-        can_cfg = cfg.links.can.model_dump()
-        if rid and can_cfg["interface"] == "sim":
-            can_cfg["rack"] = rid
+        can_cfg = can_config(cfg, rid)
         link = f"{cfg.links.can.interface}:{cfg.links.can.channel}"
         try:
             ieu = IeuDriver(can_cfg, timeout=timeout)

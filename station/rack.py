@@ -83,6 +83,14 @@ def _bind(url: str, rack_id: str | None) -> str:
     return url
 
 
+def can_config(cfg: StationConfig, rack_id: str | None) -> dict:
+    """The IEU's python-can configuration, pinned to a rack for the ``sim`` interface."""
+    can_cfg = cfg.links.can.model_dump()
+    if rack_id and can_cfg.get("interface") == "sim":
+        can_cfg["rack"] = rack_id
+    return can_cfg
+
+
 @dataclass
 class Station:
     """What a procedure sees: drivers and the clock."""
@@ -121,9 +129,7 @@ def open_station(
     if clock is None:
         clock = VirtualClock(rack.env) if rack else WallClock()
     links = {n: _bind(u, rid) for n, u in cfg.links.serial.items()}
-    can_cfg = cfg.links.can.model_dump()
-    if rid and can_cfg.get("interface") == "sim":
-        can_cfg["rack"] = rid
+    can_cfg = can_config(cfg, rid)
     links["ieu"] = f"{can_cfg['interface']}:{can_cfg['channel']}"
     return Station(
         clock=clock,

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import can
 
+from sim.timebase import seconds
 from station.links import virtual
 
 
@@ -42,9 +43,9 @@ class SimBus(can.BusABC):
         """Next frame passing the filters, waiting at most ``timeout`` simulated seconds."""
         out = self._ep.output  # type: ignore[attr-defined]
         env = self._env
-        deadline = None if timeout is None else env.now / 1e9 + timeout
+        deadline = None if timeout is None else seconds(env.now) + timeout
         while True:
-            left = None if deadline is None else max(0.0, deadline - env.now / 1e9)
+            left = None if deadline is None else max(0.0, deadline - seconds(env.now))
             virtual.run_until(env, lambda: len(out) > 0, left)
             msg = self._take()
             if msg is None:

@@ -229,6 +229,36 @@ def gyrocompass_test(
                   f" record in {out}")
 
 
+@app.command("esg-calibration")
+def esg_calibration(
+    seed: Annotated[int, typer.Option("--seed", help="run seed")] = 1,
+    out: Annotated[Path, typer.Option("--out", help="run directory")] = Path("runs/esg"),
+    config: Annotated[Path | None, typer.Option("--config", help="TOML with an [esg] "
+                      "section (site, rotor, [esg.pattern], [esg.signal])")] = None,
+) -> None:
+    """The strapdown ESG pattern calibration and readout study (report 004)."""
+    from procedures.runner import ProcedureError
+    from station.config import ConfigError
+    from station.errors import StationError
+    from station.esg_cmd import render_tables, run_esg_calibration
+    from station.esg_config import load_esg_params
+
+    try:
+        params = load_esg_params(config)
+    except ConfigError as e:
+        console.print(f"[red]{e}[/red]")
+        raise typer.Exit(2) from None
+    try:
+        res = run_esg_calibration(seed, out, params=params)
+    except (ProcedureError, StationError) as e:
+        console.print(f"[red]stopped:[/red] {e}")
+        console.print(f"the journal keeps every completed step: {out / 'journal.jsonl'}")
+        raise typer.Exit(1) from None
+    render_tables(console, res)
+    console.print(f"{res['sim_seconds'] / 3600:.1f} h simulated in {res['wall_seconds']:.1f} s;"
+                  f" record in {out}")
+
+
 def main() -> None:
     app()
 

@@ -1,0 +1,411 @@
+"""Serial instruments of the ESG laboratory (report 004: strapdown ESG on a dividing head).
+
+Protocols as in docs/esg-contract.md (folded into docs/protocols.md, "ESG laboratory").
+
+Data processor (two counters on two of the three pickoffs, 100 MHz counts):
+  SEL <a> <b>     counters A and B to pickoffs a, b (1..3, distinct)           -> OK
+  REV <n>         revolutions summed per line, n in {1, 2, 4, 8, 10}           -> OK
+  RUN <n>         run number printed in the lines, 0..9999999                  -> OK
+  THR <volts>     HIT threshold 0.1..5                                         -> OK
+  DISC <us>       pulse-width discriminator 2..24                              -> OK
+  DELAY <us>      logic-line delay gate 20..2000                               -> OK
+  TZERO           processor clock to 0 h                                       -> OK
+  GO <k>          OK, then k data lines one every 0.0002 h (k 1..1000000)
+  GO              OK, then data lines until HALT
+  HALT            stop the stream (OK also when none runs)                     -> OK
+  SET?            "<a> <b> <rev> <run> <thr> <disc> <delay>"
+The settings commands and TZERO are refused while a stream runs (ERR 16 busy); queries
+are answered between the lines. A data line (Appendix A) is six 7-digit fields:
+``time C1(p1) C1(p2) C1(p3) run period_sum``, time in 1e-5 h of the processor clock.
+Dividing head: SPIN <deg> | STEP <deg> | SPIN? | STAT? (HOLD | MOVING).
+Turntable and tilt: AZ <deg> | TILT <deg> | AZ? | TILT? | LOCK | UNLOCK | STAT?
+(HOLD | MOVING | LOCKED).
+Theodolite: READ? -> "<x> <y>" arcsec.
+Gyro control console: SPIN UP|OFF | DAMP ON|OFF | STAT? | SPEED?.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import simpy
+
+from instruments.base import ByteInstrument, InstrumentError, as_float, as_int, need
+from sim.esg.processor import ProcessorSettings
+from sim.esg.world import EsgWorld
+from sim.rng import stream
+from sim.timebase import seconds, ticks, ticks_ceil
+
+LINE_HOURS = 0.0002  # one data line every 0.0002 h
+LINE_TICKS = ticks(LINE_HOURS * 3600.0)  # 0.72 s, exact in ns
+LINE_UNITS = 20  # 0.0002 h in the 1e-5 h units of the time field
+WRAP = 10**7  # seven-digit fields
+REVOLUTIONS = (1, 2, 4, 8, 10)
+MAX_LINES = 1_000_000
+BUSY = 16
+
+# what a garbled line may carry instead of a digit: printable non-digits (never a space,
+# which would change the field count) and bytes a noisy line turns into
+_NON_DIGITS = [bytes([c]) for c in b"?*#:;/=<>OlIZSB"] + [b"\xb3", b"\xff", b"\x8f"]
+
+
+def _busy(what: str) -> InstrumentError:
+    return InstrumentError(BUSY, f"busy: {what}")
+
+
+def _in_range(x: str, what: str, lo: float, hi: float, hi_open: bool = False) -> float:
+    v = as_float(x, what)
+    if v < lo or v > hi or (hi_open and v >= hi):
+        right = ")" if hi_open else "]"
+        raise InstrumentError(12, f"{what} {v:g} outside [{lo:g}, {hi:g}{right}")
+    return v
+
+
+def _on_off(args: list[str], cmd: str, words: tuple[str, str]) -> bool:
+    need(args, 1, f"{cmd} {words[0]}|{words[1]}")
+    w = args[0].upper()
+    if w not in words:
+        raise InstrumentError(12, f"{cmd} takes {words[0]} or {words[1]}, got '{args[0][:10]}'")
+    return w == words[0]
+
+
+# --------------------------------------------------------------------------- processor
+
+
+class DataProcessor(ByteInstrument):
+    """The pickoff data processor and its line printer (report 004, Appendix A)."""
+
+    ident = "ESG-LAB,DATA-PROCESSOR,0,1.0"
+
+    def __init__(self, name: str, world: EsgWorld, latency_s: float) -> None:
+        super().__init__(name, world.env, latency_s)
+        self.world = world
+        self.pickoffs = (2, 3)
+        self.revolutions = 10
+        self.run = 0
+        self.settings = ProcessorSettings()
+        self.t_zero = self.env.now  # ticks; the processor clock reads hours since then
+        self.corrupt_every = 0  # fault injection: every n-th line gets one character wrong
+        self.lines_emitted = 0
+        self.lines_corrupted = 0
+        self._rng = stream(world.seed, "esg", "corrupt")
+        self._stream: simpy.Process | None = None
+        # replies queued and emitted so far: a stream's first line waits for its GO's OK
+        self._queued = 0
+        self._sent = 0
+        self._sent_event = self.env.event()
+
+    # ----- reply bookkeeping -----
+    def _queue(self, reply) -> None:
+        self._queued += 1
+        super()._queue(reply)
+
+    def _emit(self, data: bytes) -> None:  # replies only; data lines use _emit_line
+        self._sent += 1
+        ev, self._sent_event = self._sent_event, self.env.event()
+        ev.succeed()
+        super()._emit(data)
+
+    def _emit_line(self, data: bytes) -> None:
+        ByteInstrument._emit(self, data)
+
+    # ----- protocol -----
+    @property
+    def streaming(self) -> bool:
+        return self._stream is not None and self._stream.is_alive
+
+    def _settable(self, cmd: str) -> None:
+        if self.streaming:
+            raise _busy(f"data stream running, HALT before {cmd}")
+
+    def clock_hours(self) -> float:
+        """The processor clock, hours since TZERO."""
+        return seconds(self.env.now - self.t_zero) / 3600.0
+
+    def command(self, cmd: str, args: list[str]):
+        s = self.settings
+        if cmd == "SEL":
+            need(args, 2, "SEL <a> <b>")
+            a = as_int(args[0], "pickoff a", 1, 3)
+            b = as_int(args[1], "pickoff b", 1, 3)
+            if a == b:
+                raise InstrumentError(12, f"pickoffs must be distinct, got {a} {b}")
+            self._settable(cmd)
+            self.pickoffs = (a, b)
+            return "OK"
+        if cmd == "REV":
+            need(args, 1, "REV <n>")
+            n = as_int(args[0], "revolutions", 1, 10)
+            if n not in REVOLUTIONS:
+                raise InstrumentError(
+                    12, f"revolutions must be one of {', '.join(map(str, REVOLUTIONS))}, got {n}"
+                )
+            self._settable(cmd)
+            self.revolutions = n
+            return "OK"
+        if cmd == "RUN":
+            need(args, 1, "RUN <n>")
+            n = as_int(args[0], "run number", 0, WRAP - 1)
+            self._settable(cmd)
+            self.run = n
+            return "OK"
+        if cmd == "THR":
+            need(args, 1, "THR <volts>")
+            v = _in_range(args[0], "threshold", 0.1, 5.0)
+            self._settable(cmd)
+            self.settings = dataclasses.replace(s, threshold_v=v)
+            return "OK"
+        if cmd == "DISC":
+            need(args, 1, "DISC <us>")
+            v = _in_range(args[0], "discriminator width", 2.0, 24.0)
+            self._settable(cmd)
+            self.settings = dataclasses.replace(s, min_width_us=v)
+            return "OK"
+        if cmd == "DELAY":
+            need(args, 1, "DELAY <us>")
+            v = _in_range(args[0], "logic delay", 20.0, 2000.0)
+            self._settable(cmd)
+            self.settings = dataclasses.replace(s, logic_delay_us=v)
+            return "OK"
+        if cmd == "TZERO":
+            need(args, 0, "TZERO")
+            self._settable(cmd)
+            self.t_zero = self.env.now
+            return "OK"
+        if cmd == "GO":
+            if len(args) > 1:
+                raise InstrumentError(11, "usage: GO [<k>]")
+            k = as_int(args[0], "line count", 1, MAX_LINES) if args else None
+            if self.streaming:
+                raise _busy("data stream already running")
+            self._stream = self.env.process(self._lines(k, self._queued + 1))
+            return "OK"
+        if cmd == "HALT":
+            need(args, 0, "HALT")
+            if self.streaming:
+                self._stream.interrupt("HALT")
+            self._stream = None
+            return "OK"
+        if cmd == "SET?":
+            need(args, 0, "SET?")
+            a, b = self.pickoffs
+            return (f"{a} {b} {self.revolutions} {self.run} {s.threshold_v:g} "
+                    f"{s.min_width_us:g} {s.logic_delay_us:g}")
+        return super().command(cmd, args)
+
+    # ----- the stream -----
+    def _first_index(self) -> int:
+        """Grid index of the first line that leaves REV revolutions of acquisition after
+        the command (REV + 1 line-1 trailing edges: the period sum spans REV turns)."""
+        rps = float(self.world.console_status()["spin_rps"])
+        rps = rps if rps > 1.0 else float(self.world.p.spin_rps)  # a stopped rotor: nominal
+        earliest = self.env.now + ticks_ceil((self.revolutions + 1) / rps)
+        return max(0, -((self.t_zero - earliest) // LINE_TICKS))  # ceiling division
+
+    def _lines(self, k: int | None, ok_seq: int):
+        a, b = self.pickoffs
+        rev, run, settings = self.revolutions, self.run, self.settings
+        n = self._first_index()
+        done = 0
+        try:
+            while k is None or done < k:
+                t = self.t_zero + n * LINE_TICKS
+                yield self.env.timeout(t - self.env.now)
+                counts = self.world.data_line(seconds(t), a, b, rev, settings)
+                line = self.format_line(n, counts.c1, run, counts.period_sum)
+                while self._sent < ok_seq:  # the GO's OK leaves first
+                    yield self._sent_event
+                self.lines_emitted += 1
+                if self.corrupt_every > 0 and self.lines_emitted % self.corrupt_every == 0:
+                    line = self._corrupt(line, (a, b))
+                self._emit_line(line)
+                n += 1
+                done += 1
+        except simpy.Interrupt:
+            pass
+
+    @staticmethod
+    def format_line(n: int, c1: dict[int, int], run: int, period_sum: int) -> bytes:
+        """Appendix-A line for grid index ``n`` (time = 20 n units of 1e-5 h)."""
+        fields = [(n * LINE_UNITS) % WRAP, *(int(c1.get(p, 0)) % WRAP for p in (1, 2, 3)),
+                  run % WRAP, int(period_sum) % WRAP]
+        return (" ".join(f"{v:07d}" for v in fields) + "\n").encode("ascii")
+
+    def _corrupt(self, line: bytes, selected: tuple[int, int]) -> bytes:
+        """One character of a C1 or period field replaced, in a high-order position.
+
+        Corruptions alternate: a non-digit, then a different digit. The changed digit is
+        always one the format checks catch (a selected C1 pushed to or above the period
+        sum, or the period sum pushed to or below a selected C1): an Appendix-A line has
+        no checksum, so a plausible wrong digit could not be caught by anyone.
+        """
+        rng = self._rng
+        fields = line.rstrip(b"\n").split(b" ")
+        targets = [selected[0], selected[1], 5]  # C1 of a, C1 of b, period sum
+        self.lines_corrupted += 1
+        if self.lines_corrupted % 2 == 0:
+            cands = self._digit_candidates(fields, selected)
+            if cands:
+                f, pos, d = cands[int(rng.integers(len(cands)))]
+                fields[f] = fields[f][:pos] + bytes([d]) + fields[f][pos + 1:]
+                return b" ".join(fields) + b"\n"
+        f = targets[int(rng.integers(3))]
+        pos = int(rng.integers(2))
+        ch = _NON_DIGITS[int(rng.integers(len(_NON_DIGITS)))]
+        fields[f] = fields[f][:pos] + ch + fields[f][pos + 1:]
+        return b" ".join(fields) + b"\n"
+
+    @staticmethod
+    def _digit_candidates(fields: list[bytes], selected: tuple[int, int]):
+        out = []
+        for f in (*selected, 5):
+            for pos in (0, 1):
+                for d in b"0123456789":
+                    if d == fields[f][pos]:
+                        continue
+                    new = list(fields)
+                    new[f] = new[f][:pos] + bytes([d]) + new[f][pos + 1:]
+                    period = int(new[5])
+                    c1 = [int(new[p]) for p in selected]
+                    if period == 0 or any(c >= period for c in c1):
+                        out.append((f, pos, d))
+        return out
+
+
+# --------------------------------------------------------------------------- dividing head
+
+
+class DividingHead(ByteInstrument):
+    ident = "ESG-LAB,DIVIDING-HEAD,0,1.0"
+
+    def __init__(self, name: str, world: EsgWorld, latency_s: float) -> None:
+        super().__init__(name, world.env, latency_s)
+        self.world = world
+
+    def _move(self, deg: float) -> str:
+        if self.world.head_moving():
+            raise _busy("spindle still moving")
+        self.world.head_move(round(deg, 5) % 360.0)
+        return "OK"
+
+    def command(self, cmd: str, args: list[str]):
+        if cmd == "SPIN":
+            need(args, 1, "SPIN <deg>")
+            deg = _in_range(args[0], "spindle angle", 0.0, 360.0, hi_open=True)
+            return self._move(deg)
+        if cmd == "STEP":
+            need(args, 1, "STEP <deg>")
+            step = _in_range(args[0], "spindle step", -360.0, 360.0)
+            return self._move((self.world.head_reading_deg() + step) % 360.0)
+        if cmd == "SPIN?":
+            need(args, 0, "SPIN?")
+            return f"{self.world.head_reading_deg() % 360.0:.5f}"
+        if cmd == "STAT?":
+            need(args, 0, "STAT?")
+            return "MOVING" if self.world.head_moving() else "HOLD"
+        return super().command(cmd, args)
+
+
+# --------------------------------------------------------------------------- turntable
+
+
+class Turntable(ByteInstrument):
+    ident = "ESG-LAB,TURNTABLE-TILT,0,1.0"
+
+    def __init__(self, name: str, world: EsgWorld, latency_s: float) -> None:
+        super().__init__(name, world.env, latency_s)
+        self.world = world
+        self.locked = False
+
+    def command(self, cmd: str, args: list[str]):
+        w = self.world
+        if cmd == "AZ":
+            need(args, 1, "AZ <deg>")
+            deg = _in_range(args[0], "azimuth", 0.0, 360.0, hi_open=True)
+            if w.table_moving():
+                raise _busy("table still moving")
+            if self.locked:
+                raise InstrumentError(18, "azimuth locked: UNLOCK first")
+            w.table_move(azimuth_deg=round(deg, 4) % 360.0)
+            return "OK"
+        if cmd == "TILT":
+            need(args, 1, "TILT <deg>")
+            lim = float(w.p.mount.tilt_limit_deg)
+            deg = _in_range(args[0], "tilt", -lim, lim)
+            if w.table_moving():
+                raise _busy("table still moving")
+            w.table_move(tilt_deg=round(deg, 4))
+            return "OK"
+        if cmd in ("AZ?", "TILT?"):
+            need(args, 0, cmd)
+            az, tilt = w.table_reading_deg()
+            return f"{az % 360.0:.4f}" if cmd == "AZ?" else f"{tilt:.4f}"
+        if cmd == "LOCK":
+            need(args, 0, "LOCK")
+            if w.table_moving():
+                raise _busy("table still moving")
+            self.locked = True
+            return "OK"
+        if cmd == "UNLOCK":
+            need(args, 0, "UNLOCK")
+            self.locked = False
+            return "OK"
+        if cmd == "STAT?":
+            need(args, 0, "STAT?")
+            if w.table_moving():
+                return "MOVING"
+            return "LOCKED" if self.locked else "HOLD"
+        return super().command(cmd, args)
+
+
+# --------------------------------------------------------------------------- theodolite
+
+
+class Theodolite(ByteInstrument):
+    ident = "ESG-LAB,THEODOLITE,0,1.0"
+
+    def __init__(self, name: str, world: EsgWorld, latency_s: float) -> None:
+        super().__init__(name, world.env, latency_s)
+        self.world = world
+
+    def command(self, cmd: str, args: list[str]):
+        if cmd == "READ?":
+            need(args, 0, "READ?")
+            x, y = self.world.theodolite_arcsec()
+            return f"{x:.2f} {y:.2f}"
+        return super().command(cmd, args)
+
+
+# --------------------------------------------------------------------------- console
+
+
+class GyroConsole(ByteInstrument):
+    ident = "ESG-LAB,GYRO-CONSOLE,0,1.0"
+
+    def __init__(self, name: str, world: EsgWorld, latency_s: float) -> None:
+        super().__init__(name, world.env, latency_s)
+        self.world = world
+
+    def command(self, cmd: str, args: list[str]):
+        w = self.world
+        if cmd == "SPIN":
+            if _on_off(args, "SPIN", ("UP", "OFF")):
+                w.spin_up()
+            else:
+                w.spin_off()
+            return "OK"
+        if cmd == "DAMP":
+            w.set_damping(_on_off(args, "DAMP", ("ON", "OFF")))
+            return "OK"
+        if cmd == "STAT?":
+            need(args, 0, "STAT?")
+            s = w.console_status()
+            return (f"SUSP {int(bool(s['suspended']))} SPIN {s['spin_rps']:.2f} "
+                    f"DAMP {int(bool(s['damping']))} VAC {s['pressure_torr']:.1E}")
+        if cmd == "SPEED?":
+            need(args, 0, "SPEED?")
+            return f"{w.console_status()['spin_rps']:.2f}"
+        return super().command(cmd, args)
+
+
+__all__ = ["DataProcessor", "DividingHead", "GyroConsole", "Theodolite", "Turntable"]

@@ -1,0 +1,560 @@
+"""Pattern-calibration data acquisition on the dividing head (report 004, steps 1-13).
+
+Check-sheet ESG-CAL carries the report's thirteen steps (numbers as printed; the words are
+ours); ESG-DP sets up the data processor and ESG-PA checks pickoff 1 against the spindle
+by coning. Where the report leaves the method open we chose one and say so in
+docs/esg.md: the drift-cancelling offset (step 3) is found by measuring the east-west
+drift and re-damping at the computed equilibrium; the equal-ratio search (step 4) moves
+the axes by the nominal geometry from the three count ratios; steps 6-7 read pickoff 2 at
+the first ratio, the second and the first again so that a steady drift cancels in the
+bisection. Printed slips: step 6 refers to step 3 and step 7 to step 5; both mean the
+step before (4 and 6).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Protocol
+
+import numpy as np
+
+from procedures.esg import geometry as geo
+from procedures.esg.readings import Setting, read_setting
+from procedures.runner import Run
+from station.drivers.esg import (
+    ConsoleDriver,
+    HeadDriver,
+    ProcessorDriver,
+    TheodoliteDriver,
+    TurntableDriver,
+)
+
+MIRROR_ANGLE_DEG = 89.0 + 56.0 / 60.0 + 5.0 / 3600.0  # measured between the two mirrors
+
+
+class Station(Protocol):
+    clock: object
+    processor: ProcessorDriver
+    head: HeadDriver
+    turntable: TurntableDriver
+    theodolite: TheodoliteDriver
+    console: ConsoleDriver
+
+
+@dataclass(frozen=True)
+class EsgPlan:
+    """The laboratory's choices for one calibration (degrees, seconds, count ratio)."""
+
+    latitude_deg: float = 44.98
+    design_inclination_deg: float = 56.0  # great circle at the equator (pattern drawing)
+    mirror_angle_deg: float = MIRROR_ANGLE_DEG
+    lines_per_setting: int = 5
+    revolutions: int = 10
+    spin_ready_rps: float = 248.0
+    spinup_timeout_s: float = 3 * 3600.0
+    damping_s: float = 900.0
+    drift_wait_s: float = 600.0
+    drift_tolerance_deg_hr: float = 0.1
+    offset_iterations: int = 4
+    equal_tolerance: float = 3e-5  # count-ratio spread accepted in step 4
+    equal_iterations: int = 6
+    search_tolerance: float = 3e-6  # count ratio, about 1 arcsec at 55 deg
+    search_iterations: int = 6
+    coning_positions: int = 8
+    mount_coning_limit_arcsec: float = 3.0
+    pickoff_coning_limit_arcsec: float = 15.0
+    fine_step_arcmin: float = 10.0
+    fine_span_deg: float = 1.0
+    scan_end_deg: int = 46  # last spindle offset from the equator inside the pattern
+    move_timeout_s: float = 300.0
+    electric_drift_spec_deg_hr: float = 0.2  # a priori bound used in the drift-error budget
+
+
+# ---------------------------------------------------------------- design mechanization
+def design_colatitude_deg(cr: float, inclination_deg: float) -> float:
+    """Colatitude from a count ratio for the drawing's great circle (eq. 9: d = 0).
+
+    With mu = 2 pi CR and X = cos(mu/2), b X sin(th) + c cos(th) = 0, so
+    cos(th) = -b X / sqrt(c^2 + b^2 X^2) (b = sin i, c = cos i).
+    """
+    i = math.radians(inclination_deg)
+    b, c = math.sin(i), math.cos(i)
+    x = math.cos(math.pi * cr)
+    return math.degrees(math.acos(-b * x / math.sqrt(c * c + b * b * x * x)))
+
+
+def design_slope_per_deg(theta_deg: float, inclination_deg: float) -> float:
+    """d(CR)/d(theta) of the drawing's pattern at a colatitude (numerical, per degree)."""
+    i = math.radians(inclination_deg)
+    b, c = math.sin(i), math.cos(i)
+
+    def cr(th: float) -> float:
+        s = -c / b * math.cos(math.radians(th)) / math.sin(math.radians(th))
+        return 0.5 - math.asin(max(-1.0, min(1.0, s))) / math.pi
+
+    h = 0.01
+    return (cr(theta_deg + h) - cr(theta_deg - h)) / (2 * h)
+
+
+def equal_ratio_direction(mirror_angle_deg: float) -> np.ndarray:
+    """Spin direction in the case at equal angles to the three pickoffs (p1 = m1, p2 = m2
+    in the c1-c2 plane at the measured mirror angle, p3 across both)."""
+    g = math.radians(mirror_angle_deg)
+    p = np.array([[1.0, 0.0, 0.0], [math.cos(g), math.sin(g), 0.0], [0.0, 0.0, 1.0]])
+    return geo.unit(np.linalg.solve(p, np.ones(3)))
+
+
+# ---------------------------------------------------------------- acquisition record
+@dataclass
+class Baseline:
+    gamma_deg: float
+    start: Setting
+    end: Setting | None = None
+
+
+@dataclass
+class ScanPoint:
+    scan: str  # "9", "10+", "10-", "11+", ...
+    increment_deg: float  # 1/6, 5, 2 or 1
+    offset_deg: float  # signed spindle offset from the scan's baseline, towards the side
+    gamma_deg: float
+    setting: Setting
+
+
+@dataclass
+class Scan:
+    name: str
+    side: int  # +1: towards the first hemisphere's equal point (colatitude below 90)
+    increment_deg: float
+    baseline: Baseline
+    points: list[ScanPoint] = field(default_factory=list)
+
+
+@dataclass
+class Acquisition:
+    """Everything the reduction needs, as the laboratory measured it."""
+
+    t_zero_s: float = 0.0  # clock time of the processor's TZERO
+    cr_a: float = 0.0  # equal-ratio count ratio, first hemisphere (colatitude theta*)
+    cr_b: float = 0.0  # second hemisphere (180 - theta*)
+    theta_star_deg: float = 0.0
+    gamma_a_deg: float = 0.0
+    gamma_b_deg: float = 0.0
+    cr_eq: float = 0.0
+    gamma_eq_deg: float = 0.0
+    colatitude_sign: int = 1  # +1: pickoff-2 colatitude grows with the spindle angle
+    unbalance_k_deg_hr: float = 0.0
+    residual_drift_deg_hr: float = 0.0
+    mount_coning_arcsec: float = 0.0
+    pickoff_coning_arcsec: float = 0.0
+    scans: list[Scan] = field(default_factory=list)
+
+
+# ---------------------------------------------------------------- small operations
+def _move_table(st: Station, plan: EsgPlan, az: float | None = None,
+                tilt: float | None = None) -> None:
+    if az is not None:
+        st.turntable.azimuth(az)
+        st.turntable.wait_hold(plan.move_timeout_s)
+    if tilt is not None:
+        st.turntable.tilt(tilt)
+        st.turntable.wait_hold(plan.move_timeout_s)
+
+
+def _move_head(st: Station, plan: EsgPlan, gamma: float) -> float:
+    """Spindle to ``gamma`` (any real angle); the scale reading, unwrapped near gamma."""
+    st.head.set(gamma % 360.0)
+    st.head.wait_hold(plan.move_timeout_s)
+    r = st.head.reading()
+    return r + 360.0 * round((gamma - r) / 360.0)
+
+
+def _read(st: Station, plan: EsgPlan, pickoffs: tuple[int, int]) -> Setting:
+    return read_setting(st.processor, pickoffs, plan.lines_per_setting)
+
+
+def _read_three(st: Station, plan: EsgPlan) -> dict[int, float | None]:
+    a = _read(st, plan, (1, 2))
+    b = _read(st, plan, (3, 2))
+    out = {1: a.cr[1], 3: b.cr[3]}
+    p2 = [v for v in (a.cr[2], b.cr[2]) if v is not None]
+    out[2] = sum(p2) / len(p2) if p2 else None
+    return out
+
+
+def _settings(st: Station) -> tuple[float, float, float]:
+    az, tilt = st.turntable.readings()
+    return az, tilt, st.head.reading()
+
+
+def _spin_axis_lab(st: Station, plan: EsgPlan, cr: dict[int, float | None]) -> np.ndarray:
+    """The spin axis in the lab from three count ratios by the drawing's pattern and the
+    nominal geometry (good to a few arcmin: enough to point the axes)."""
+    if any(v is None for v in cr.values()):
+        raise RuntimeError(f"a pickoff is off the pattern: count ratios {cr}")
+    alpha = np.array([math.cos(math.radians(design_colatitude_deg(cr[i], plan
+                                                                  .design_inclination_deg)))
+                      for i in (1, 2, 3)])
+    g = math.radians(plan.mirror_angle_deg)
+    p = np.array([[1.0, 0.0, 0.0], [math.cos(g), math.sin(g), 0.0], [0.0, 0.0, 1.0]])
+    s_case = geo.unit(np.linalg.solve(p, alpha))
+    return geo.r_lc(*_settings(st)) @ s_case
+
+
+def _damp(st: Station, plan: EsgPlan) -> None:
+    st.console.damping(True)
+    st.clock.sleep(plan.damping_s)
+    st.console.damping(False)
+
+
+# ---------------------------------------------------------------- sheets
+def processor_setup(st: Station, run: Run, plan: EsgPlan) -> dict:
+    with run.sheet("ESG-DP", "Data processor adjustments") as sh:
+        with sh.step("DP.1", "clock to zero; sum over ten revolutions; run number 1; HIT "
+                     "threshold 1.5 V (pulses are about 2.1 V)") as s:
+            t_zero = st.clock.now()  # the processor zeroes its clock on receipt
+            st.processor.time_zero()
+            st.processor.revolutions(plan.revolutions)
+            st.processor.run_number(1)
+            st.processor.threshold(1.5)
+            s.reading = {"t_zero_s": t_zero}
+        with sh.step("DP.2", "pulse-width discriminator and logic-line delay gate") as s:
+            s.reading = st.processor.settings()
+    return {"t_zero_s": sh.sheet.steps[0].reading["t_zero_s"]}
+
+
+def mount_check(st: Station, run: Run, plan: EsgPlan, sh) -> float:
+    """Step 1: coning of mirror 1 about the spindle seen in the theodolite."""
+    with sh.step("1", "mirror 1 along the spindle: theodolite readings over one spindle "
+                 "turn; coning radius") as s:
+        n = plan.coning_positions
+        g = [360.0 * k / n for k in range(n)]
+        xy = []
+        for gamma in g:
+            _move_head(st, plan, gamma)
+            xy.append(st.theodolite.read())
+        _move_head(st, plan, 0.0)
+        x = np.array([p[0] for p in xy])
+        y = np.array([p[1] for p in xy])
+        # a circle about the spindle: first harmonic of x and y over the turn
+        gr = np.radians(g)
+        rx = 2.0 / n * math.hypot(float(x @ np.cos(gr)), float(x @ np.sin(gr)))
+        ry = 2.0 / n * math.hypot(float(y @ np.cos(gr)), float(y @ np.sin(gr)))
+        radius = 0.5 * (rx + ry)
+        s.reading = {"spindle_deg": g, "theodolite_arcsec": [list(p) for p in xy],
+                     "coning_radius_arcsec": radius,
+                     "limit_arcsec": plan.mount_coning_limit_arcsec}
+        if radius > plan.mount_coning_limit_arcsec:
+            raise RuntimeError(f"mirror coning {radius:.1f} arcsec exceeds "
+                               f"{plan.mount_coning_limit_arcsec:g}: re-shim the mount")
+    return radius
+
+
+def start_gyro(st: Station, run: Run, plan: EsgPlan, sh) -> None:
+    """Step 2: damping-coil axis (the spindle) on the polar axis; spin up with damping."""
+    with sh.step("2", "spindle on the Earth's polar axis; spin up to operating speed "
+                 "with damping; damping off") as s:
+        _move_table(st, plan, az=0.0, tilt=plan.latitude_deg)
+        st.console.damping(True)
+        st.console.spin_up()
+        t_end = st.clock.now() + plan.spinup_timeout_s
+        while st.console.speed() < plan.spin_ready_rps:
+            if st.clock.now() > t_end:
+                raise RuntimeError(f"rotor below {plan.spin_ready_rps:g} rps after "
+                                   f"{plan.spinup_timeout_s:g} s")
+            st.clock.sleep(60.0)
+        st.clock.sleep(plan.damping_s)
+        st.console.damping(False)
+        s.reading = st.console.status()
+
+
+def _east_drift(st: Station, plan: EsgPlan, tilt: float) -> float:
+    """East-west drift of s (deg/hr) with s along the spindle (pickoffs 2 and 3 at the
+    equator; pickoff 3 looks east at spindle angle 0, so its colatitude follows s east)."""
+    slope = design_slope_per_deg(90.0, plan.design_inclination_deg)
+    a = _read(st, plan, (2, 3))
+    st.clock.sleep(plan.drift_wait_s)
+    b = _read(st, plan, (2, 3))
+    if a.cr[3] is None or b.cr[3] is None:
+        raise RuntimeError("pickoff 3 off the pattern while measuring drift")
+    d_theta3 = (b.cr[3] - a.cr[3]) / slope  # deg
+    return -d_theta3 / ((b.t_s - a.t_s) / 3600.0)
+
+
+def cancel_drift(st: Station, run: Run, plan: EsgPlan, sh, acq: Acquisition) -> None:
+    """Step 3: offset s from the polar axis in the meridian plane until the east-west
+    drift is cancelled by the Earth's rotation; re-measure and readjust."""
+    k = 0.0
+    tilt = plan.latitude_deg
+    for it in range(1, plan.offset_iterations + 1):
+        with sh.step(f"3.{it}", "east-west drift with s along the spindle; offset the "
+                     "spindle to the equilibrium and damp") as s:
+            _move_head(st, plan, 0.0)
+            rate = _east_drift(st, plan, tilt)
+            s_lab = geo.from_az_el(0.0, tilt)
+            done = abs(rate) <= plan.drift_tolerance_deg_hr
+            if not done:
+                k += geo.unbalance_k_from_east_drift(rate, s_lab)
+                tilt = geo.elevation_deg(geo.drift_equilibrium(plan.latitude_deg, k))
+                _move_table(st, plan, tilt=tilt)
+                _damp(st, plan)
+            s.reading = {"east_drift_deg_hr": rate, "unbalance_k_deg_hr": k,
+                         "tilt_deg": tilt, "within_tolerance": done}
+        acq.residual_drift_deg_hr = rate
+        if done:
+            break
+    else:
+        raise RuntimeError(f"east-west drift still {rate:+.3f} deg/hr after "
+                           f"{plan.offset_iterations} offsets")
+    acq.unbalance_k_deg_hr = k
+
+
+def equal_ratio_point(st: Station, plan: EsgPlan, d_case: np.ndarray,
+                      s_lab: np.ndarray) -> tuple[float, dict, np.ndarray]:
+    """Step 4 for one hemisphere: move the axes until the three count ratios agree."""
+    spread = math.inf
+    for _ in range(plan.equal_iterations):
+        a, e, g = geo.point_case(d_case, s_lab)
+        _move_table(st, plan, az=a, tilt=e)
+        _move_head(st, plan, g)
+        cr = _read_three(st, plan)
+        if any(v is None for v in cr.values()):
+            raise RuntimeError(f"a pickoff is off the pattern at the computed setting "
+                               f"(count ratios {cr}): the spin-axis estimate is far off")
+        spread = max(cr.values()) - min(cr.values())
+        s_lab = _spin_axis_lab(st, plan, cr)
+        if spread <= plan.equal_tolerance:
+            return sum(cr.values()) / 3.0, cr, s_lab
+    raise RuntimeError(f"count ratios still {spread:.2e} apart after "
+                       f"{plan.equal_iterations} adjustments")
+
+
+def find_ratio(st: Station, plan: EsgPlan, target: float, gamma: float,
+               slope_per_deg: float | None = None) -> tuple[float, float, float]:
+    """Spindle angle where pickoff 2 reads ``target``: (gamma, time, local slope).
+
+    Secant steps on the spindle; the last two readings interpolate the angle, so the
+    result does not depend on landing exactly on the ratio."""
+    g0 = _move_head(st, plan, gamma)
+    r0 = _read(st, plan, (2, 3))
+    if slope_per_deg is None:
+        g1 = _move_head(st, plan, gamma + 0.05)
+        r1 = _read(st, plan, (2, 3))
+        slope_per_deg = (r1.cr[2] - r0.cr[2]) / (g1 - g0)
+        g0, r0 = g1, r1
+    for _ in range(plan.search_iterations):
+        step = (target - r0.cr[2]) / slope_per_deg
+        if abs(target - r0.cr[2]) <= plan.search_tolerance:
+            return g0 + step, r0.t_s, slope_per_deg
+        g1 = _move_head(st, plan, g0 + step)
+        r1 = _read(st, plan, (2, 3))
+        if abs(g1 - g0) > 1e-4:
+            slope_per_deg = (r1.cr[2] - r0.cr[2]) / (g1 - g0)
+        g0, r0 = g1, r1
+    return g0 + (target - r0.cr[2]) / slope_per_deg, r0.t_s, slope_per_deg
+
+
+def equal_ratio_points(st: Station, run: Run, plan: EsgPlan, sh, acq: Acquisition,
+                       s_lab: np.ndarray) -> np.ndarray:
+    """Step 4: equal count ratios on both rotor hemispheres."""
+    d = equal_ratio_direction(plan.mirror_angle_deg)
+    acq.theta_star_deg = math.degrees(math.acos(d[0]))
+    with sh.step("4a", "case turned until the three count ratios agree (first "
+                 "hemisphere)") as s:
+        acq.cr_a, cr, s_lab = equal_ratio_point(st, plan, d, s_lab)
+        s.reading = {"count_ratios": {str(k): v for k, v in cr.items()},
+                     "mean": acq.cr_a, "settings_deg": list(_settings(st)),
+                     "theta_star_deg": acq.theta_star_deg}
+    with sh.step("4b", "the same on the opposite hemisphere") as s:
+        acq.cr_b, cr, s_lab = equal_ratio_point(st, plan, -d, s_lab)
+        s.reading = {"count_ratios": {str(k): v for k, v in cr.items()},
+                     "mean": acq.cr_b, "settings_deg": list(_settings(st))}
+    return s_lab
+
+
+def equator(st: Station, run: Run, plan: EsgPlan, sh, acq: Acquisition,
+            s_lab: np.ndarray) -> None:
+    """Steps 5-7: spindle across the spin axis, the two equal ratios on pickoff 2, the
+    equator by bisection."""
+    th = math.radians(acq.theta_star_deg)
+    with sh.step("5", "table and tilt: spindle across the spin axis, pickoff 2 near the "
+                 "first equal-ratio colatitude") as s:
+        a, e, g = geo.point_case([0.0, math.cos(th), math.sin(th)], s_lab)
+        _move_table(st, plan, az=a, tilt=e)
+        g = _move_head(st, plan, g)
+        s.reading = {"settings_deg": [a, e, g]}
+    with sh.step("6", "spindle readings where pickoff 2 reads the first, the second and "
+                 "again the first equal ratio (step 4's means)") as s:
+        ga1, ta1, slope_a = find_ratio(st, plan, acq.cr_a, g)
+        # the second point is 180 - 2 theta* away, on the side where the ratio falls
+        direction = -1.0 if slope_a > 0 else 1.0
+        span = 180.0 - 2.0 * acq.theta_star_deg
+        gb, tb, _ = find_ratio(st, plan, acq.cr_b, ga1 + direction * span)
+        ga2, ta2, _ = find_ratio(st, plan, acq.cr_a, ga1, slope_a)
+        acq.gamma_a_deg = 0.5 * (ga1 + ga2)
+        acq.gamma_b_deg = gb
+        acq.colatitude_sign = 1 if gb > acq.gamma_a_deg else -1
+        rate = (ga2 - ga1) / (ta2 - ta1)  # deg/s of spindle: drift about the spindle
+        s.reading = {"gamma_a_deg": [ga1, ga2], "t_a_s": [ta1, ta2], "gamma_b_deg": gb,
+                     "t_b_s": tb, "separation_deg": gb - acq.gamma_a_deg,
+                     "drift_about_spindle_deg_hr": rate * 3600.0}
+    with sh.step("7", "pickoff 2 midway: the equator's count ratio") as s:
+        g_mid = 0.5 * (acq.gamma_a_deg + acq.gamma_b_deg)
+        g_set = _move_head(st, plan, g_mid)
+        r = _read(st, plan, (2, 1))
+        # the mid angle belongs to time tb; move it on by the drift to the reading's time
+        slope_eq = design_slope_per_deg(90.0, plan.design_inclination_deg) * (
+            acq.colatitude_sign)
+        acq.cr_eq = r.cr[2] - slope_eq * ((g_set - g_mid) - rate * (r.t_s - tb))
+        acq.gamma_eq_deg = g_mid + rate * (r.t_s - tb)
+        s.reading = {"gamma_mid_deg": g_mid, "cr_read": r.cr[2], "cr_eq": acq.cr_eq,
+                     "t_s": r.t_s}
+
+
+def tilt_to_equator(st: Station, plan: EsgPlan, cr_eq: float) -> dict:
+    """Pickoff 1 (along the spindle) to the equator's ratio with the tilt (steps 8, 10-12)."""
+    _, tilt = st.turntable.readings()
+    r0 = _read(st, plan, (1, 2))
+    if r0.cr[1] is None:
+        raise RuntimeError("pickoff 1 is off the pattern: the spindle is not across s")
+    st.turntable.tilt(tilt + 0.02)
+    st.turntable.wait_hold(plan.move_timeout_s)
+    r1 = _read(st, plan, (1, 2))
+    slope = (r1.cr[1] - r0.cr[1]) / 0.02
+    tilt += 0.02
+    r = r1
+    for _ in range(plan.search_iterations):
+        if abs(r.cr[1] - cr_eq) <= plan.search_tolerance:
+            break
+        tilt += (cr_eq - r.cr[1]) / slope
+        st.turntable.tilt(round(tilt, 4))
+        st.turntable.wait_hold(plan.move_timeout_s)
+        r = _read(st, plan, (1, 2))
+    return {"tilt_deg": st.turntable.readings()[1], "cr_pickoff1": r.cr[1]}
+
+
+def pickoff_check(st: Station, run: Run, plan: EsgPlan, acq: Acquisition) -> None:
+    """ESG-PA: pickoff 1 against the spindle by coning, with s across the spindle."""
+    slope = design_slope_per_deg(90.0, plan.design_inclination_deg)
+    with run.sheet("ESG-PA", "Pickoff alignment check by coning") as sh:
+        with sh.step("PA.1", "pickoff 1 count ratio over one spindle turn (and back to "
+                     "the start); first harmonic = coning of pickoff 1") as s:
+            n = plan.coning_positions
+            gs = [acq.gamma_eq_deg + 360.0 * k / n for k in range(n + 1)]
+            rows = []
+            for g in gs:
+                gr = _move_head(st, plan, g)
+                r = _read(st, plan, (1, 2))
+                if r.cr[1] is None:
+                    raise RuntimeError("pickoff 1 left the pattern during the coning turn")
+                rows.append((gr, r.t_s, r.cr[1]))
+            a = np.array([[1.0, math.cos(math.radians(g)), math.sin(math.radians(g)),
+                           t - rows[0][1]] for g, t, _ in rows])
+            y = np.array([c for _, _, c in rows])
+            coef = np.linalg.lstsq(a, y, rcond=None)[0]
+            coning = math.hypot(coef[1], coef[2]) / abs(slope) * 3600.0
+            acq.pickoff_coning_arcsec = coning
+            s.reading = {"spindle_deg": [r[0] for r in rows], "t_s": [r[1] for r in rows],
+                         "cr_pickoff1": [r[2] for r in rows], "coning_arcsec": coning,
+                         "limit_arcsec": plan.pickoff_coning_limit_arcsec}
+            if coning > plan.pickoff_coning_limit_arcsec:
+                raise RuntimeError(f"pickoff 1 cones {coning:.1f} arcsec about the spindle "
+                                   f"(limit {plan.pickoff_coning_limit_arcsec:g})")
+
+
+def baseline(st: Station, plan: EsgPlan, acq: Acquisition, slope_per_deg: float) -> Baseline:
+    """Pickoff 2 to the equator's ratio (one secant step from the last known angle)."""
+    g, _, _ = find_ratio(st, plan, acq.cr_eq, acq.gamma_eq_deg, slope_per_deg)
+    acq.gamma_eq_deg = g
+    g_set = _move_head(st, plan, g)
+    return Baseline(g_set, _read(st, plan, (2, 1)))
+
+
+def run_scan(st: Station, plan: EsgPlan, sh, acq: Acquisition, name: str, side: int,
+             increment: float, offsets: list[float], slope_per_deg: float) -> Scan:
+    """One scan: baseline, the settings, back to the baseline's spindle angle."""
+    with sh.step(f"{name}.0", "baseline: pickoff 2 at the equator's count ratio") as s:
+        b = baseline(st, plan, acq, slope_per_deg)
+        s.reading = {"gamma_deg": b.gamma_deg, **b.start.reading()}
+    scan = Scan(name, side, increment, b)
+    # spindle direction that lowers pickoff 2's colatitude for side +1
+    sgn = -acq.colatitude_sign * side
+    for k, off in enumerate(offsets, start=1):
+        with sh.step(f"{name}.{k:02d}", f"spindle {off:g} deg from the baseline") as s:
+            g = _move_head(st, plan, b.gamma_deg + sgn * off)
+            r = _read(st, plan, (2, 1))
+            if r.cr[2] is None:
+                raise RuntimeError(f"pickoff 2 off the pattern {off:g} deg from the "
+                                   "equator")
+            scan.points.append(ScanPoint(name, increment, side * off, g, r))
+            s.reading = {"gamma_deg": g, "offset_deg": side * off, **r.reading()}
+    with sh.step(f"{name}.{len(offsets) + 1:02d}", "back to the baseline angle") as s:
+        g = _move_head(st, plan, b.gamma_deg)
+        b.end = _read(st, plan, (2, 1))
+        s.reading = {"gamma_deg": g, **b.end.reading()}
+    acq.scans.append(scan)
+    return scan
+
+
+def _scan_offsets(start: float, stop: float, inc: float) -> list[float]:
+    n = int(round((stop - start) / inc))
+    return [round(start + inc * k, 6) for k in range(n + 1)]
+
+
+def fine_slope(scan: Scan) -> float:
+    """d(CR)/d(spindle offset towards side +) from the step-9 scan, drift removed."""
+    b = scan.baseline
+    t0, t1 = b.start.t_s, b.end.t_s
+    drift = b.end.cr[2] - b.start.cr[2]
+    x = np.array([p.offset_deg for p in scan.points])
+    y = np.array([p.setting.cr[2] - drift * (p.setting.t_s - t0) / (t1 - t0)
+                  for p in scan.points])
+    return float(np.polyfit(x, y, 2)[1])
+
+
+def calibration_scans(st: Station, run: Run, plan: EsgPlan, sh, acq: Acquisition) -> None:
+    """Steps 8-12."""
+    # d(CR)/d(gamma) at the equator: d(CR)/d(theta) times d(theta)/d(gamma)
+    slope_g = design_slope_per_deg(90.0, plan.design_inclination_deg) * acq.colatitude_sign
+    with sh.step("8", "tilt until pickoff 1 reads the equator's ratio; lock the table") as s:
+        _move_head(st, plan, acq.gamma_eq_deg)
+        s.reading = tilt_to_equator(st, plan, acq.cr_eq)
+        st.turntable.lock()
+    pickoff_check(st, run, plan, acq)
+    inc9 = plan.fine_step_arcmin / 60.0
+    n9 = int(round(plan.fine_span_deg / inc9))
+    offs9 = [round(inc9 * k, 6) for k in range(-n9, n9 + 1) if k != 0]
+    sc9 = run_scan(st, plan, sh, acq, "9", 1, inc9, offs9, slope_g)
+    slope_side = fine_slope(sc9)  # per degree towards side +
+    slope_g = slope_side * (-acq.colatitude_sign)  # back to per degree of gamma
+    end = plan.scan_end_deg
+    for step, inc, first in (("10", 5.0, 5.0), ("11", 2.0, 30.0), ("12", 1.0, 40.0)):
+        with sh.step(f"{step}.tilt", "tilt readjusted: pickoff 1 at the equator's "
+                     "ratio") as s:
+            _move_head(st, plan, acq.gamma_eq_deg)
+            s.reading = tilt_to_equator(st, plan, acq.cr_eq)
+        last = end - (end - first) % inc
+        for side, tag in ((1, "+"), (-1, "-")):
+            run_scan(st, plan, sh, acq, f"{step}{tag}", side, inc,
+                     _scan_offsets(first, last, inc), slope_g)
+
+
+def acquire(st: Station, run: Run, plan: EsgPlan | None = None) -> Acquisition:
+    """Sheets ESG-DP, ESG-CAL (steps 1-13) and ESG-PA; returns the acquisition record."""
+    plan = plan or EsgPlan()
+    acq = Acquisition()
+    acq.t_zero_s = processor_setup(st, run, plan)["t_zero_s"]
+    with run.sheet("ESG-CAL", "Pattern calibration data acquisition") as sh:
+        acq.mount_coning_arcsec = mount_check(st, run, plan, sh)
+        start_gyro(st, run, plan, sh)
+        cancel_drift(st, run, plan, sh, acq)
+        s_lab = geo.drift_equilibrium(plan.latitude_deg, acq.unbalance_k_deg_hr)
+        s_lab = equal_ratio_points(st, run, plan, sh, acq, s_lab)
+        equator(st, run, plan, sh, acq, s_lab)
+        calibration_scans(st, run, plan, sh, acq)
+        with sh.step("13", "gyro shut down; data to reduction") as s:
+            st.console.spin_off()
+            s.reading = {"scans": len(acq.scans),
+                         "settings": sum(len(x.points) + 2 for x in acq.scans)}
+    return acq

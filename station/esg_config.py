@@ -1,0 +1,80 @@
+"""Configuration of the ESG laboratory: a TOML file with an ``[esg]`` section.
+
+Scalars of the gyro and the site at the top of the section; ``[esg.pattern]`` and
+``[esg.signal]`` hold the pattern and the pickoff-signal magnitudes. A bad or unknown
+field is refused with a message naming it (esg.pattern.roughness_rms_in, ...).
+"""
+
+from __future__ import annotations
+
+import tomllib
+from dataclasses import replace
+from pathlib import Path
+from typing import Literal
+
+from pydantic import BaseModel, ConfigDict, Field, ValidationError
+
+from sim.esg.world import EsgParams
+from station.config import ConfigError
+
+_STRICT = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
+
+
+class PatternConfig(BaseModel):
+    model_config = _STRICT
+    kind: Literal["great_circle", "cosine"] | None = None
+    inclination_deg: float | None = Field(None, gt=10.0, lt=80.0)
+    top_colatitude_deg: float | None = Field(None, ge=30.0, le=60.0)
+    application_in: float | None = Field(None, ge=0, le=0.002)
+    roughness_rms_in: float | None = Field(None, ge=0, le=0.001)
+    roughness_corr_in: float | None = Field(None, gt=0, le=0.1)
+    d0_sd_in: float | None = Field(None, ge=0, le=0.01)
+
+
+class SignalConfig(BaseModel):
+    model_config = _STRICT
+    jitter_ns: float | None = Field(None, ge=0, le=10000)
+    arc_rate_per_rev: float | None = Field(None, ge=0, le=10)
+    arc_wide_fraction: float | None = Field(None, ge=0, le=1)
+
+
+class EsgConfig(BaseModel):
+    model_config = _STRICT
+    latitude_deg: float | None = Field(None, ge=-89.0, le=89.0)
+    spin_rps: float | None = Field(None, ge=200.0, le=500.0)
+    rundown_tau_h: float | None = Field(None, gt=0)
+    unbalance_dyne_cm: float | None = Field(None, ge=0, le=100)
+    electric_deg_h: float | None = Field(None, ge=0, le=10)
+    damping_tau_s: float | None = Field(None, gt=0, le=3600)
+    pattern: PatternConfig = PatternConfig()
+    signal: SignalConfig = SignalConfig()
+
+
+def _set(obj, model: BaseModel):
+    return replace(obj, **{k: v for k, v in model.model_dump().items()
+                           if v is not None and not isinstance(v, dict)})
+
+
+def params_from(cfg: EsgConfig) -> EsgParams:
+    p = _set(EsgParams(), cfg)
+    return replace(p, pattern=_set(p.pattern, cfg.pattern), signal=_set(p.signal, cfg.signal))
+
+
+def load_esg_params(path: str | Path | None) -> EsgParams:
+    """The default EsgParams with the file's [esg] settings applied."""
+    if path is None:
+        return EsgParams()
+    try:
+        with open(path, "rb") as f:
+            data = tomllib.load(f).get("esg", {})
+    except FileNotFoundError:
+        raise ConfigError(f"configuration file not found: {path}") from None
+    except tomllib.TOMLDecodeError as e:
+        raise ConfigError(f"{path} is not valid TOML: {e}") from None
+    try:
+        cfg = EsgConfig.model_validate(data)
+    except ValidationError as e:
+        lines = [f"invalid ESG configuration in {path}:"]
+        lines += [f"  esg.{'.'.join(map(str, er['loc']))}: {er['msg']}" for er in e.errors()]
+        raise ConfigError("\n".join(lines)) from None
+    return params_from(cfg)

@@ -1,0 +1,178 @@
+"""The ESG laboratory end to end (issue 6): acquisition, reduction, truth, faults."""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import replace
+from pathlib import Path
+
+import pytest
+from typer.testing import CliRunner
+
+from procedures.runner import ProcedureError
+from sim.esg.world import EsgParams
+from station.cli import app
+from station.config import ConfigError
+from station.esg_cmd import run_esg_calibration
+from station.esg_config import load_esg_params
+
+GOAL = 15.0
+
+
+@pytest.fixture(scope="module")
+def default_run(tmp_path_factory):
+    out = tmp_path_factory.mktemp("esg")
+    return out, run_esg_calibration(1, out)
+
+
+def test_readout_goal_and_truth(default_run):
+    out, res = default_run
+    names = [s["name"] for s in res["schedules"]]
+    assert names == ["5deg", "1-2-5deg"]
+    for s in res["schedules"]:
+        assert s["order"] == 7 and s["n_fit"] >= 20 and s["n_readout"] >= 20
+        assert s["readout_rms_arcsec"] < GOAL
+        assert s["true_readout_rms_arcsec"] < GOAL
+        # measured and true differ by the colatitude assignment, whose size we predict
+        assert s["assignment_rms_arcsec"] < 2.0 * s["predicted_assignment_rms_arcsec"]
+        both = math.hypot(s["readout_rms_arcsec"], 2.5 * s["predicted_assignment_rms_arcsec"])
+        assert s["true_readout_rms_arcsec"] < both
+    for key in ("sim_seconds", "wall_seconds", "amplification", "schedules"):
+        assert key in res
+    pts = {(a["pattern"], a["range_deg"], a["strategy"]) for a in res["amplification"]}
+    assert ("great_circle", 43.0, "mixed") in pts and ("cosine", 37.0, "mixed") in pts
+    for f in ("esg.json", "esg_calibration.png", "esg_strategy.png", "journal.jsonl",
+              "sheets/esg_calibration_5deg.json", "sheets/esg_readout_1-2-5deg.json",
+              "sheets/check_ESG-CAL.json"):
+        assert (out / f).exists(), f
+    on_disk = json.loads((out / "esg.json").read_text())
+    assert on_disk["schedules"] == res["schedules"]
+
+
+def test_tables_carry_measured_and_true_errors(default_run):
+    out, _ = default_run
+    rows = json.loads((out / "sheets" / "esg_readout_5deg.json").read_text())
+    for r in rows:
+        want = (r["compensated_deg"] - r["colatitude_deg"]) * 3600
+        assert r["error_arcsec"] == pytest.approx(want, abs=1e-6)
+        want = (r["compensated_deg"] - r["true_colatitude_deg"]) * 3600
+        assert r["true_error_arcsec"] == pytest.approx(want, abs=1e-6)
+    # the colatitudes cover the pattern on both hemispheres
+    cols = [r["colatitude_deg"] for r in rows]
+    assert min(cols) < 47 and max(cols) > 133
+
+
+def test_pickoff_coning_check_sees_the_true_misalignment(default_run):
+    _, res = default_run
+    a = res["acquisition"]
+    assert abs(a["pickoff_coning_arcsec"] - a["true_pickoff_coning_arcsec"]) < 6.0
+    # the two equal-ratio points are 180 - 2 theta* apart on the spindle scale
+    assert abs(abs(a["equal_points_separation_deg"]) - (180 - 2 * a["theta_star_deg"])) < 0.01
+
+
+def test_same_seed_same_record(default_run, tmp_path):
+    _, res = default_run
+    again = run_esg_calibration(1, tmp_path, with_study=False)
+    assert again["schedules"] == res["schedules"]
+    other = run_esg_calibration(2, tmp_path / "other", with_study=False)
+    assert other["schedules"] != res["schedules"]
+
+
+def _used_lines_match_truth(out: Path, rack, t_zero: float, tol: float) -> int:
+    """Every count ratio the reduction used is the noise-free one within ``tol``."""
+    n = 0
+    for line in (out / "journal.jsonl").read_text().splitlines():
+        rec = json.loads(line)
+        rd = rec.get("reading")
+        if rec.get("kind") != "step" or not isinstance(rd, dict) or "line_cr" not in rd:
+            continue
+        for p, crs in rd["line_cr"].items():
+            for t, cr in zip(rd["times_s"], crs, strict=True):
+                truth = rack.world.true_count_ratio(int(p), t + t_zero)
+                assert abs(cr - truth) < tol, (rec["chart"], rec["step"], cr, truth)
+                n += 1
+    return n
+
+
+def _rejections(out: Path) -> list[str]:
+    rej = []
+    for line in (out / "journal.jsonl").read_text().splitlines():
+        rd = json.loads(line).get("reading")
+        if isinstance(rd, dict):
+            rej += rd.get("rejected", [])
+    return rej
+
+
+def test_arc_marks_never_reach_the_reduction(tmp_path):
+    """Wide arc marks get past the discriminator and mis-gate counts: the per-setting
+    check throws those lines out; every line used stays on the noise-free ratio."""
+    p = EsgParams()
+    p = replace(p, signal=replace(p.signal, arc_rate_per_rev=0.02, arc_wide_fraction=1.0))
+    racks = []
+    res = run_esg_calibration(3, tmp_path, params=p, rack_hook=racks.append,
+                              with_study=False)
+    rej = _rejections(tmp_path)
+    assert any("off the setting's agreeing lines" in r for r in rej)
+    t0 = res_t_zero(tmp_path)
+    assert _used_lines_match_truth(tmp_path, racks[0], t0, 6e-5) > 500
+    for s in res["schedules"]:
+        assert s["true_readout_rms_arcsec"] < GOAL
+
+
+def res_t_zero(out: Path) -> float:
+    for line in (out / "journal.jsonl").read_text().splitlines():
+        rec = json.loads(line)
+        if rec.get("step") == "DP.1":
+            return rec["reading"]["t_zero_s"]
+    raise AssertionError("no DP.1 step")
+
+
+def test_corrupted_lines_are_rejected_with_a_reason(tmp_path):
+    racks = []
+
+    def hook(rack):
+        rack.processor.corrupt_every = 7
+        racks.append(rack)
+
+    res = run_esg_calibration(4, tmp_path, rack_hook=hook, with_study=False)
+    for s in res["schedules"]:
+        assert s["true_readout_rms_arcsec"] < GOAL
+    rej = _rejections(tmp_path)
+    assert len(rej) > 30
+    assert all(":" in r for r in rej)
+    assert any("non-digit" in r for r in rej) and any("period" in r for r in rej)
+    assert _used_lines_match_truth(tmp_path, racks[0], res_t_zero(tmp_path), 6e-5) > 500
+
+
+def test_head_that_stops_answering_stops_the_run_naming_it(tmp_path):
+    def hook(rack):
+        def silence():
+            yield rack.env.timeout(int(6200e9))
+            rack.head.silent = True
+
+        rack.env.process(silence())
+
+    with pytest.raises(ProcedureError) as e:
+        run_esg_calibration(1, tmp_path, rack_hook=hook, with_study=False)
+    assert "head" in str(e.value) and "ESG-" in str(e.value)
+    steps = [json.loads(x) for x in (tmp_path / "journal.jsonl").read_text().splitlines()]
+    done = [r["step"] for r in steps if r.get("kind") == "step"]
+    assert "4a" in done and "9.01" in done and "DP.1" in done
+
+
+def test_config_errors_name_the_field(tmp_path):
+    bad = tmp_path / "bad.toml"
+    bad.write_text("[esg.pattern]\nroughness_rms_in = -1\n")
+    with pytest.raises(ConfigError, match=r"esg\.pattern\.roughness_rms_in"):
+        load_esg_params(bad)
+    bad.write_text("[esg]\nspin_rpm = 250\n")
+    with pytest.raises(ConfigError, match=r"esg\.spin_rpm"):
+        load_esg_params(bad)
+    r = CliRunner().invoke(app, ["esg-calibration", "--config", str(bad), "--out",
+                                 str(tmp_path / "x")])
+    assert r.exit_code == 2 and "spin_rpm" in r.output
+    good = tmp_path / "good.toml"
+    good.write_text("[esg]\nlatitude_deg = 40.0\n[esg.pattern]\nroughness_rms_in = 2e-5\n")
+    p = load_esg_params(good)
+    assert p.latitude_deg == 40.0 and p.pattern.roughness_rms_in == 2e-5

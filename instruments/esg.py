@@ -1,6 +1,6 @@
 """Serial instruments of the ESG laboratory (report 004: strapdown ESG on a dividing head).
 
-Protocols as in docs/esg-contract.md (folded into docs/protocols.md, "ESG laboratory").
+Protocols as in docs/esg.md (folded into docs/protocols.md, "ESG laboratory").
 
 Data processor (two counters on two of the three pickoffs, 100 MHz counts):
   SEL <a> <b>     counters A and B to pickoffs a, b (1..3, distinct)           -> OK

@@ -176,3 +176,16 @@ def test_config_errors_name_the_field(tmp_path):
     good.write_text("[esg]\nlatitude_deg = 40.0\n[esg.pattern]\nroughness_rms_in = 2e-5\n")
     p = load_esg_params(good)
     assert p.latitude_deg == 40.0 and p.pattern.roughness_rms_in == 2e-5
+
+
+def test_predicted_assignment_error_is_honest_over_seeds(tmp_path):
+    """Monte Carlo over seeds: the rms of (assigned - true colatitude) against the rms of
+    the predicted sigmas (bench/esg_mc.py: 1.12 over 30 seeds)."""
+    obs, pred = [], []
+    for seed in range(200, 208):
+        res = run_esg_calibration(seed, tmp_path / str(seed), with_study=False)
+        s = res["schedules"][0]
+        obs.append(s["assignment_rms_arcsec"])
+        pred.append(s["predicted_assignment_rms_arcsec"])
+    q = math.sqrt(sum(x * x for x in obs) / sum(x * x for x in pred))
+    assert 0.6 < q < 1.6, (q, obs, pred)

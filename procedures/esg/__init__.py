@@ -1,6 +1,6 @@
 """Strapdown ESG readout laboratory (report 004): data reduction and readout study.
 
-Pure functions, no instrument I/O (docs/esg-contract.md, "Reduction and study"):
+Pure functions, no instrument I/O (docs/esg.md, "Reduction and study"):
 
 * ``mechanization``  nominal great-circle mechanization (eqs. 4-10), equal-ratio points
 * ``chebyshev_fit``  weighted Chebyshev least squares of the deviation (eqs. 11-12)

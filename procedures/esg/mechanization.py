@@ -1,6 +1,6 @@
 """Nominal mechanization of the great-circle pattern (report 004, eqs. 1-10).
 
-Conventions (docs/esg-contract.md): the two trailing edges are the minor circles
+Conventions (docs/esg.md): the two trailing edges are the minor circles
 
     b sin(th) sin(ph) + c cos(th) = d_k,      normal (0, b, c), b = sin i, c = cos i,
 

@@ -1,4 +1,4 @@
-"""Strapdown electrically suspended gyro laboratory of report 004 (docs/esg-contract.md)."""
+"""Strapdown electrically suspended gyro laboratory of report 004 (docs/esg.md)."""
 
 from sim.esg.processor import LineCounts, ProcessorSettings, SignalSpec
 from sim.esg.world import EsgParams, EsgWorld

@@ -1,6 +1,6 @@
 """Spin speed and spin-axis motion of the ESG rotor in the lab frame (report 004, sec. 3).
 
-Lab frame L = ENU (docs/esg-contract.md). In inertial space the spin axis s moves only
+Lab frame L = ENU (docs/esg.md). In inertial space the spin axis s moves only
 under torque; seen from the Earth-fixed lab it also turns against the Earth:
 
     ds/dt = s x (k down + Omega_E) + e_electric + damping,   k = (m g delta) / (I w).

@@ -2,7 +2,7 @@
 
 A Leitz dividing head on a turntable with tilt carries the gyro case; a control console
 spins, damps and monitors the rotor; the data processor times the pickoff pulses. The
-interface is docs/esg-contract.md. Nothing here schedules simpy events: every state is a
+interface is docs/esg.md. Nothing here schedules simpy events: every state is a
 function of the time, moves and console commands take effect at computed times, and a
 data line is computed in one vectorised call. All random draws come from
 `sim.rng.stream(seed, "esg", ...)`.

@@ -6,14 +6,13 @@ magnitudes, slew rate, averaging time); a bad field is refused with a message na
 
 from __future__ import annotations
 
-import tomllib
 from dataclasses import replace
 from pathlib import Path
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError
+from pydantic import BaseModel, ConfigDict, Field
 
 from sim.cigtf_world import CigtfParams
-from station.config import ConfigError
+from station.config import read_section
 
 
 class CigtfConfig(BaseModel):
@@ -31,17 +30,5 @@ def load_cigtf_params(path: str | Path | None) -> CigtfParams:
     """The default CigtfParams with the file's [cigtf] settings applied."""
     if path is None:
         return CigtfParams()
-    try:
-        with open(path, "rb") as f:
-            data = tomllib.load(f).get("cigtf", {})
-    except FileNotFoundError:
-        raise ConfigError(f"configuration file not found: {path}") from None
-    except tomllib.TOMLDecodeError as e:
-        raise ConfigError(f"{path} is not valid TOML: {e}") from None
-    try:
-        cfg = CigtfConfig.model_validate(data)
-    except ValidationError as e:
-        lines = [f"invalid CIGTF configuration in {path}:"]
-        lines += [f"  cigtf.{'.'.join(map(str, er['loc']))}: {er['msg']}" for er in e.errors()]
-        raise ConfigError("\n".join(lines)) from None
+    cfg = read_section(path, "cigtf", CigtfConfig, "CIGTF")
     return replace(CigtfParams(), **{k: v for k, v in cfg.model_dump().items() if v is not None})

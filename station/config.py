@@ -38,6 +38,25 @@ class ConfigError(ValueError):
     """A configuration that cannot be used; the message names the file and the field."""
 
 
+def read_section(path: str | Path, section: str, model: type[BaseModel], what: str):
+    """One TOML section validated by ``model``; every failure is a ConfigError naming the
+    file and the field (``section.field``)."""
+    try:
+        with open(path, "rb") as f:
+            data = tomllib.load(f).get(section, {})
+    except FileNotFoundError:
+        raise ConfigError(f"configuration file not found: {path}") from None
+    except tomllib.TOMLDecodeError as e:
+        raise ConfigError(f"{path} is not valid TOML: {e}") from None
+    try:
+        return model.model_validate(data)
+    except ValidationError as e:
+        lines = [f"invalid {what} configuration in {path}:"]
+        lines += [f"  {section}.{'.'.join(map(str, er['loc']))}: {er['msg']}"
+                  for er in e.errors()]
+        raise ConfigError("\n".join(lines)) from None
+
+
 class CanLink(BaseModel):
     model_config = ConfigDict(extra="allow", frozen=True)
     interface: str

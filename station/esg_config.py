@@ -7,15 +7,14 @@ field is refused with a message naming it (esg.pattern.roughness_rms_in, ...).
 
 from __future__ import annotations
 
-import tomllib
 from dataclasses import replace
 from pathlib import Path
 from typing import Literal
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError
+from pydantic import BaseModel, ConfigDict, Field
 
 from sim.esg.world import EsgParams
-from station.config import ConfigError
+from station.config import read_section
 
 _STRICT = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
 
@@ -64,17 +63,5 @@ def load_esg_params(path: str | Path | None) -> EsgParams:
     """The default EsgParams with the file's [esg] settings applied."""
     if path is None:
         return EsgParams()
-    try:
-        with open(path, "rb") as f:
-            data = tomllib.load(f).get("esg", {})
-    except FileNotFoundError:
-        raise ConfigError(f"configuration file not found: {path}") from None
-    except tomllib.TOMLDecodeError as e:
-        raise ConfigError(f"{path} is not valid TOML: {e}") from None
-    try:
-        cfg = EsgConfig.model_validate(data)
-    except ValidationError as e:
-        lines = [f"invalid ESG configuration in {path}:"]
-        lines += [f"  esg.{'.'.join(map(str, er['loc']))}: {er['msg']}" for er in e.errors()]
-        raise ConfigError("\n".join(lines)) from None
+    cfg = read_section(path, "esg", EsgConfig, "ESG")
     return params_from(cfg)

@@ -20,7 +20,9 @@ from typing import Protocol
 import numpy as np
 
 from procedures.esg import geometry as geo
+from procedures.esg.mechanization import NominalParams, nominal_colatitude, nominal_count_ratio
 from procedures.esg.readings import Setting, read_setting
+from procedures.esg.readout import pickoffs_from_mirrors
 from procedures.runner import Run
 from station.drivers.esg import (
     ConsoleDriver,
@@ -72,37 +74,28 @@ class EsgPlan:
 
 
 # ---------------------------------------------------------------- design mechanization
-def design_colatitude_deg(cr: float, inclination_deg: float) -> float:
-    """Colatitude from a count ratio for the drawing's great circle (eq. 9: d = 0).
-
-    With mu = 2 pi CR and X = cos(mu/2), b X sin(th) + c cos(th) = 0, so
-    cos(th) = -b X / sqrt(c^2 + b^2 X^2) (b = sin i, c = cos i).
-    """
+def design_params(inclination_deg: float) -> NominalParams:
+    """The drawing's great circle: b = sin i, c = cos i, no edge offset (eq. 9)."""
     i = math.radians(inclination_deg)
-    b, c = math.sin(i), math.cos(i)
-    x = math.cos(math.pi * cr)
-    return math.degrees(math.acos(-b * x / math.sqrt(c * c + b * b * x * x)))
+    return NominalParams(math.sin(i), math.cos(i), 0.0)
+
+
+def design_colatitude_deg(cr: float, inclination_deg: float) -> float:
+    """Colatitude from a count ratio for the drawing's great circle (eq. 9: d = 0)."""
+    return float(nominal_colatitude(cr, design_params(inclination_deg)))
 
 
 def design_slope_per_deg(theta_deg: float, inclination_deg: float) -> float:
     """d(CR)/d(theta) of the drawing's pattern at a colatitude (numerical, per degree)."""
-    i = math.radians(inclination_deg)
-    b, c = math.sin(i), math.cos(i)
-
-    def cr(th: float) -> float:
-        s = -c / b * math.cos(math.radians(th)) / math.sin(math.radians(th))
-        return 0.5 - math.asin(max(-1.0, min(1.0, s))) / math.pi
-
-    h = 0.01
-    return (cr(theta_deg + h) - cr(theta_deg - h)) / (2 * h)
+    p, h = design_params(inclination_deg), 0.01
+    return float(nominal_count_ratio(theta_deg + h, p)
+                 - nominal_count_ratio(theta_deg - h, p)) / (2 * h)
 
 
 def equal_ratio_direction(mirror_angle_deg: float) -> np.ndarray:
     """Spin direction in the case at equal angles to the three pickoffs (p1 = m1, p2 = m2
     in the c1-c2 plane at the measured mirror angle, p3 across both)."""
-    g = math.radians(mirror_angle_deg)
-    p = np.array([[1.0, 0.0, 0.0], [math.cos(g), math.sin(g), 0.0], [0.0, 0.0, 1.0]])
-    return geo.unit(np.linalg.solve(p, np.ones(3)))
+    return geo.unit(np.linalg.solve(pickoffs_from_mirrors(mirror_angle_deg), np.ones(3)))
 
 
 # ---------------------------------------------------------------- acquisition record
@@ -196,9 +189,7 @@ def _spin_axis_lab(st: Station, plan: EsgPlan, cr: dict[int, float | None]) -> n
     alpha = np.array([math.cos(math.radians(design_colatitude_deg(cr[i], plan
                                                                   .design_inclination_deg)))
                       for i in (1, 2, 3)])
-    g = math.radians(plan.mirror_angle_deg)
-    p = np.array([[1.0, 0.0, 0.0], [math.cos(g), math.sin(g), 0.0], [0.0, 0.0, 1.0]])
-    s_case = geo.unit(np.linalg.solve(p, alpha))
+    s_case = geo.unit(np.linalg.solve(pickoffs_from_mirrors(plan.mirror_angle_deg), alpha))
     return geo.r_lc(*_settings(st)) @ s_case
 
 

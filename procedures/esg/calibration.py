@@ -15,7 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from procedures.esg.acquisition import Acquisition, EsgPlan, Scan, fine_slope
+from procedures.esg.acquisition import Acquisition, EsgPlan, Scan, design_slope_per_deg, fine_slope
 from procedures.esg.chebyshev_fit import ChebyshevFit, fit_deviation
 from procedures.esg.mechanization import (
     NominalParams,
@@ -88,8 +88,6 @@ def budget(acq: Acquisition, plan: EsgPlan, n_lines: int = 5) -> Budget:
     k = -fine_slope(sc9)  # per degree of colatitude
     s_line = _line_sigma(acq)
     s_set = s_line / math.sqrt(n_lines)
-    from procedures.esg.acquisition import design_slope_per_deg
-
     k_a = abs(design_slope_per_deg(acq.theta_star_deg, plan.design_inclination_deg))
     head = HEAD_SIGMA_ARCSEC / 3600.0
     s_cr_ab = s_set * math.sqrt(2.5) / 3.0  # mean of three pickoffs, pickoff 2 read twice

@@ -105,17 +105,13 @@ class Station:
     ieu: IeuDriver
     links: dict[str, str] = field(default_factory=dict)
 
+    def drivers(self) -> list:
+        return [self.table, self.patch_panel, self.bubble_levels, self.oscillator,
+                *self.counters.values(), *self.autocollimators.values(), self.ieu]
+
     def close(self) -> None:
-        for d in (
-            self.table,
-            self.patch_panel,
-            self.bubble_levels,
-            self.oscillator,
-            *self.counters.values(),
-            *self.autocollimators.values(),
-        ):
+        for d in self.drivers():
             d.close()
-        self.ieu.close()
 
 
 def open_station(
@@ -131,7 +127,7 @@ def open_station(
     links = {n: _bind(u, rid) for n, u in cfg.links.serial.items()}
     can_cfg = can_config(cfg, rid)
     links["ieu"] = f"{can_cfg['interface']}:{can_cfg['channel']}"
-    return Station(
+    st = Station(
         clock=clock,
         table=TableDriver(links["table"], clock, timeout=timeout),
         patch_panel=PatchPanelDriver("patch_panel", links["patch_panel"], timeout),
@@ -147,3 +143,6 @@ def open_station(
         ieu=IeuDriver(can_cfg, timeout=timeout),
         links=links,
     )
+    for d in st.drivers():
+        d.bind_clock(clock)
+    return st

@@ -109,7 +109,7 @@ class ProcessorDriver(SerialDriver):
         """Write ``cmd``; the next line that is not a data line (partial on a timeout)."""
         port = self.port
         try:
-            port.timeout = timeout
+            port.timeout = self.link_seconds(timeout)
             port.write((cmd + "\n").encode("ascii"))
             for _ in range(_MAX_SKIPPED):
                 raw = port.read_until(b"\n")
@@ -119,7 +119,7 @@ class ProcessorDriver(SerialDriver):
         except (serial.SerialException, OSError) as e:
             raise DriverError(self.name, self.url, f"link failed during '{cmd}': {e}") from None
         finally:
-            port.timeout = self.timeout
+            port.timeout = self.link_seconds(self.timeout)
 
     def _sync(self) -> None:
         """After a timeout the late reply may still come: drop the input, ask ``*IDN?`` and
@@ -217,7 +217,7 @@ class ProcessorDriver(SerialDriver):
         out: list[DataLine | BadLine] = []
         checker = LineChecker(selected, run)
         port = self.port
-        port.timeout = LINE_S * 1.5 + self.timeout
+        port.timeout = self.link_seconds(LINE_S * 1.5 + self.timeout)
         try:
             while len(out) < k:
                 try:
@@ -231,7 +231,7 @@ class ProcessorDriver(SerialDriver):
                     break
                 out.append(checker.check(raw))
         finally:
-            port.timeout = self.timeout
+            port.timeout = self.link_seconds(self.timeout)
         if len(out) < k:
             n = len(out)
             out.extend(BadLine("", f"line lost: stream ended after {n} of {k} lines")

@@ -71,6 +71,12 @@ class IeuDriver:
         self._newest: int | None = None  # newest sequence number seen (recover mode)
         self.recoveries: list[dict] = []  # recover mode: {"seq", "missing", "resends"}
         self.garbled = 0  # recover mode: undecodable frames ignored
+        self.clock = None  # set by bind_clock on OS-level links
+
+    def bind_clock(self, clock) -> None:
+        """Over OS-level links, time samples by the station clock on receipt (a hardware
+        socketcand or slcan stamps in its own time base) and give the bus wall timeouts."""
+        self.clock = None if clock.virtual else clock
 
     def close(self) -> None:
         self.bus.shutdown()
@@ -88,7 +94,7 @@ class IeuDriver:
 
     def _recv(self, timeout: float) -> tuple[str, dict, float]:
         try:
-            m = self.bus.recv(timeout)
+            m = self.bus.recv(timeout if self.clock is None else self.clock.link_seconds(timeout))
         except can.CanError as e:
             raise DriverError(self.name, self.link, f"receive failed: {e}") from None
         if m is None:
@@ -100,7 +106,8 @@ class IeuDriver:
             raise GarbledFrame(
                 self.name, self.link, f"garbled frame id 0x{m.arbitration_id:03x}: {e}"
             ) from None
-        return spec.name, sig, float(m.timestamp)
+        t = float(m.timestamp) if self.clock is None else self.clock.now()
+        return spec.name, sig, t
 
     def _reply(self, command: int, period: int = 1) -> dict:
         self._send(command, period)

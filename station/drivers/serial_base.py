@@ -6,6 +6,8 @@ DriverError subclasses naming the instrument, the link and the current procedure
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import serial
 
 import station.links  # noqa: F401  (registers the sim:// handler)
@@ -17,10 +19,17 @@ class SerialDriver:
         self.name = name
         self.url = url
         self.timeout = timeout
+        self.link_seconds: Callable[[float], float] = float  # station -> link timeout
         try:
             self.port = serial.serial_for_url(url, timeout=timeout, baudrate=115200)
         except (serial.SerialException, OSError, ValueError) as e:
             raise DriverError(name, url, f"cannot open link: {e}") from None
+
+    def bind_clock(self, clock) -> None:
+        """Give the link its timeouts in wall seconds when the station runs on a real-time
+        clock (a served rack may run faster than the wall); virtual links keep them."""
+        self.link_seconds = clock.link_seconds
+        self.port.timeout = self.link_seconds(self.timeout)
 
     def close(self) -> None:
         self.port.close()
@@ -30,14 +39,14 @@ class SerialDriver:
         port = self.port
         try:
             if timeout is not None:
-                port.timeout = timeout
+                port.timeout = self.link_seconds(timeout)
             port.write((cmd + "\n").encode("ascii"))
             raw = port.read_until(b"\n")
         except (serial.SerialException, OSError) as e:
             raise DriverError(self.name, self.url, f"link failed during '{cmd}': {e}") from None
         finally:
             if timeout is not None:
-                port.timeout = self.timeout
+                port.timeout = self.link_seconds(self.timeout)
         if not raw.endswith(b"\n"):
             waited = self.timeout if timeout is None else timeout
             got = f" (partial reply {raw[:40]!r})" if raw else ""

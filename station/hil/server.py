@@ -16,11 +16,13 @@ import os
 import signal
 import sys
 import threading
+import time
+import uuid
 from collections.abc import Iterable
 from pathlib import Path
 
 from station.config import ConfigError, StationConfig, load_config
-from station.hil import link_map
+from station.hil import link_map, session
 from station.hil.can_hub import CanHub
 from station.hil.link_map import LinkEntry
 from station.hil.realtime import RealtimeEnv
@@ -51,8 +53,11 @@ class HilServer:
     ) -> None:
         self.links_dir = Path(links_dir).resolve()
         self.links_dir.mkdir(parents=True, exist_ok=True)
-        (self.links_dir / link_map.FILENAME).unlink(missing_ok=True)  # a dead server's map
+        for stale in (link_map.FILENAME, session.FILENAME):  # a dead server's files
+            (self.links_dir / stale).unlink(missing_ok=True)
         self.env = RealtimeEnv(speed, max_lag_s)
+        self.cfg = cfg
+        self.session_id = uuid.uuid4().hex[:12]
         self.rack = SimulatedRack(cfg, env=self.env)
         self.serial: dict[str, SerialPtyLink] = {}
         self.hub: CanHub | None = None
@@ -62,6 +67,7 @@ class HilServer:
         self.done = threading.Event()
         self._thread = threading.Thread(target=self._run, name="sim", daemon=True)
         self._map_path: Path | None = None
+        self._session_path: Path | None = None
         try:
             names = self._select(only)
             for n in names:
@@ -113,8 +119,22 @@ class HilServer:
         if self.slcan is not None:
             self.slcan.start()
         self._thread.start()
+        while not self.env.running and not self.done.is_set():
+            time.sleep(0.001)  # the simulation thread anchors its time base first
+        self.publish_session()
         self._map_path = link_map.write(self.links_dir, self.entries())
         return self._map_path
+
+    def session(self) -> session.Session:
+        return session.Session(
+            session=self.session_id, station="isu", seed=self.cfg.seed, speed=self.env.speed,
+            config_digest=session.config_digest(self.cfg), t0_monotonic=self.env.wall_at(0),
+            pid=os.getpid(),
+        )
+
+    def publish_session(self) -> None:
+        """(Re)write session.json: the time base moves when the physics slips behind."""
+        self._session_path = session.write(self.links_dir, self.session())
 
     def _run(self) -> None:
         try:
@@ -134,9 +154,11 @@ class HilServer:
         self.env.stop()
         if self._thread.is_alive():
             self._thread.join(10.0)
-        if self._map_path is not None:
-            self._map_path.unlink(missing_ok=True)
-            self._map_path = None
+        for attr in ("_map_path", "_session_path"):
+            path = getattr(self, attr)
+            if path is not None:
+                path.unlink(missing_ok=True)
+                setattr(self, attr, None)
         if self.socketcand is not None:
             self.socketcand.close()
         if self.slcan is not None:
@@ -188,8 +210,11 @@ def _serve_until_stopped(server: HilServer, speed: float, cfg: StationConfig) ->
     try:
         server.start()
         _print_map(server, speed, cfg)
+        published = 0.0
         while not server.done.wait(1.0):
-            pass
+            if server.env.slipped_s - published > 1e-3:  # the time base moved
+                published = server.env.slipped_s
+                server.publish_session()
     finally:
         for sig, h in handlers.items():
             signal.signal(sig, h)

@@ -1,0 +1,55 @@
+"""What a served rack tells its clients besides the link map: ``DIR/session.json``.
+
+The session names the server run (so a client can tell a restarted rack from the one it
+was talking to), the station it serves, the seed and a digest of the configuration (so a
+client can say whether its own config describes the served world, and only then compare
+with truth), and the time base: ``speed`` and the ``time.monotonic()`` reading at which
+the rack's simulated time was zero. CLOCK_MONOTONIC is shared by the processes of one
+machine, so a client's WallClock built from it reads the rack's simulated seconds.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+from pydantic import BaseModel
+
+FILENAME = "session.json"
+
+
+@dataclass(frozen=True)
+class Session:
+    session: str  # unique per server start
+    station: str  # "isu" | "cigtf" | "esg"
+    seed: int
+    speed: float
+    config_digest: str
+    t0_monotonic: float  # monotonic wall time at which simulated time 0 was due
+    pid: int
+
+
+def config_digest(cfg: BaseModel) -> str:
+    """Digest of everything in a config but its links (the same world, whatever the wiring)."""
+    data = cfg.model_dump(mode="json", exclude={"links"})
+    return hashlib.sha256(json.dumps(data, sort_keys=True).encode()).hexdigest()[:16]
+
+
+def write(links_dir: Path, s: Session) -> Path:
+    """Write atomically (a reader never sees half of it)."""
+    path = Path(links_dir) / FILENAME
+    tmp = Path(links_dir) / f".{FILENAME}.tmp"
+    tmp.write_text(json.dumps(asdict(s), indent=2) + "\n")
+    os.replace(tmp, path)
+    return path
+
+
+def read(links_dir: Path) -> Session | None:
+    """The session of the rack served under ``links_dir``, or None if there is none."""
+    path = Path(links_dir) / FILENAME
+    if not path.exists():
+        return None
+    return Session(**json.loads(path.read_text()))

@@ -9,7 +9,9 @@ allows from the positions measured.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import Any
 
 from procedures import settings as st_settings
 from procedures.accel_static import accel_positions_7_12, accel_positions_13_14
@@ -41,15 +43,41 @@ class DayData:
     j_term: dict[int, list[dict]] = field(default_factory=dict)
 
 
+def _by_position(d: dict) -> dict[int, Any]:
+    """A journaled {position: ...} mapping (JSON keys are strings) with integer keys again."""
+    return {int(k): v for k, v in d.items()}
+
+
+def _pairs(first: tuple[int, ...], positions: set[int] | None) -> tuple[int, ...]:
+    """The pairs (m, m + 1) that hold a wanted position: a pair is measured whole."""
+    return tuple(m for m in first if positions is None or {m, m + 1} & positions)
+
+
+def _singles(all_: tuple[int, ...], positions: set[int] | None) -> tuple[int, ...]:
+    return tuple(m for m in all_ if positions is None or m in positions)
+
+
 def measure_day(st, run: Run, plan: DayPlan, site: dict, f0: float,
-                only: tuple[str, ...] | None = None) -> DayData:
-    """Turn-on, survey, settings and the measurement check-sheets; returns the data."""
+                only: tuple[str, ...] | None = None,
+                positions: tuple[int, ...] | None = None) -> DayData:
+    """Turn-on, survey, settings and the measurement check-sheets; returns the data.
+
+    ``positions`` restricts the position charts (II-6, II-11..II-14) to those positions; a
+    position of a pair (m, m + 1, the second reached by turning phi3) brings its pair.
+    Every chart is a journaled block (``Run.block``), so a resume over links restores the
+    charts already completed and repeats only the interrupted one.
+    """
     wanted = set(EXPERIMENTS if not only else only)
     unknown = wanted - set(EXPERIMENTS) - {"I-1", "I-2"}
     if unknown:
         raise ValueError(f"unknown chart(s) {sorted(unknown)}; choose from {EXPERIMENTS}")
-    turn_on(st, run, plan.warmup_s)
-    survey = system_survey(st, run, site)
+    pos = None if positions is None else set(positions)
+    if pos is not None and not pos <= set(range(1, 16)):
+        raise ValueError(f"unknown position(s) {sorted(pos - set(range(1, 16)))}; "
+                         "calibration positions are 1 to 15")
+    run.block("I-1", lambda: turn_on(st, run, plan.warmup_s), lambda _: None)
+    survey = run.block("I-2", lambda: system_survey(st, run, site),
+                       SurveyResults.model_validate)
     s1 = st.oscillator.s_t(1)
     settings = resolver_settings(survey)
     run.save_sheet("resolver_settings", settings)
@@ -67,23 +95,41 @@ def measure_day(st, run: Run, plan: DayPlan, site: dict, f0: float,
     run.save_sheet("counter_settings", presets)
     outputs = CounterOutputs()
     data = DayData(survey=survey, s1=s1, f0=f0)
-    if "II-6" in wanted:
-        data.gyro.update(scale_factor_positions(st, run, settings, plan, outputs))
+
+    def chart(key: str, fn: Callable[[], Any]) -> Any:
+        """One measurement chart as a block: its data and its Counter Outputs rows."""
+        def measure() -> dict:
+            before = dict(outputs.outputs)
+            got = fn()
+            rows = {k: v for k, v in outputs.outputs.items() if before.get(k) != v}
+            return {"data": got, "outputs": rows}
+
+        value = run.block(key, measure, lambda v: v)
+        outputs.outputs.update(value["outputs"])
+        return _by_position(value["data"])
+
+    if "II-6" in wanted and (pairs := _pairs((1, 3, 5), pos)):
+        data.gyro.update(chart("II-6", lambda: scale_factor_positions(
+            st, run, settings, plan, outputs, pairs)))
     if "II-7" in wanted:
-        data.nonlinearity = nonlinearity_experiment(
-            st, run, settings, plan, s1, site["omega_sin_lambda"]
-        )
+        data.nonlinearity = chart("II-7", lambda: nonlinearity_experiment(
+            st, run, settings, plan, s1, site["omega_sin_lambda"]))
     if "II-7Q" in wanted:
-        data.q_is = q_is_experiment(st, run, survey.t_bi, plan, s1, site["omega_sin_lambda"])
+        data.q_is = chart("II-7Q", lambda: q_is_experiment(
+            st, run, survey.t_bi, plan, s1, site["omega_sin_lambda"]))
     if "II-10" in wanted:
-        data.j_term = j_experiment(st, run, settings, plan, s1)
-    if "II-11" in wanted:
-        data.gyro.update(gyro_positions_7_12(st, run, settings, presets, outputs, s1))
-    if "II-12" in wanted:
-        data.gyro.update(gyro_positions_13_15(st, run, settings, presets, outputs, s1))
-    if "II-13" in wanted:
-        data.accel.update(accel_positions_7_12(st, run, settings, presets, outputs, s1, f0))
-    if "II-14" in wanted:
-        data.accel.update(accel_positions_13_14(st, run, settings, presets, outputs, s1, f0))
+        data.j_term = chart("II-10", lambda: j_experiment(st, run, settings, plan, s1))
+    if "II-11" in wanted and (pairs := _pairs((7, 9, 11), pos)):
+        data.gyro.update(chart("II-11", lambda: gyro_positions_7_12(
+            st, run, settings, presets, outputs, s1, pairs)))
+    if "II-12" in wanted and (singles := _singles((13, 14, 15), pos)):
+        data.gyro.update(chart("II-12", lambda: gyro_positions_13_15(
+            st, run, settings, presets, outputs, s1, singles)))
+    if "II-13" in wanted and (pairs := _pairs((7, 9, 11), pos)):
+        data.accel.update(chart("II-13", lambda: accel_positions_7_12(
+            st, run, settings, presets, outputs, s1, f0, pairs)))
+    if "II-14" in wanted and (singles := _singles((13, 14), pos)):
+        data.accel.update(chart("II-14", lambda: accel_positions_13_14(
+            st, run, settings, presets, outputs, s1, f0, singles)))
     run.save_sheet("counter_outputs", outputs)
     return data

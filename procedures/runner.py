@@ -4,10 +4,16 @@ Every completed step is one journal record (chart, step number, text, simulated 
 reading). A failing step stops its procedure with ``ProcedureError`` naming the chart and
 step; everything recorded before it stays in the journal.
 
-Resume: a run opened on an existing journal re-executes the procedures from the start and
-checks each step it repeats against the journal (in virtual time this replay is exact and
-takes seconds), then goes on appending. A mismatch means the seed, the config or the code
-changed, and is refused.
+Resume has two modes. ``replay`` (virtual time): a run opened on an existing journal
+re-executes the procedures from the start and checks each step it repeats against the
+journal (in virtual time this replay is exact and takes seconds), then goes on appending;
+a mismatch means the seed, the config or the code changed, and is refused. ``skip`` (real
+time, over links, where repeating hours of measurement is not an option and readings are
+never bit-identical): each whole chart run through :meth:`Run.block` journals its result;
+a completed chart is restored from the journal with the sheets it saved, and the first
+incomplete chart is repeated from its first step (its earlier partial steps stay in the
+journal as history). ``repeat`` names blocks to run again even if completed (turn-on after
+the rack was power-cycled).
 """
 
 from __future__ import annotations
@@ -16,14 +22,16 @@ import datetime as dt
 import json
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
-from typing import Any
+from typing import Any, TypeVar
 
 from procedures.journal import Journal, dumps
-from procedures.sheets import CheckSheet, StepRecord
+from procedures.sheets import SHEET_MODELS, CheckSheet, StepRecord
 from station.clock import Clock
 from station.errors import current_step
 
 VOLATILE = ("wall",)
+RESUME_MODES = ("replay", "skip")
+T = TypeVar("T")
 
 
 class ProcedureError(Exception):
@@ -55,12 +63,26 @@ class Run:
         clock: Clock,
         journal: Journal,
         listener: Callable[[dict], None] | None = None,
+        resume: str = "replay",
+        repeat: tuple[str, ...] = (),
     ) -> None:
+        if resume not in RESUME_MODES:
+            raise ValueError(f"resume mode must be one of {RESUME_MODES}, got {resume!r}")
         self.clock = clock
         self.journal = journal
         self.listener = listener
-        self._old = [r for r in journal.records if r.get("kind") in ("step", "sheet")]
+        self.resume = resume
+        self.repeat = set(repeat)
+        old = journal.records
+        self._blocks = {r["key"]: r for r in old if r.get("kind") == "block"}
+        self._old = [r for r in old if r.get("kind") in ("step", "sheet")]
+        self._old_sheets: dict[str, Any] = {}
+        if resume == "skip":
+            self._old_sheets = {r["name"]: r["data"] for r in self._old if r["kind"] == "sheet"}
+            self._old = []
         self._pos = 0
+        self._saved: list[str] = []  # names of the sheets saved, in order
+        self.restored: list[str] = []  # blocks restored from the journal (skip mode)
         self.check_sheets: dict[str, CheckSheet] = {}
         self.sheets: dict[str, Any] = {}
 
@@ -100,7 +122,39 @@ class Run:
 
     def save_sheet(self, name: str, model: Any) -> None:
         self.sheets[name] = model
+        self._saved.append(name)
         self._emit({"kind": "sheet", "name": name, "data": model})
+
+    def block(self, key: str, fn: Callable[[], Any], load: Callable[[Any], T]) -> T:
+        """Run a whole chart ``fn`` and journal its result; return ``load`` of that result.
+
+        The result always goes through its journal form (JSON), so a fresh run and a run
+        restored from the journal see the same values. In skip mode a block completed in
+        the journal (and not in ``repeat``) is restored, with the sheets it saved, instead.
+        """
+        done = self._blocks.get(key)
+        if self.resume == "skip" and done is not None and key not in self.repeat:
+            for name in done.get("sheets", []):
+                self._restore_sheet(name)
+            self.restored.append(key)
+            self.journal.append({"kind": "note", "event": "restored", "block": key})
+            return load(done["data"])
+        first = len(self._saved)
+        value = json.loads(dumps({"x": fn()}))["x"]
+        if self.resume == "skip" or done is None:
+            rec = {"kind": "block", "key": key, "data": value,
+                   "sheets": list(dict.fromkeys(self._saved[first:]))}
+            self.journal.append(rec)
+            self._blocks[key] = rec
+        return load(value)
+
+    def _restore_sheet(self, name: str) -> None:
+        data = self._old_sheets[name]
+        model = SHEET_MODELS.get("check" if name.startswith("check_") else name)
+        value = model.model_validate(data) if model else data
+        self.sheets[name] = value
+        if isinstance(value, CheckSheet):
+            self.check_sheets[value.chart] = value
 
 
 class CheckSheetRun:

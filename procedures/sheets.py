@@ -97,3 +97,14 @@ class CalibrationResults(_Sheet):
 
     rows: list[ResultRow]
     positions_used: list[int]
+
+
+SHEET_MODELS: dict[str, type[_Sheet]] = {
+    "check": CheckSheet,  # every check_<chart> sheet
+    "survey_results": SurveyResults,
+    "resolver_settings": ResolverSettings,
+    "counter_connections": CounterConnections,
+    "counter_settings": CounterSettings,
+    "counter_outputs": CounterOutputs,
+    "calibration_results": CalibrationResults,
+}

@@ -36,32 +36,38 @@ from procedures.runner import Run
 from procedures.sheets import CalibrationResults, SurveyResults
 from procedures.turn_on import turn_on
 from station.config import StationConfig
-from station.rack import SimulatedRack, open_station
+from station.connect import connect
+from station.rack import SimulatedRack
 from station.record import write_results, write_sheets
 
 
 def alignment_entries(outcomes: list[Outcome], world) -> list[dict]:
-    """results.json entries: estimate against the true attitude at each ``t_ref``."""
+    """results.json entries: estimate against the true attitude at each ``t_ref``
+    (``world`` None, over links: the attitude is the server's, errors are absent)."""
     out = []
     for o in outcomes:
-        t_true = world.attitude(o.t_ref).T  # world.attitude is T^BE; T = T^EB
-        err = rotation_error_arcsec(o.t, t_true)
-        level = [err["east"], err["north"]]
         sig = o.predicted_sigma_arcsec
+        if world is None:
+            t_true, level, az, z = None, [None, None], None, [None, None, None]
+        else:
+            t_true = world.attitude(o.t_ref).T  # world.attitude is T^BE; T = T^EB
+            err = rotation_error_arcsec(o.t, t_true)
+            level, az = [err["east"], err["north"]], err["azimuth"]
+            z = [level[0] / sig[0], level[1] / sig[1], az / sig[2]]
+            t_true = t_true.tolist()
         out.append({
             "method": o.method,
             "estimator": o.estimator,
             "K": int(o.K),
             "dt": float(o.dt),
             "level_error_arcsec": level,
-            "azimuth_error_arcsec": err["azimuth"],
+            "azimuth_error_arcsec": az,
             "predicted_sigma_arcsec": list(sig),
             "physical_limit_arcsec": list(o.physical_limit_arcsec),
-            "error_over_sigma": [level[0] / sig[0], level[1] / sig[1],
-                                 err["azimuth"] / sig[2]],
+            "error_over_sigma": z,
             "t_ref_s": o.t_ref,
             "T": o.t.tolist(),
-            "T_true": t_true.tolist(),
+            "T_true": t_true,
         })
     return out
 
@@ -114,6 +120,8 @@ def render_alignment(console: Console, entries: list[dict]) -> None:
         z = e["error_over_sigma"]
 
         def f(x, zz):
+            if x is None:
+                return "-"
             s = f"{x:+.2f}"
             return f"[red]{s}[/]" if abs(zz) > 4 else s
 
@@ -137,6 +145,7 @@ def run_align(
     quiet: bool = False,
     warmup_s: float | None = None,
     rack_hook: Callable[[SimulatedRack], None] | None = None,
+    links: Path | None = None,
 ) -> dict:
     """One alignment into ``out``; returns the results dict (also ``out/results.json``).
 
@@ -145,6 +154,7 @@ def run_align(
     ``tape``: a parameter tape to use instead of producing one (checked against the
     experiment: a mismatch stops Chart III-4 step 8 / III-8 step 7 naming the parameter).
     ``rack_hook`` may inject faults into the simulated rack before anything runs.
+    ``links``: run over the links of a rack served under that directory (real time).
     """
     from procedures.computations import compute_calibration
     from procedures.day import measure_day
@@ -163,10 +173,8 @@ def run_align(
     if tape is not None:
         tapes = {method: read_tape(tape)}
     wall0 = time.perf_counter()
-    rack = SimulatedRack(cfg)
-    if rack_hook is not None:
-        rack_hook(rack)
-    st = open_station(cfg, rack)
+    conn = connect(cfg, links, rack_hook)
+    st = conn.station
     journal = Journal(out / "journal.jsonl")
     site = site_info(cfg)
     noise = noise_spec(cfg)
@@ -188,7 +196,7 @@ def run_align(
                                       estimators={method: (est,)}, tapes=tapes,
                                       tape_dir=out / "tapes", calibration_id=cal_id)
         write_sheets(out, run)
-        entries = alignment_entries(outcomes, rack.world)
+        entries = alignment_entries(outcomes, conn.attitude_world)
         res = {
             "seed": cfg.seed,
             "sim_seconds": st.clock.now(),
@@ -196,6 +204,7 @@ def run_align(
             "calibration": cal_id,
             "estimator_requested": estimator,
             "alignment": entries,
+            "links": None if links is None else str(links),
         }
         write_results(out, res)
         run.note(event="end", sim_seconds=st.clock.now())
@@ -207,5 +216,4 @@ def run_align(
         return res
     finally:
         journal.close()
-        st.close()
-        rack.close()
+        conn.close()

@@ -25,8 +25,9 @@ from procedures.plan import DayPlan
 from procedures.runner import Run
 from sim import units
 from station.config import StationConfig
+from station.connect import connect
 from station.plots import nonlinearity_plot
-from station.rack import SimulatedRack, open_station
+from station.rack import SimulatedRack
 from station.record import write_results, write_sheets
 from station.truth import calibration_truth
 
@@ -113,46 +114,65 @@ def render_results(console: Console, rows: list[dict]) -> None:
     console.print(t)
 
 
+def rack_session(journal: Journal) -> str | None:
+    """The served rack's session the journal's last run talked to (None: virtual)."""
+    starts = [r for r in journal.records if r.get("event") == "start"]
+    return starts[-1].get("session") if starts else None
+
+
 def run_day(cfg: StationConfig, out: Path, only: tuple[str, ...] | None = None,
             resume: bool = False, console: Console | None = None, quiet: bool = False,
             plan: DayPlan | None = None,
             rack_hook: Callable[[SimulatedRack], None] | None = None,
-            align: bool = True) -> dict:
+            align: bool = True, links: Path | None = None,
+            positions: tuple[int, ...] | None = None, start_s: float = 0.0) -> dict:
     """Run the day into ``out``; ``rack_hook`` may inject faults into the simulated rack.
 
     After the calibration the three alignments of Part III run (``align=False`` skips them).
+    ``links``: run over the links of a rack served under that directory (real time); a
+    resume then restores the completed charts instead of replaying them, and repeats
+    turn-on if the rack was restarted meanwhile. ``start_s`` (virtual): begin at that
+    simulated time, to compare with a rehearsal that began then.
     """
     console = console or Console()
     plan = plan or DayPlan()
     out.mkdir(parents=True, exist_ok=True)
     (out / "sheets").mkdir(exist_ok=True)
     wall0 = time.perf_counter()
-    rack = SimulatedRack(cfg)
-    if rack_hook is not None:
-        rack_hook(rack)
-    st = open_station(cfg, rack)
+    conn = connect(cfg, links, rack_hook, start_s)
+    st = conn.station
     journal = Journal(out / "journal.jsonl", resume=resume)
     try:
+        sid = conn.session.session if conn.session else None
+        repeat = ("I-1",) if resume and sid != rack_session(journal) else ()
         with DayDisplay(console, quiet) as display:
-            run = Run(st.clock, journal, listener=display)
-            run.note(event="start", seed=cfg.seed, only=list(only or ()), resume=resume)
-            data = measure_day(st, run, plan, site_info(cfg), cfg.isu.accels[0].f0_hz, only)
+            run = Run(st.clock, journal, listener=display,
+                      resume="replay" if links is None else "skip", repeat=repeat)
+            run.note(event="start", t_sim=st.clock.now(), seed=cfg.seed,
+                     only=list(only or ()), resume=resume,
+                     positions=list(positions or ()), session=sid,
+                     links=None if links is None else str(links))
+            data = measure_day(st, run, plan, site_info(cfg), cfg.isu.accels[0].f0_hz, only,
+                               positions)
             calib = compute_calibration(run, data, plan, noise_spec(cfg), site_info(cfg))
             alignment = []
             if align and data.survey is not None:
                 from station.align_cmd import day_alignments
 
-                alignment = day_alignments(st, run, calib, cfg, rack.world,
+                alignment = day_alignments(st, run, calib, cfg, conn.attitude_world,
                                            tape_dir=out / "tapes")
         write_sheets(out, run)
         nonlinearity_plot(data.nonlinearity, out / "nonlinearity.png")
-        rows = results_rows(calib, calibration_truth(rack.world))
+        world = conn.coefficient_world
+        rows = results_rows(calib, calibration_truth(world) if world else {})
         res = {
             "seed": cfg.seed,
             "sim_seconds": st.clock.now(),
             "wall_seconds": time.perf_counter() - wall0,
             "calibration": rows,
             "alignment": alignment,
+            "links": None if links is None else str(links),
+            "restored_charts": run.restored,
         }
         write_results(out, res)
         run.note(event="end", sim_seconds=st.clock.now())
@@ -165,8 +185,7 @@ def run_day(cfg: StationConfig, out: Path, only: tuple[str, ...] | None = None,
         return res
     finally:
         journal.close()
-        st.close()
-        rack.close()
+        conn.close()
 
 
 def noise_spec(cfg: StationConfig) -> NoiseSpec:

@@ -33,8 +33,9 @@ class Session:
 
 
 def config_digest(cfg: BaseModel) -> str:
-    """Digest of everything in a config but its links (the same world, whatever the wiring)."""
-    data = cfg.model_dump(mode="json", exclude={"links"})
+    """Digest of a config but its links and rehearsal faults: the same world and truth,
+    whatever the wiring."""
+    data = cfg.model_dump(mode="json", exclude={"links", "faults"})
     return hashlib.sha256(json.dumps(data, sort_keys=True).encode()).hexdigest()[:16]
 
 

@@ -1,0 +1,93 @@
+"""The ISU station a procedure command runs on: a simulated rack in virtual time, or the
+drivers alone over the links of a rack served in real time (``--links DIR``).
+
+Over links the procedures and drivers are the same; the differences are the link URLs
+(from the server's ``links.json``), the clock (real time on the served rack's time base)
+and ground truth: the coefficients of the served world are known only when the client's
+config and seed are the server's (checked by the session's config digest), and the
+attitude of the table only to the server, so alignment truth is absent over links.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+from sim.world import World
+from station.config import ConfigError, StationConfig
+from station.hil import profile, session
+from station.hil.session import Session
+from station.rack import SimulatedRack, Station, open_station
+
+
+@dataclass
+class Connection:
+    station: Station
+    rack: SimulatedRack | None  # the local simulated rack (virtual run only)
+    twin: SimulatedRack | None  # a never-run rack with the served world's seed and config
+    session: Session | None  # the served rack's session (over links only)
+
+    @property
+    def coefficient_world(self) -> World | None:
+        """A world whose true coefficients are those measured (None: unknown)."""
+        r = self.rack or self.twin
+        return r.world if r else None
+
+    @property
+    def attitude_world(self) -> World | None:
+        """A world whose table attitude is the one measured (virtual runs only)."""
+        return self.rack.world if self.rack else None
+
+    def close(self) -> None:
+        self.station.close()
+        for r in (self.rack, self.twin):
+            if r is not None:
+                r.close()
+
+
+def served_config(cfg: StationConfig, links_dir: Path) -> tuple[StationConfig, Session]:
+    """``cfg`` with its links pointed at the rack served under ``links_dir``."""
+    served = profile.served(links_dir)
+    if served.session.station != "isu":
+        raise ConfigError(f"{links_dir} serves the {served.session.station} station, not the "
+                          "ISU laboratory (station serve --station isu)")
+    missing = [n for n in cfg.links.serial if n not in served.serial]
+    if missing or "ieu" not in served.can:
+        raise ConfigError(f"the rack served under {links_dir} does not serve "
+                          f"{', '.join(missing + ([] if 'ieu' in served.can else ['ieu']))}")
+    links = {"serial": {n: served.serial[n] for n in cfg.links.serial},
+             "can": served.can["ieu"]}
+    data = cfg.model_dump()
+    data["links"] = links
+    return StationConfig.model_validate(data), served.session
+
+
+def connect(cfg: StationConfig, links_dir: Path | None = None,
+            rack_hook: Callable[[SimulatedRack], None] | None = None,
+            start_s: float = 0.0) -> Connection:
+    """Drivers on a local simulated rack (``links_dir`` None) or on a served one.
+
+    ``start_s`` (virtual only): let the rack run alone that long first, so that a virtual
+    run begins at the simulated time a rehearsal against a served rack began.
+    """
+    if links_dir is None:
+        rack = SimulatedRack(cfg)
+        try:
+            if rack_hook is not None:
+                rack_hook(rack)
+            st = open_station(cfg, rack)
+            st.clock.sleep(start_s)
+            return Connection(st, rack, None, None)
+        except BaseException:
+            rack.close()
+            raise
+    if start_s:
+        raise ValueError("a served rack runs on its own time: start_s is for virtual runs")
+    if rack_hook is not None:
+        raise ValueError("faults for a served rack are configured in the server's config "
+                         "([faults.<instrument>]), not injected by the client")
+    linked, s = served_config(cfg, links_dir)
+    same = s.seed == cfg.seed and s.config_digest == session.config_digest(cfg)
+    st = open_station(linked, clock=profile.ServedLinks({}, {}, s).clock())
+    return Connection(st, None, SimulatedRack(cfg) if same else None, s)

@@ -1,0 +1,227 @@
+"""Rehearsals: `station day --links` against `station serve` in another process, at 500x.
+
+The survey and calibration positions 7 and 8 run through the command line over ptys and
+socketcand while a second, plain python-can client decodes the IEU's frames with the DBC.
+The sheets must equal those of the virtual twin (same seed, begun at the same simulated
+instant) within the tolerances of station.hil.twin (docs/hil.md says why these). Stopping
+the server mid-run must stop the client naming the link, keep the completed steps, and
+a restarted server plus --resume must finish the run. No assertion depends on wall time.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from station.config import load_config
+from station.day_cmd import run_day
+from station.hil import link_map
+from station.hil.twin import Tolerances, compare_rehearsal
+
+SPEED = 500.0
+SEED = 11
+DAY = ["--only", "II-11", "--only", "II-13", "--positions", "7", "--positions", "8"]
+START_DEADLINE_S = 30.0
+RUN_DEADLINE_S = 240.0
+
+
+def _serve(links: Path, log: Path) -> subprocess.Popen:
+    """Start a server and wait for its link map (its readiness signal)."""
+    cmd = [sys.executable, "-m", "station.hil.server", "--seed", str(SEED),
+           "--speed", str(SPEED), "--links", str(links)]
+    proc = subprocess.Popen(cmd, stdout=open(log.with_suffix(".out"), "w"),
+                            stderr=open(log.with_suffix(".err"), "w"),
+                            stdin=subprocess.DEVNULL)
+    deadline = time.monotonic() + START_DEADLINE_S
+    while not (links / link_map.FILENAME).exists():
+        if proc.poll() is not None or time.monotonic() > deadline:
+            _stop(proc)
+            pytest.fail(f"server not up: {log.with_suffix('.err').read_text()[-2000:]}")
+        time.sleep(0.05)
+    return proc
+
+
+def _stop(proc: subprocess.Popen) -> int:
+    if proc.poll() is None:
+        proc.send_signal(signal.SIGTERM)
+        try:
+            proc.wait(15.0)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.wait(10.0)
+    return proc.returncode
+
+
+def _station(*args: str, timeout: float = RUN_DEADLINE_S) -> subprocess.CompletedProcess:
+    env = {**os.environ, "COLUMNS": "200"}
+    return subprocess.run([sys.executable, "-m", "station.cli", *args], capture_output=True,
+                          text=True, timeout=timeout, env=env, stdin=subprocess.DEVNULL)
+
+
+def _journal(run: Path) -> list[dict]:
+    """Complete records of a run's journal (none yet if it does not exist)."""
+    path = run / "journal.jsonl"
+    if not path.exists():
+        return []
+    out = []
+    for line in path.read_text().splitlines():
+        try:
+            out.append(json.loads(line))
+        except json.JSONDecodeError:  # a record being written
+            break
+    return out
+
+
+@pytest.fixture(scope="module")
+def rehearsal(tmp_path_factory):
+    """One served rack; the day's survey and positions 7, 8 over its links, sniffed."""
+    base = tmp_path_factory.mktemp("rehearsal")
+    links = base / "links"
+    server = _serve(links, base / "server")
+    sniffer = subprocess.Popen(
+        [sys.executable, "-m", "station.hil.sniff", "--links", str(links),
+         "--out", str(base / "sniff.jsonl")],
+        stdout=subprocess.DEVNULL, stderr=open(base / "sniff.err", "w"))
+    try:
+        day = _station("day", "--links", str(links), "--seed", str(SEED), *DAY,
+                       "--out", str(base / "run"), "--quiet")
+        cal = base / "calibration"
+        run_day(load_config(seed=SEED), cal, quiet=True, align=False)  # virtual, for III-4
+        align = _station("align", "--method", "level", "--calibration", str(cal),
+                         "--links", str(links), "--seed", str(SEED),
+                         "--out", str(base / "align"), "--quiet")
+    finally:
+        _stop(sniffer)
+        code = _stop(server)
+    assert code == 0, (base / "server.err").read_text()[-2000:]
+    yield {"base": base, "day": day, "align": align, "server_out": (base / "server.out")
+           .read_text()}
+
+
+def test_day_over_links_equals_its_virtual_twin(rehearsal, tmp_path):
+    base, day = rehearsal["base"], rehearsal["day"]
+    assert day.returncode == 0, day.stdout[-3000:] + day.stderr[-3000:]
+    run = base / "run"
+    start = next(r for r in _journal(run) if r.get("event") == "start")
+    assert start["links"] and start["session"]
+    twin = tmp_path / "twin"
+    run_day(load_config(seed=SEED), twin, quiet=True, only=("II-11", "II-13"),
+            positions=(7, 8), start_s=start["t_sim"])
+    assert compare_rehearsal(run, twin) == []
+    sheets = {p.stem for p in (run / "sheets").glob("*.json")}
+    assert {"check_I-1", "check_I-2", "check_II-11", "check_II-13", "survey_results",
+            "counter_outputs"} <= sheets
+    outputs = json.loads((run / "sheets" / "counter_outputs.json").read_text())["outputs"]
+    assert sorted(outputs) == ["accel 7", "accel 8", "gyro 7", "gyro 8"]
+    # the served world is the client's (same seed and config): truth is known
+    res = json.loads((run / "results.json").read_text())
+    assert res["links"] and all(r["truth"] is not None for r in res["calibration"])
+
+
+def test_twin_comparison_can_fail(rehearsal, tmp_path):
+    """A twin begun at another instant, or of another seed, is told apart."""
+    run = rehearsal["base"] / "run"
+    early = tmp_path / "early"
+    run_day(load_config(seed=SEED), early, quiet=True, only=("II-11", "II-13"),
+            positions=(7, 8), start_s=0.0)
+    assert any("from the twin" in p for p in compare_rehearsal(run, early))
+    start = next(r for r in _journal(run) if r.get("event") == "start")["t_sim"]
+    other = tmp_path / "other"
+    run_day(load_config(seed=SEED + 1), other, quiet=True, only=("II-11", "II-13"),
+            positions=(7, 8), start_s=start)
+    problems = compare_rehearsal(run, other, Tolerances(late_fraction=1.0))
+    assert any("counter_outputs" in p or "t_bi" in p for p in problems)
+
+
+def test_second_client_decodes_ieu_frames_with_the_dbc(rehearsal):
+    frames = [json.loads(line) for line in
+              (rehearsal["base"] / "sniff.jsonl").read_text().splitlines()]
+    assert frames, (rehearsal["base"] / "sniff.err").read_text()
+    assert not [f for f in frames if "error" in f]
+    names = {f["name"] for f in frames}
+    # turn-on's status exchanges (I-1 step 8) and the level alignment's samples (III-4)
+    assert {"IEU_COMMAND", "IEU_STATUS", "IEU_GYRO", "IEU_ACCEL_A", "IEU_ACCEL_B",
+            "IEU_TIMER"} <= names
+    starts = [f["signals"] for f in frames
+              if f["name"] == "IEU_COMMAND" and f["signals"]["Command"] == 1]
+    assert starts, "no START command seen"
+    period = starts[-1]["PeriodTicks"]
+    after = frames[max(i for i, f in enumerate(frames) if f["name"] == "IEU_COMMAND"
+                       and f["signals"]["Command"] == 1):]
+    timers = [f["signals"] for f in after if f["name"] == "IEU_TIMER"]
+    # the alignment's samples: each timer frame counts one whole commanded period, and
+    # the sequence numbers run on without a gap (nothing lost on the way to the sniffer)
+    assert len(timers) >= 10
+    assert {t["Timer"] for t in timers} == {period}
+    seqs = [t["Seq"] for t in timers]
+    assert seqs == list(range(seqs[0], seqs[0] + len(seqs)))
+
+
+def test_level_alignment_over_links(rehearsal):
+    align = rehearsal["align"]
+    assert align.returncode == 0, align.stdout[-3000:] + align.stderr[-3000:]
+    res = json.loads((rehearsal["base"] / "align" / "results.json").read_text())
+    (entry,) = res["alignment"]
+    assert entry["method"] == "level"
+    # the table's attitude is the server's: no error against truth over links
+    assert entry["level_error_arcsec"] == [None, None]
+    t = entry["T"]
+    # an orthonormal attitude matrix, level axis within the survey's few arcmin of vertical
+    assert abs(sum(x * x for x in t[2]) - 1.0) < 1e-9
+
+
+def test_server_stop_fails_naming_the_link_then_resume_finishes(tmp_path):
+    links = tmp_path / "links"
+    run = tmp_path / "run"
+    server = _serve(links, tmp_path / "server1")
+    client = subprocess.Popen(
+        [sys.executable, "-m", "station.cli", "day", "--links", str(links), "--seed",
+         str(SEED), *DAY, "--out", str(run), "--quiet"],
+        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+        env={**os.environ, "COLUMNS": "300"})
+    try:
+        deadline = time.monotonic() + RUN_DEADLINE_S
+        while not any(r.get("chart") == "II-11" and r.get("kind") == "step"
+                      for r in _journal(run)):
+            assert client.poll() is None, client.stdout.read()
+            assert time.monotonic() < deadline
+            time.sleep(0.05)
+        _stop(server)  # mid-chart II-11
+        out, _ = client.communicate(timeout=60)
+    finally:
+        if client.poll() is None:
+            client.kill()
+        _stop(server)
+    assert client.returncode == 1, out
+    assert "stopped:" in out and str(links) in out.replace("\n", ""), out
+    before = _journal(run)
+    done = {(r["chart"], r["step"]) for r in before if r["kind"] == "step"}
+    assert ("I-2", "9") in done and ("II-11", "1") in done
+    survey_before = next(r["data"] for r in before
+                         if r["kind"] == "sheet" and r["name"] == "survey_results")
+
+    server = _serve(links, tmp_path / "server2")  # a new session: the rack was power-cycled
+    try:
+        res = _station("day", "--links", str(links), "--seed", str(SEED), *DAY,
+                       "--resume", str(run), "--quiet")
+    finally:
+        _stop(server)
+    assert res.returncode == 0, res.stdout[-3000:] + res.stderr[-3000:]
+    after = _journal(run)
+    assert after[:len(before)] == before  # appended, never rewritten
+    restored = [r["block"] for r in after if r.get("event") == "restored"]
+    assert restored == ["I-2"]  # turn-on repeated (new session), survey restored
+    survey = json.loads((run / "sheets" / "survey_results.json").read_text())
+    assert survey["t_bi"] == survey_before["t_bi"]
+    outputs = json.loads((run / "sheets" / "counter_outputs.json").read_text())["outputs"]
+    assert sorted(outputs) == ["accel 7", "accel 8", "gyro 7", "gyro 8"]
+    ii11 = json.loads((run / "sheets" / "check_II-11.json").read_text())
+    assert [s["number"] for s in ii11["steps"]][:4] == ["1", "2", "3", "4"]
+    assert all(s["done"] for s in ii11["steps"])

@@ -1,5 +1,6 @@
-"""The ISU station a procedure command runs on: a simulated rack in virtual time, or the
-drivers alone over the links of a rack served in real time (``--links DIR``).
+"""The ISU station a procedure command runs on: a simulated rack in virtual time, the
+drivers alone over the links of a rack served in real time (``--links DIR``), or, when the
+config's own links are device paths and socketcan, the laboratory's hardware.
 
 Over links the procedures and drivers are the same; the differences are the link URLs
 (from the server's ``links.json``), the clock (real time on the served rack's time base)
@@ -15,6 +16,8 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from sim.world import World
+from station.check import needs_simulation
+from station.clock import WallClock
 from station.config import ConfigError, StationConfig
 from station.hil import profile, session
 from station.hil.session import Session
@@ -71,6 +74,10 @@ def connect(cfg: StationConfig, links_dir: Path | None = None,
     ``start_s`` (virtual only): let the rack run alone that long first, so that a virtual
     run begins at the simulated time a rehearsal against a served rack began.
     """
+    if links_dir is None and not needs_simulation(cfg):  # the real laboratory: real time, no truth
+        if start_s or rack_hook is not None:
+            raise ValueError("start_s and rack_hook are for simulated racks only")
+        return Connection(open_station(cfg, clock=WallClock()), None, None, None)
     if links_dir is None:
         rack = SimulatedRack(cfg)
         try:

@@ -9,10 +9,14 @@ from __future__ import annotations
 
 from collections import deque
 from collections.abc import Callable
+from typing import TYPE_CHECKING
 
 import simpy
 
 from sim.timebase import ticks
+
+if TYPE_CHECKING:
+    from instruments.faults import ReplyFault
 
 MAX_LINE = 256
 
@@ -60,6 +64,7 @@ class ByteInstrument:
         self._wake = env.event()
         self.errors: deque[str] = deque(maxlen=32)
         self.silent = False  # fault injection: stops answering
+        self.reply_fault: ReplyFault | None = None  # fault injection: delayed, lost, garbled bytes
         self._discarding = False  # skipping the rest of an over-long line up to its newline
         env.process(self._reply_loop())
 
@@ -137,13 +142,19 @@ class ByteInstrument:
                 text = item.event.value
             else:
                 text = self._replies.popleft()
-            if self.latency:
-                yield self.env.timeout(self.latency)
+            f = self.reply_fault
+            delay = self.latency if f is None else self.latency + f.latency
+            if delay:
+                yield self.env.timeout(delay)
             self._emit((text + "\n").encode("ascii"))
 
     def _emit(self, data: bytes) -> None:
         if self.silent:
             return
+        if self.reply_fault is not None:
+            data = self.reply_fault.garble(data)
+            if not data:
+                return
         self.output.extend(data)
         for cb in self.listeners:
             cb(data)

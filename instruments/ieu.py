@@ -16,6 +16,7 @@ from __future__ import annotations
 
 from collections import deque
 from collections.abc import Callable
+from typing import TYPE_CHECKING
 
 import cantools
 
@@ -23,6 +24,9 @@ import config
 from instruments.params import IeuParams
 from sim.timebase import ticks, ticks_ceil
 from sim.world import World
+
+if TYPE_CHECKING:
+    from instruments.faults import FrameFault
 
 GYRO_LINES = ("G1", "G2", "G3")
 ACCEL_LINES = ("A1S1", "A1S2", "A2S1", "A2S2", "A3S1", "A3S2")
@@ -53,6 +57,11 @@ class Ieu:
         self._proc = None
         self.drop_every = 0  # fault injection: drop every n-th sample's gyro frame
         self.silent = False
+        # real time only: count a sample this long (simulated s) before it is latched, so
+        # the frames leave on time; a world change in between (table command, re-patch)
+        # makes it count again at the latch instant. Zero in virtual time.
+        self.lookahead_s = 0.0
+        self.frame_fault: FrameFault | None = None  # fault injection: delayed, lost, altered frames
         self.history_len = HISTORY_LEN  # fault injection: 0 makes every RESEND fail
         self.history: deque[tuple[int, list[tuple[str, dict]]]] = deque()
 
@@ -125,17 +134,29 @@ class Ieu:
             yield self.env.timeout(max(0, ticks_ceil(t_prev) - self.env.now))
             while self.running:
                 t_next = s2.edge_after(t_prev, self.period)
-                yield self.env.timeout(max(0, ticks_ceil(t_next) - self.env.now))
-                self._emit_sample(t_prev, t_next)
+                due = ticks_ceil(t_next)
+                early = due - ticks(self.lookahead_s)
+                counts = None
+                if early > self.env.now:  # real time only: count ahead, latch at t_next
+                    yield self.env.timeout(early - self.env.now)
+                    mark = w.change_event
+                    counts = self._counts(t_prev, t_next)
+                yield self.env.timeout(max(0, due - self.env.now))
+                if counts is None or w.change_event is not mark:  # the future changed
+                    counts = self._counts(t_prev, t_next)
+                self._emit_sample(*counts)
                 t_prev = t_next
         except simpy.Interrupt:
             return
 
-    def _emit_sample(self, t0: float, t1: float) -> None:
+    def _counts(self, t0: float, t1: float) -> tuple[list[int], list[int], int, float]:
+        """Gyro, string and S2^T counts of the sample [t0, t1], and t1."""
         w = self.world
         g = [w.line(n).count(t0, t1) for n in GYRO_LINES]
         a = [w.line(n).count(t0, t1) for n in ACCEL_LINES]
-        timer = w.line("OSC2").count(t0, t1)
+        return g, a, w.line("OSC2").count(t0, t1), t1
+
+    def _emit_sample(self, g: list[int], a: list[int], timer: int, t1: float) -> None:
         overflow = any(abs(x) > 32767 for x in g) or any(x > 65535 for x in a)
         seq = self.seq
         self.seq = (self.seq + 1) % 65536
@@ -169,14 +190,20 @@ class Ieu:
     def _send_at(self, t: float, name: str, sig: dict) -> None:
         msg = self.db.get_message_by_name(name)
         data = msg.encode(sig)
+        fault = self.frame_fault
+        if fault is not None:
+            t += fault.latency_s
 
         def deliver():
             yield self.env.timeout(max(0, ticks(t) - self.env.now))
             if self.silent:
                 return
-            self.output.append((t, msg.frame_id, data))
+            out = data if fault is None else fault.frame(data)
+            if out is None:
+                return
+            self.output.append((t, msg.frame_id, out))
             for cb in self.listeners:
-                cb(t, msg.frame_id, data)
+                cb(t, msg.frame_id, out)
 
         self.env.process(deliver())
 

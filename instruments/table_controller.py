@@ -21,6 +21,10 @@ from instruments.base import ByteInstrument, InstrumentError, as_float, as_int, 
 from sim.table import AXES, CONTINUOUS, TableError
 from sim.world import World
 
+# A seized axis commanded to a reading within this of where it stands has nothing to do
+# (the servo's in-position band: resolver error and setting scatter are a few arcsec).
+IN_POSITION_ARCSEC = 10.0
+
 
 class TableController(ByteInstrument):
     ident = "ISU-LAB,TT-4AX,0,1.0"
@@ -30,8 +34,50 @@ class TableController(ByteInstrument):
         self.world = world
         self.table = world.table
         self.interlock_closed = True
-        # fault injection: axes that accept commands but do not move (a stalled drive)
+        # fault injection: axes that accept commands but do not move (a seized drive), and
+        # the status each reports while a command it cannot carry out is pending
         self.stalled: set[int] = set()
+        self._stuck: dict[int, str] = {}
+
+    def stall(self, axis: int) -> None:
+        """Seize ``axis``'s drive now: it comes to rest and no longer follows commands."""
+        tb, now = self.table, self.world.now
+        was = tb.status(axis, now)
+        self.stalled.add(axis)
+        if was != "HOLD":  # caught mid-command: the axis stops short of what it was asked
+            tb.stop(axis, now)
+            self.world.changed()
+            self._stuck[axis] = "ACCEL" if was in ("ACCEL", "ROTATING") else "MOVING"
+
+    def _stalled_command(self, axis: int, target_deg: float | None, rate: float = 0.0,
+                         accel: float | None = None) -> str:
+        """Accept a command for a seized axis: it stays put, reporting motion if any was asked."""
+        if not self.interlock_closed:
+            raise InstrumentError(15, "interlock open: motion inhibited")
+        try:  # the controller still refuses what the table could never do
+            if target_deg is None:
+                self.table.check_rate(axis, rate, accel)
+            else:
+                self.table.check_move(axis, math.radians(target_deg))
+        except TableError as e:
+            raise InstrumentError(13, str(e)) from None
+        if target_deg is not None:
+            here = math.degrees(self.table.resolver(axis, self.world.now))
+            off = here - target_deg
+            if axis in CONTINUOUS:
+                off = (off + 180.0) % 360.0 - 180.0
+            moving = abs(off) * 3600.0 > IN_POSITION_ARCSEC
+            status = "MOVING"
+        else:
+            moving, status = rate != 0.0, "ACCEL"
+        if moving:
+            self._stuck[axis] = status
+        else:
+            self._stuck.pop(axis, None)
+        return "OK"
+
+    def _status(self, axis: int) -> str:
+        return self._stuck.get(axis) or self.table.status(axis, self.world.now)
 
     def _axis(self, x: str) -> int:
         return as_int(x, "axis", 1, 4)
@@ -55,7 +101,7 @@ class TableController(ByteInstrument):
             if ax in CONTINUOUS:
                 deg %= 360.0
             if ax in self.stalled:
-                return "OK"
+                return self._stalled_command(ax, deg)
             return self._apply(tb.move, ax, math.radians(deg))
         if cmd == "RATE":
             need(args, 2, "RATE <axis> <deg/s>")
@@ -64,7 +110,7 @@ class TableController(ByteInstrument):
                 raise InstrumentError(12, f"axis {ax} cannot rotate continuously")
             rate = math.radians(as_float(args[1], "rate"))
             if ax in self.stalled:
-                return "OK"
+                return self._stalled_command(ax, None, rate)
             return self._apply(tb.rotate, ax, rate)
         if cmd == "RAMP":
             need(args, 3, "RAMP <axis> <deg/s^2> <deg/s>")
@@ -74,17 +120,23 @@ class TableController(ByteInstrument):
             acc = math.radians(as_float(args[1], "acceleration"))
             rate = math.radians(as_float(args[2], "rate"))
             if ax in self.stalled:
-                return "OK"
+                return self._stalled_command(ax, None, rate, acc)
             return self._apply(lambda a, r, c, t: tb.rotate(a, r, t, accel=c), ax, rate, acc)
         if cmd == "STOP":
             axes = [self._axis(args[0])] if args else list(AXES)
             for ax in axes:
-                tb.stop(ax, self.world.now)
+                if ax in self.stalled:
+                    self._stuck.pop(ax, None)  # nothing to stop: the drive is not turning
+                else:
+                    tb.stop(ax, self.world.now)
             self.world.changed()
             return "OK"
         if cmd == "HOME":
             for ax in AXES:
-                self._apply(tb.move, ax, 0.0)
+                if ax in self.stalled:
+                    self._stalled_command(ax, 0.0)
+                else:
+                    self._apply(tb.move, ax, 0.0)
             return "OK"
         if cmd == "POS?":
             need(args, 1, "POS? <axis>")
@@ -99,7 +151,7 @@ class TableController(ByteInstrument):
             return f"{math.degrees(v):.7f}"
         if cmd == "STAT?":
             axes = [self._axis(args[0])] if args else list(AXES)
-            return ",".join(tb.status(ax, self.world.now) for ax in axes)
+            return ",".join(self._status(ax) for ax in axes)
         if cmd == "ILCK?":
             return "CLOSED" if self.interlock_closed else "OPEN"
         if cmd == "PPR":

@@ -74,11 +74,32 @@ class FourAxisTable:
         return p
 
     # ----- commands (return the time the axis is settled / at rate) -----
-    def move(self, axis: int, angle: float, t: float) -> float:
+    def check_move(self, axis: int, angle: float) -> None:
+        """Refuse a position the axis cannot reach (the trunnion's range)."""
         if axis == 1:
             lo, hi = (math.radians(x) for x in self.p.trunnion_range_deg)
             if not lo <= angle <= hi:
                 raise TableError(f"axis 1 angle {math.degrees(angle):.4f} deg out of range")
+
+    def check_rate(self, axis: int, rate: float, accel: float | None = None) -> float:
+        """Refuse a rate or acceleration beyond the limits; the acceleration to use (rad/s^2)."""
+        if axis not in CONTINUOUS:
+            raise TableError(f"axis {axis} cannot rotate continuously")
+        if abs(rate) > math.radians(self.p.max_rate_deg_s) + 1e-12:
+            raise TableError(
+                f"rate {math.degrees(rate):.4f} deg/s exceeds {self.p.max_rate_deg_s} deg/s"
+            )
+        amax = math.radians(self.p.max_accel_deg_s2)
+        acc = amax if accel is None else abs(accel)
+        if acc <= 0 or acc > amax + 1e-12:
+            raise TableError(
+                f"acceleration {math.degrees(acc):.4f} deg/s^2 outside (0, "
+                f"{self.p.max_accel_deg_s2}] deg/s^2"
+            )
+        return acc
+
+    def move(self, axis: int, angle: float, t: float) -> float:
+        self.check_move(axis, angle)
         tr = self.axes[axis]
         p, v = tr.cut(t)
         vmax = math.radians(self.p.slew_rate_deg_s)
@@ -98,19 +119,7 @@ class FourAxisTable:
         return t_done
 
     def rotate(self, axis: int, rate: float, t: float, accel: float | None = None) -> float:
-        if axis not in CONTINUOUS:
-            raise TableError(f"axis {axis} cannot rotate continuously")
-        if abs(rate) > math.radians(self.p.max_rate_deg_s) + 1e-12:
-            raise TableError(
-                f"rate {math.degrees(rate):.4f} deg/s exceeds {self.p.max_rate_deg_s} deg/s"
-            )
-        amax = math.radians(self.p.max_accel_deg_s2)
-        acc = amax if accel is None else abs(accel)
-        if acc <= 0 or acc > amax + 1e-12:
-            raise TableError(
-                f"acceleration {math.degrees(acc):.4f} deg/s^2 outside (0, "
-                f"{self.p.max_accel_deg_s2}] deg/s^2"
-            )
+        acc = self.check_rate(axis, rate, accel)
         tr = self.axes[axis]
         p, v = tr.cut(t)
         segs, t_done = plan_rate(t, p, v, rate, acc)

@@ -9,8 +9,17 @@ from __future__ import annotations
 import copy
 import tomllib
 from pathlib import Path
+from typing import Annotated
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
+from pydantic import (
+    AfterValidator,
+    BaseModel,
+    ConfigDict,
+    Field,
+    ValidationError,
+    field_validator,
+    model_validator,
+)
 
 import config as config_pkg
 from instruments.params import InstrumentParams
@@ -58,9 +67,23 @@ def read_section(path: str | Path, section: str, model: type[BaseModel], what: s
 
 
 class CanLink(BaseModel):
+    """python-can settings of the IEU's bus; extra keys go to ``can.Bus`` as given."""
+
     model_config = ConfigDict(extra="allow", frozen=True)
     interface: str
     channel: str
+
+    @field_validator("interface")
+    @classmethod
+    def _known_interface(cls, v: str) -> str:
+        import can
+
+        import station.links  # noqa: F401  (the ``sim`` interface is a python-can plugin)
+
+        if v not in can.VALID_INTERFACES:
+            raise ValueError(f"python-can knows no interface {v!r} (socketcan, socketcand, "
+                             "slcan, sim, ...)")
+        return v
 
 
 class Links(BaseModel):
@@ -82,6 +105,46 @@ class Links(BaseModel):
             raise ValueError("; ".join(parts))
         return v
 
+    @model_validator(mode="after")
+    def _one_kind_of_rack(self) -> Links:
+        """All links simulated (sim://, sim) or none: a hardware profile that leaves an
+        instrument out would otherwise inherit the default's sim:// link for it."""
+        sim = [n for n, u in self.serial.items() if u.startswith("sim://")]
+        if self.can.interface == "sim":
+            sim.append("can")
+        if sim and len(sim) < len(self.serial) + 1:
+            raise ValueError(f"simulated links ({', '.join(sim)}) mixed with hardware links: "
+                             "give every instrument its device")
+        return self
+
+
+FAULT_INSTRUMENTS = (*SERIAL_INSTRUMENTS, "ieu")
+TABLE_ONLY_FAULTS = ("stall_axis", "stall_after_s")
+
+
+class FaultSpec(BaseModel):
+    """Faults of one instrument for a rehearsal (``[faults.<instrument>]``); defaults: none.
+
+    Applied inside the simulated instruments (instruments/faults.py), so a virtual run and a
+    served rack misbehave alike; every random choice is seeded from the run's seed.
+    """
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+    latency_s: float = Field(0.0, ge=0, allow_inf_nan=False)  # extra delay per reply / frame
+    drop_rate: float = Field(0.0, ge=0, lt=1)  # serial: per reply byte; IEU: per frame
+    corrupt_rate: float = Field(0.0, ge=0, lt=1)  # serial: one bit per byte; IEU: one byte
+    silent_after_s: float | None = Field(None, ge=0, allow_inf_nan=False)  # sends nothing after
+    stall_axis: int | None = Field(None, ge=1, le=4)  # table only: the axis whose drive seizes
+    stall_after_s: float = Field(0.0, ge=0, allow_inf_nan=False)  # table only: when it seizes
+
+
+def _fault_instrument(name: str) -> str:
+    if name not in FAULT_INSTRUMENTS:
+        raise ValueError(
+            f"unknown instrument {name!r} in faults.{name}; known: {', '.join(FAULT_INSTRUMENTS)}"
+        )
+    return name
+
 
 class StationConfig(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True)
@@ -93,6 +156,25 @@ class StationConfig(BaseModel):
     oscillator: OscillatorParams
     instruments: InstrumentParams
     links: Links
+    faults: dict[Annotated[str, AfterValidator(_fault_instrument)], FaultSpec] = {}
+
+    @field_validator("faults")
+    @classmethod
+    def _stall_is_the_tables(cls, v: dict[str, FaultSpec]) -> dict[str, FaultSpec]:
+        """stall_axis and stall_after_s: table only, and a stall time needs an axis."""
+        bad = [
+            f"faults.{name}.{field}"
+            for name, spec in v.items()
+            if name != "table"
+            for field in TABLE_ONLY_FAULTS
+            if field in spec.model_fields_set
+        ]
+        if bad:
+            raise ValueError(f"{', '.join(bad)}: only the table has axes to stall")
+        table = v.get("table")
+        if table and "stall_after_s" in table.model_fields_set and table.stall_axis is None:
+            raise ValueError("faults.table.stall_after_s needs faults.table.stall_axis")
+        return v
 
     def world_params(self) -> WorldParams:
         return WorldParams(

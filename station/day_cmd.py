@@ -144,10 +144,13 @@ def run_day(cfg: StationConfig, out: Path, only: tuple[str, ...] | None = None,
     journal = Journal(out / "journal.jsonl", resume=resume)
     try:
         sid = conn.session.session if conn.session else None
+        if resume and links is None and rack_session(journal) is not None:
+            raise ValueError(f"{out} was recorded over links (a served rack): resume it "
+                             "with --links, where completed charts are restored")
         repeat = ("I-1",) if resume and sid != rack_session(journal) else ()
         with DayDisplay(console, quiet) as display:
             run = Run(st.clock, journal, listener=display,
-                      resume="replay" if links is None else "skip", repeat=repeat)
+                      resume="replay" if conn.rack is not None else "skip", repeat=repeat)
             run.note(event="start", t_sim=st.clock.now(), seed=cfg.seed,
                      only=list(only or ()), resume=resume,
                      positions=list(positions or ()), session=sid,

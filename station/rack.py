@@ -16,6 +16,7 @@ from instruments.autocollimator import Autocollimator
 from instruments.base import ByteInstrument
 from instruments.bubble_level import BubbleLevels
 from instruments.counter import FrequencyCounter
+from instruments.faults import apply_faults
 from instruments.ieu import Ieu
 from instruments.oscillator_unit import OscillatorUnit
 from instruments.patch_panel import PatchPanel
@@ -65,6 +66,7 @@ class SimulatedRack:
         virtual.register(
             virtual.VirtualRack(self.rack_id, self.env, dict(self.serial), {"ieu": self.ieu})
         )
+        apply_faults(self.serial, self.ieu, cfg.faults, cfg.seed)
 
     def close(self) -> None:
         virtual.unregister(self.rack_id)

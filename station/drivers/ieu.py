@@ -111,8 +111,14 @@ class IeuDriver:
 
     def _reply(self, command: int, period: int = 1) -> dict:
         self._send(command, period)
+        t_first = None
         while True:
-            name, sig, _ = self._recv(self.timeout)
+            name, sig, t = self._recv(self.timeout)
+            t_first = t if t_first is None else t_first
+            if name not in ("IEU_STATUS", "IEU_ERROR") and t - t_first > self.timeout:
+                # frames keep coming (a running IEU) but not the answer: it was lost
+                raise LinkTimeout(self.name, self.link,
+                                  f"no status reply within {self.timeout:g} s")
             if name == "IEU_STATUS":
                 return sig
             if name == "IEU_ERROR":

@@ -53,7 +53,10 @@ class TableDriver(SerialDriver):
             if all(s in ("HOLD", "ROTATING") for s in st):
                 return
             if self.clock.now() >= t_end:
+                late = [f"axis {i} ({s})" for i, s in enumerate(st, start=1)
+                        if s not in ("HOLD", "ROTATING")]
                 raise LinkTimeout(
-                    self.name, self.url, f"axes not settled after {timeout:g} s: {st}"
+                    self.name, self.url,
+                    f"{', '.join(late)} not settled after {timeout:g} s; STAT? {','.join(st)}",
                 )
             self.clock.sleep(poll)

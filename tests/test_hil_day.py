@@ -23,7 +23,7 @@ import pytest
 from station.config import StationConfig, load_config
 from station.day_cmd import run_day
 from station.hil import link_map
-from station.hil.twin import Tolerances, compare_rehearsal
+from station.hil.twin import compare_rehearsal
 
 SPEED = 500.0
 SEED = 11

@@ -1,6 +1,12 @@
 """`station gyrocompass-test`: the CIGTF gyrocompassing accuracy test (report 001) in
 virtual time, its journal, sheets (run table, phase table, conclusions), gyrocompass.json
-and a plot of theta per run."""
+and a plot of theta per run.
+
+With ``links`` (``--links DIR``) the same procedure and drivers run against a rack served
+by ``station serve --station cigtf --links DIR``, over its ptys and on a WallClock on the
+rack's time. The truth (eq. 26) comes from a rack built here with the run's seed and
+params and never run; it is left out (None) unless the served session has that seed and
+config digest."""
 
 from __future__ import annotations
 
@@ -43,7 +49,8 @@ def theta_plot(res: dict, path: Path) -> None:
         p = next((q for q in res["phases"] if q["phase"] == ph), None)
         if p is not None and x:
             ax.hlines(p["theta_arcsec"], x[0], x[-1], colors=colour, linestyles="--")
-    ax.axhline(res["truth"]["theta_arcsec"], color="k", lw=0.8, label="truth (eq. 26)")
+    if res["truth"]["theta_arcsec"] is not None:
+        ax.axhline(res["truth"]["theta_arcsec"], color="k", lw=0.8, label="truth (eq. 26)")
     ax.set_xlabel("run")
     ax.set_ylabel("gyrocompassing error theta (arcsec)")
     ax.set_title("CIGTF gyrocompassing accuracy test")
@@ -112,10 +119,24 @@ def data_from_journal(path: Path) -> tuple[TestData, int | None]:
     return data, seed
 
 
+def _served_without_truth(path: Path) -> bool:
+    """The journal's run was against a served rack whose world was not the run's own."""
+    for line in Path(path).read_text(encoding="utf-8").splitlines():
+        try:
+            rec = json.loads(line)
+        except json.JSONDecodeError:
+            break
+        if rec.get("kind") == "note" and rec.get("event") == "start":
+            served = rec.get("served")
+            return served is not None and not served.get("truth")
+    return False
+
+
 def analyse_journal(d: Path) -> dict:
     """`station gyrocompass-test --analyse DIR`: the phase analysis again, from the journal."""
     d = Path(d)
     data, seed = data_from_journal(d / "journal.jsonl")
+    no_truth = _served_without_truth(d / "journal.jsonl")
     if not data.gsf:
         raise ValueError(f"{d / 'journal.jsonl'} holds no scale factor (section 4.1)")
     for ph in PHASES:
@@ -123,7 +144,8 @@ def analyse_journal(d: Path) -> dict:
             raise ValueError(f"{d / 'journal.jsonl'} holds {len(data.runs[ph])} completed "
                              f"{ph} run(s): at least 2 are needed")
     runs, phases, tests, conclusions = analyse(data)
-    truth = CigtfRack(seed).world.truth_theta_arcsec() if seed is not None else None
+    truth = (CigtfRack(seed).world.truth_theta_arcsec()
+             if seed is not None and not no_truth else None)
     res = {
         "seed": seed, "gsf": data.gsf, "runs": runs, "phases": phases,
         "delta_arcsec": conclusions["operating_instability_arcsec"],
@@ -165,19 +187,46 @@ def render_tables(console, res: dict) -> None:
 
 def run_gyrocompass_test(seed: int, out: Path, params: CigtfParams | None = None,
                          plan: TestPlan | None = None,
-                         rack_hook: Callable[[CigtfRack], None] | None = None) -> dict:
-    """Run the whole test into ``out``; ``rack_hook`` may inject faults into the rack."""
+                         rack_hook: Callable[[CigtfRack], None] | None = None,
+                         links: Path | None = None) -> dict:
+    """Run the whole test into ``out``; ``rack_hook`` may inject faults into the rack.
+
+    ``links``: run against the CIGTF rack served there instead (see the module doc);
+    raises ``NoServedRack`` or ``WrongStation`` (both OSError/ValueError) if it is not.
+    """
     out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
     wall0 = time.perf_counter()
-    rack = CigtfRack(seed, params)
+    served = None
+    if links is not None:
+        from station.hil.profile import WrongStation, attach
+        from station.hil.session import params_digest
+
+        if rack_hook is not None:
+            raise ValueError("rack_hook needs the local rack: not with links")
+        served = attach(links, "cigtf", seed, params_digest("cigtf", params or CigtfParams()))
+    out.mkdir(parents=True, exist_ok=True)
+    # the run's rack; against a served rack only the truth's (built, never run)
+    rack = CigtfRack(seed, params) if served is None or served.truth else None
     if rack_hook is not None:
         rack_hook(rack)
-    st = open_cigtf_station(rack)
+    try:
+        if served is None:
+            st = open_cigtf_station(rack)
+        else:
+            try:
+                st = open_cigtf_station(links=served.links, clock=served.clock)
+            except ValueError as e:  # served with --only: instruments missing
+                raise WrongStation(f"{links}: {e}") from None
+    except BaseException:
+        if rack is not None:
+            rack.close()
+        raise
     journal = Journal(out / "journal.jsonl")
     try:
         run = Run(st.clock, journal)
-        run.note(event="start", seed=seed, test="gyrocompass")
+        t_start = st.clock.now()  # 0 in virtual time; the rack's time when served
+        extra = {} if served is None else {"served": served.record()}
+        run.note(event="start", seed=seed, test="gyrocompass", **extra)
         data = gyrocompass_test(st, run, plan)
         runs, phases, tests, conclusions = analyse(data)
         run.save_sheet("gyrocompass_runs", runs)
@@ -192,15 +241,18 @@ def run_gyrocompass_test(seed: int, out: Path, params: CigtfParams | None = None
             "delta_arcsec": conclusions["operating_instability_arcsec"],
             "Delta_arcsec": conclusions["shutdown_instability_arcsec"],
             "tests": tests,
-            "truth": {"theta_arcsec": rack.world.truth_theta_arcsec()},
-            "sim_seconds": st.clock.now(),
+            "truth": {"theta_arcsec": rack.world.truth_theta_arcsec()
+                      if rack is not None else None},
+            "sim_seconds": st.clock.now() - t_start,
             "wall_seconds": time.perf_counter() - wall0,
+            **extra,
         }
         (out / "gyrocompass.json").write_text(json.dumps(res, indent=1, sort_keys=True))
         theta_plot(res, out / "gyrocompass.png")
-        run.note(event="end", sim_seconds=st.clock.now())
+        run.note(event="end", sim_seconds=st.clock.now() - t_start)
         return res
     finally:
         journal.close()
         st.close()
-        rack.close()
+        if rack is not None:
+            rack.close()

@@ -39,11 +39,23 @@ def check(
     config: ConfigOpt = None,
     as_json: Annotated[bool, typer.Option("--json", help="print the results as JSON")] = False,
     timeout: Annotated[float, typer.Option(help="reply timeout per instrument, s")] = 2.0,
+    links: Annotated[Path | None, typer.Option("--links", help="check the rack served under "
+                     "this directory instead")] = None,
 ) -> None:
     """Talk to every instrument over its configured link; exit 1 naming any that does not answer."""
     from station.check import as_dicts, check_all
 
     cfg = _load(config)
+    if links is not None:
+        from station.connect import served_config
+        from station.hil.profile import attach
+        from station.hil.session import config_digest
+
+        try:
+            cfg = served_config(cfg, attach(links, "isu", cfg.seed, config_digest(cfg)))
+        except (ValueError, FileNotFoundError) as e:
+            console.print(f"[red]error:[/red] {e}")
+            raise typer.Exit(2) from None
     results = check_all(cfg, timeout)
     if as_json:
         typer.echo(json.dumps(as_dicts(results), indent=2))
@@ -62,6 +74,11 @@ def check(
         raise typer.Exit(1)
 
 
+LinksOpt = Annotated[Path | None, typer.Option(
+    "--links", help="run over the links of a rack served under this directory "
+    "(station serve --links DIR), in real time")]
+
+
 @app.command()
 def day(
     config: ConfigOpt = None,
@@ -69,11 +86,21 @@ def day(
     out: Annotated[Path, typer.Option("--out", help="run directory")] = Path("runs/day"),
     only: Annotated[list[str] | None, typer.Option("--only", help="measure only these charts "
                     "(II-6, II-7, II-7Q, II-10, II-11..II-14); repeatable")] = None,
+    positions: Annotated[list[int] | None, typer.Option("--positions", help="only these "
+                         "calibration positions (1-15; a pair m, m+1 is measured whole); "
+                         "repeatable")] = None,
     resume: Annotated[Path | None, typer.Option("--resume", help="continue the interrupted "
                       "run in this directory")] = None,
+    links: LinksOpt = None,
+    start_at: Annotated[float, typer.Option("--start-at", help="virtual run: begin at this "
+                        "simulated time, s (to compare with a rehearsal that began then)")
+                        ] = 0.0,
     quiet: Annotated[bool, typer.Option("--quiet", help="no live display")] = False,
 ) -> None:
-    """The full virtual calibration day: turn-on, survey, positions 1-15, computations."""
+    """The full calibration day: turn-on, survey, positions 1-15, computations, alignments.
+
+    Virtual time by default; with --links, in real time against a served rack (or hardware).
+    """
     from procedures.runner import ProcedureError, ResumeMismatch
     from station.day_cmd import run_day
     from station.errors import StationError
@@ -82,7 +109,11 @@ def day(
     target = resume if resume is not None else out
     try:
         res = run_day(cfg, target, tuple(only) if only else None, resume is not None,
-                      console, quiet)
+                      console, quiet, links=links,
+                      positions=tuple(positions) if positions else None, start_s=start_at)
+    except (ValueError, FileNotFoundError) as e:  # bad charts/positions, nothing served
+        console.print(f"[red]error:[/red] {e}")
+        raise typer.Exit(2) from None
     except (ProcedureError, ResumeMismatch, StationError) as e:
         console.print(f"[red]stopped:[/red] {e}")
         console.print(f"the journal keeps every completed step: {target / 'journal.jsonl'}")
@@ -104,6 +135,7 @@ def align(
     config: ConfigOpt = None,
     seed: SeedOpt = None,
     out: Annotated[Path, typer.Option("--out", help="run directory")] = Path("runs/align"),
+    links: LinksOpt = None,
     quiet: Annotated[bool, typer.Option("--quiet", help="no live display")] = False,
 ) -> None:
     """One alignment (Part III): mirror, level or gyrocompass, with the chosen estimator."""
@@ -121,7 +153,7 @@ def align(
     cfg = _load(config, seed)
     try:
         res = run_align(cfg, out, method, estimator, calibration, console=console,
-                        quiet=quiet)
+                        quiet=quiet, links=links)
     except (ProcedureError, StationError, FileNotFoundError, ValueError) as e:
         console.print(f"[red]stopped:[/red] {e}")
         raise typer.Exit(1) from None
@@ -141,15 +173,34 @@ def serve(
                     "instruments; repeatable")] = None,
     can_port: Annotated[int, typer.Option("--can-port", help="socketcand TCP port (0: any "
                         "free port)")] = 0,
+    station: Annotated[str, typer.Option("--station", help="which rack: isu (default), "
+                       "cigtf (gyrocompass fixture, [cigtf] config, seed 1 unless given) or "
+                       "esg ([esg] config, seed 1 unless given)")] = "isu",
 ) -> None:
-    """Serve the simulated ISU rack in real time on ptys and CAN (socketcand, slcan)."""
+    """Serve a simulated rack in real time on ptys (the ISU's IEU also on socketcand and
+    slcan), with a live status table; stop with Ctrl-C."""
+    from station.hil.server import STATIONS, load_station
     from station.hil.server import serve as serve_rack
 
     if speed <= 0:
         console.print("[red]--speed must be > 0[/red]")
         raise typer.Exit(2)
-    cfg = _load(config, seed)
-    serve_rack(cfg, speed, links, only or None, can_port=can_port)
+    if station not in STATIONS:
+        console.print(f"[red]unknown station {station!r}: {', '.join(STATIONS)}[/red]")
+        raise typer.Exit(2)
+    try:
+        target = load_station(station, config, seed)
+    except ConfigError as e:
+        console.print(f"[red]{e}[/red]")
+        raise typer.Exit(2) from None
+    try:
+        serve_rack(target, speed, links, only or None, can_port=can_port)
+    except (ValueError, OSError) as e:
+        console.print(f"[red]{e}[/red]")
+        raise typer.Exit(2) from None
+    except RuntimeError as e:
+        console.print(f"[red]{e}[/red]")
+        raise typer.Exit(1) from None
 
 
 @app.command()
@@ -157,10 +208,26 @@ def compare(
     dir_a: Path,
     dir_b: Path,
     rel_tol: Annotated[float, typer.Option(help="ignore relative differences up to this")] = 0.0,
+    rehearsal: Annotated[bool, typer.Option("--rehearsal", help="DIR_A is a run over links, "
+                         "DIR_B its virtual twin: compare within the real-time tolerances "
+                         "(docs/hil.md)")] = False,
 ) -> None:
     """Show which sheet and result values differ between two run directories."""
     from station.compare import differences
 
+    if rehearsal:
+        from station.hil.twin import compare_rehearsal
+
+        try:
+            problems = compare_rehearsal(dir_a, dir_b)
+        except (FileNotFoundError, ValueError) as e:
+            console.print(f"[red]{e}[/red]")
+            raise typer.Exit(2) from None
+        for line in problems:
+            console.print(line)
+        console.print("equal within the real-time tolerances" if not problems
+                      else f"{len(problems)} differences beyond the tolerances")
+        raise typer.Exit(1 if problems else 0)
     try:
         diffs = differences(dir_a, dir_b, rel_tol)
     except FileNotFoundError as e:
@@ -186,6 +253,8 @@ def gyrocompass_test(
                        "analysis from the journal in this directory (e.g. after a stop)")] = None,
     config: Annotated[Path | None, typer.Option("--config", help="TOML with a [cigtf] "
                       "section (latitude_deg, noise and misalignment magnitudes)")] = None,
+    links: Annotated[Path | None, typer.Option("--links", help="run against the rack "
+                     "`station serve --station cigtf --links DIR` serves (real time)")] = None,
 ) -> None:
     """The CIGTF gyrocompassing accuracy test (report 001) on the simulated fixture."""
     from procedures.runner import ProcedureError
@@ -211,8 +280,13 @@ def gyrocompass_test(
     except ConfigError as e:
         console.print(f"[red]{e}[/red]")
         raise typer.Exit(2) from None
+    from station.hil.profile import NoServedRack, WrongStation
+
     try:
-        res = run_gyrocompass_test(seed, out, params=params)
+        res = run_gyrocompass_test(seed, out, params=params, links=links)
+    except (NoServedRack, WrongStation) as e:
+        console.print(f"[red]{e}[/red]")
+        raise typer.Exit(2) from None
     except (ProcedureError, StationError) as e:
         console.print(f"[red]stopped:[/red] {e}")
         console.print(f"the journal keeps every completed run: {out / 'journal.jsonl'}")
@@ -223,8 +297,12 @@ def gyrocompass_test(
     for p in res["phases"]:
         console.print(f"{p['phase']:>9}: theta {p['theta_arcsec']:+.2f} +/- "
                       f"{p['sigma_arcsec']:.2f} arcsec (n = {p['n']})")
-    console.print(f"truth (eq. 26) {res['truth']['theta_arcsec']:+.2f} arcsec; delta "
-                  f"{res['delta_arcsec']:.2f}, Delta {res['Delta_arcsec']:.2f} arcsec")
+    truth = res["truth"]["theta_arcsec"]
+    console.print(f"truth (eq. 26) {'absent' if truth is None else f'{truth:+.2f} arcsec'}; "
+                  f"delta {res['delta_arcsec']:.2f}, Delta {res['Delta_arcsec']:.2f} arcsec")
+    if "served" in res:
+        console.print(f"served rack (session {res['served']['session']}): "
+                      f"{res['served']['note']}")
     console.print(f"{res['sim_seconds'] / 3600:.1f} h simulated in {res['wall_seconds']:.1f} s;"
                   f" record in {out}")
 
@@ -235,6 +313,8 @@ def esg_calibration(
     out: Annotated[Path, typer.Option("--out", help="run directory")] = Path("runs/esg"),
     config: Annotated[Path | None, typer.Option("--config", help="TOML with an [esg] "
                       "section (site, rotor, [esg.pattern], [esg.signal])")] = None,
+    links: Annotated[Path | None, typer.Option("--links", help="run against the rack "
+                     "`station serve --station esg --links DIR` serves (real time)")] = None,
 ) -> None:
     """The strapdown ESG pattern calibration and readout study (report 004)."""
     from procedures.runner import ProcedureError
@@ -248,13 +328,22 @@ def esg_calibration(
     except ConfigError as e:
         console.print(f"[red]{e}[/red]")
         raise typer.Exit(2) from None
+    from station.hil.profile import NoServedRack, WrongStation
+
     try:
-        res = run_esg_calibration(seed, out, params=params)
+        res = run_esg_calibration(seed, out, params=params, links=links)
+    except (NoServedRack, WrongStation) as e:
+        console.print(f"[red]{e}[/red]")
+        raise typer.Exit(2) from None
     except (ProcedureError, StationError) as e:
         console.print(f"[red]stopped:[/red] {e}")
         console.print(f"the journal keeps every completed step: {out / 'journal.jsonl'}")
         raise typer.Exit(1) from None
     render_tables(console, res)
+    if "served" in res:
+        console.print(f"served rack (session {res['served']['session']}): "
+                      f"{res['served']['note']} (pickoff-1 coning only: the true colatitudes "
+                      "depend on the served rack's path and are left out)")
     console.print(f"{res['sim_seconds'] / 3600:.1f} h simulated in {res['wall_seconds']:.1f} s;"
                   f" record in {out}")
 

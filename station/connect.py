@@ -19,7 +19,8 @@ from sim.world import World
 from station.check import needs_simulation
 from station.clock import WallClock
 from station.config import ConfigError, StationConfig
-from station.hil import profile, session
+from station.hil import session
+from station.hil.profile import ServedRun, attach
 from station.hil.session import Session
 from station.rack import SimulatedRack, Station, open_station
 
@@ -49,21 +50,18 @@ class Connection:
                 r.close()
 
 
-def served_config(cfg: StationConfig, links_dir: Path) -> tuple[StationConfig, Session]:
-    """``cfg`` with its links pointed at the rack served under ``links_dir``."""
-    served = profile.served(links_dir)
-    if served.session.station != "isu":
-        raise ConfigError(f"{links_dir} serves the {served.session.station} station, not the "
-                          "ISU laboratory (station serve --station isu)")
-    missing = [n for n in cfg.links.serial if n not in served.serial]
-    if missing or "ieu" not in served.can:
-        raise ConfigError(f"the rack served under {links_dir} does not serve "
-                          f"{', '.join(missing + ([] if 'ieu' in served.can else ['ieu']))}")
-    links = {"serial": {n: served.serial[n] for n in cfg.links.serial},
-             "can": served.can["ieu"]}
+def served_config(cfg: StationConfig, served: ServedRun) -> StationConfig:
+    """``cfg`` with its links pointed at a served ISU rack."""
+    missing = [n for n in cfg.links.serial if n not in served.links]
+    if "ieu" not in served.can:
+        missing.append("ieu")
+    if missing:
+        raise ConfigError(f"the rack served there does not serve {', '.join(missing)} "
+                          "(was it started with --only?)")
     data = cfg.model_dump()
-    data["links"] = links
-    return StationConfig.model_validate(data), served.session
+    data["links"] = {"serial": {n: served.links[n] for n in cfg.links.serial},
+                     "can": served.can["ieu"]}
+    return StationConfig.model_validate(data)
 
 
 def connect(cfg: StationConfig, links_dir: Path | None = None,
@@ -94,7 +92,6 @@ def connect(cfg: StationConfig, links_dir: Path | None = None,
     if rack_hook is not None:
         raise ValueError("faults for a served rack are configured in the server's config "
                          "([faults.<instrument>]), not injected by the client")
-    linked, s = served_config(cfg, links_dir)
-    same = s.seed == cfg.seed and s.config_digest == session.config_digest(cfg)
-    st = open_station(linked, clock=profile.ServedLinks({}, {}, s).clock())
-    return Connection(st, None, SimulatedRack(cfg) if same else None, s)
+    served = attach(links_dir, "isu", cfg.seed, session.config_digest(cfg))
+    st = open_station(served_config(cfg, served), clock=served.clock)
+    return Connection(st, None, SimulatedRack(cfg) if served.truth else None, served.session)

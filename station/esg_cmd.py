@@ -4,6 +4,14 @@ Runs the acquisition (steps 1-13), reduces it under the report's two calibration
 schedules, adds what only the simulator knows (the true colatitude of pickoff 2 at every
 reading), runs the readout strategy study (Figure 2) and writes journal, sheets, tables,
 plots and esg.json.
+
+With ``links`` (``--links DIR``) the same procedure and drivers run against a rack served
+by ``station serve --station esg --links DIR``, over its ptys and on a WallClock on the
+rack's time. The true colatitude at each reading depends on the path the served rotor and
+mount took, which only the server knows: those columns are None in a served run. The one
+static truth, pickoff 1's coning in the case, comes from a rack built here with the run's
+seed and params (never run), and only when the served session has that seed and config
+digest.
 """
 
 from __future__ import annotations
@@ -48,6 +56,20 @@ def add_truth(rows: list[dict], world: EsgWorld, acq: Acquisition,
         r["assignment_error_arcsec"] = (r["colatitude_deg"] - r["true_colatitude_deg"]) * 3600
 
 
+def no_truth(rows: list[dict]) -> None:
+    """The truth columns, absent (a served run: the served world's path is not known here)."""
+    for r in rows:
+        r["true_colatitude_deg"] = None
+        r["true_error_arcsec"] = None
+        r["assignment_error_arcsec"] = None
+
+
+def _rms_known(v) -> float | None:
+    """rms of the values present; None if there are none (truth absent)."""
+    v = [x for x in v if x is not None]
+    return _rms(v) if v else None
+
+
 def true_pickoff1_coning_arcsec(world: EsgWorld) -> float:
     """Angle between pickoff 1 and the spindle axis in the case (what ESG-PA measures)."""
     u = world.case.mounting.T @ np.array([1.0, 0.0, 0.0])
@@ -61,9 +83,9 @@ def schedule_summary(res: ScheduleResult) -> dict:
         "name": res.name, "order": res.fit.order,
         "calibration_rms_arcsec": _rms([r["error_arcsec"] for r in cal]),
         "readout_rms_arcsec": _rms([r["error_arcsec"] for r in rd]),
-        "true_calibration_rms_arcsec": _rms([r["true_error_arcsec"] for r in cal]),
-        "true_readout_rms_arcsec": _rms([r["true_error_arcsec"] for r in rd]),
-        "assignment_rms_arcsec": _rms([r["assignment_error_arcsec"] for r in cal + rd]),
+        "true_calibration_rms_arcsec": _rms_known([r["true_error_arcsec"] for r in cal]),
+        "true_readout_rms_arcsec": _rms_known([r["true_error_arcsec"] for r in rd]),
+        "assignment_rms_arcsec": _rms_known([r["assignment_error_arcsec"] for r in cal + rd]),
         "predicted_assignment_rms_arcsec": _rms([r["sigma_assign_arcsec"] for r in cal + rd]),
         "max_readout_error_arcsec": max((abs(r["error_arcsec"]) for r in rd), default=None),
         "n_fit": len(cal), "n_readout": len(rd),
@@ -101,17 +123,19 @@ def render_tables(console, res: dict) -> None:
     from rich import box
     from rich.table import Table
 
+    def f1(x) -> str:
+        return "-" if x is None else f"{x:.1f}"
+
     t = Table(title="Pattern calibration and readout (arcsec rms; true = against the "
               "simulator's colatitude)", box=box.SIMPLE_HEAD)
     for c in ("schedule", "n fit", "calibration", "true", "n readout", "readout", "true",
               "assignment", "predicted"):
         t.add_column(c, justify="right")
     for s in res["schedules"]:
-        t.add_row(s["name"], str(s["n_fit"]), f"{s['calibration_rms_arcsec']:.1f}",
-                  f"{s['true_calibration_rms_arcsec']:.1f}", str(s["n_readout"]),
-                  f"{s['readout_rms_arcsec']:.1f}", f"{s['true_readout_rms_arcsec']:.1f}",
-                  f"{s['assignment_rms_arcsec']:.1f}",
-                  f"{s['predicted_assignment_rms_arcsec']:.1f}")
+        t.add_row(s["name"], str(s["n_fit"]), f1(s["calibration_rms_arcsec"]),
+                  f1(s["true_calibration_rms_arcsec"]), str(s["n_readout"]),
+                  f1(s["readout_rms_arcsec"]), f1(s["true_readout_rms_arcsec"]),
+                  f1(s["assignment_rms_arcsec"]), f1(s["predicted_assignment_rms_arcsec"]))
     console.print(t)
     if "amplification" in res:
         a = Table(title="Edge-error amplification (Figure 2 points)", box=box.SIMPLE_HEAD)
@@ -137,8 +161,9 @@ def calibration_plot(results: list[ScheduleResult], path: Path) -> None:
             x = [r["colatitude_deg"] for r in rows]
             ax.plot(x, [r["error_arcsec"] for r in rows], mark, ms=4, mfc="none",
                     label=f"{what}: measured")
-            ax.plot(x, [r["true_error_arcsec"] for r in rows], mark, ms=3,
-                    label=f"{what}: true")
+            if all(r["true_error_arcsec"] is not None for r in rows):
+                ax.plot(x, [r["true_error_arcsec"] for r in rows], mark, ms=3,
+                        label=f"{what}: true")
         ax.axhline(GOAL_ARCSEC, color="k", lw=0.6, ls="--")
         ax.axhline(-GOAL_ARCSEC, color="k", lw=0.6, ls="--")
         ax.set_ylabel("error (arcsec)")
@@ -153,30 +178,60 @@ def calibration_plot(results: list[ScheduleResult], path: Path) -> None:
 def run_esg_calibration(seed: int, out: Path, params: EsgParams | None = None,
                         plan: EsgPlan | None = None,
                         rack_hook: Callable[[EsgRack], None] | None = None,
-                        with_study: bool = True) -> dict:
-    """The whole ESG calibration into ``out``; ``rack_hook`` may inject faults."""
+                        with_study: bool = True, links: Path | None = None) -> dict:
+    """The whole ESG calibration into ``out``; ``rack_hook`` may inject faults.
+
+    ``links``: run against the ESG rack served there instead (see the module doc);
+    raises ``NoServedRack`` or ``WrongStation`` (both OSError/ValueError) if it is not.
+    """
     out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
     wall0 = time.perf_counter()
     params = params or EsgParams()
     plan = plan or EsgPlan()
     plan = replace(plan, latitude_deg=params.latitude_deg)
-    rack = EsgRack(seed, params)
+    served = None
+    if links is not None:
+        from station.hil.profile import WrongStation, attach
+        from station.hil.session import params_digest
+
+        if rack_hook is not None:
+            raise ValueError("rack_hook needs the local rack: not with links")
+        served = attach(links, "esg", seed, params_digest("esg", params))
+    out.mkdir(parents=True, exist_ok=True)
+    # the run's rack; against a served rack only the static truth's (built, never run)
+    rack = EsgRack(seed, params) if served is None or served.truth else None
     if rack_hook is not None:
         rack_hook(rack)
-    st = open_esg_station(rack)
+    try:
+        if served is None:
+            st = open_esg_station(rack)
+        else:
+            try:
+                st = open_esg_station(links=served.links, clock=served.clock)
+            except ValueError as e:  # served with --only: instruments missing
+                raise WrongStation(f"{links}: {e}") from None
+    except BaseException:
+        if rack is not None:
+            rack.close()
+        raise
     journal = Journal(out / "journal.jsonl")
     try:
         run = Run(st.clock, journal)
-        run.note(event="start", seed=seed, test="esg-calibration")
+        t_start = st.clock.now()  # 0 in virtual time; the rack's time when served
+        extra = {} if served is None else {"served": served.record()}
+        run.note(event="start", seed=seed, test="esg-calibration", **extra)
         acq = acquire(st, run, plan)
         points, bud = assign(acq, plan, plan.lines_per_setting)
         times = {(p.scan, p.offset_deg): p.times_s for p in points}
         nom = nominal(acq, plan)
         results = [calibrate(points, nom, s) for s in SCHEDULES]
         for res in results:
-            add_truth(res.calibration, rack.world, acq, times)
-            add_truth(res.readout, rack.world, acq, times)
+            if served is None:
+                add_truth(res.calibration, rack.world, acq, times)
+                add_truth(res.readout, rack.world, acq, times)
+            else:
+                no_truth(res.calibration)
+                no_truth(res.readout)
             run.save_sheet(f"esg_calibration_{res.name}", res.calibration)
             run.save_sheet(f"esg_readout_{res.name}", res.readout)
         schedules = [schedule_summary(r) for r in results]
@@ -194,13 +249,15 @@ def run_esg_calibration(seed: int, out: Path, params: EsgParams | None = None,
                 "residual_drift_deg_hr": acq.residual_drift_deg_hr,
                 "mount_coning_arcsec": acq.mount_coning_arcsec,
                 "pickoff_coning_arcsec": acq.pickoff_coning_arcsec,
-                "true_pickoff_coning_arcsec": true_pickoff1_coning_arcsec(rack.world),
+                "true_pickoff_coning_arcsec": true_pickoff1_coning_arcsec(rack.world)
+                if rack is not None else None,
                 "scans": len(acq.scans), "points": len(points)},
             "budget": {"slope_per_deg": bud.slope_per_deg, "line_sigma": bud.line_sigma,
                        "equator_arcsec": bud.equator_deg * 3600.0,
                        "head_arcsec": bud.head_deg * 3600.0,
                        "drift_bound_deg_hr": bud.drift_bound_deg_s * 3600.0},
             "goal_arcsec": GOAL_ARCSEC,
+            **extra,
         }
         if with_study:
             curve, amp, edge = study()
@@ -211,12 +268,13 @@ def run_esg_calibration(seed: int, out: Path, params: EsgParams | None = None,
             run.save_sheet("esg_strategy", curve)
         calibration_plot(results, out / "esg_calibration.png")
         write_sheets(out, run)
-        res_json["sim_seconds"] = st.clock.now()
+        res_json["sim_seconds"] = st.clock.now() - t_start
         res_json["wall_seconds"] = time.perf_counter() - wall0
         (out / "esg.json").write_text(json.dumps(res_json, indent=1, sort_keys=True))
-        run.note(event="end", sim_seconds=st.clock.now())
+        run.note(event="end", sim_seconds=st.clock.now() - t_start)
         return res_json
     finally:
         journal.close()
         st.close()
-        rack.close()
+        if rack is not None:
+            rack.close()

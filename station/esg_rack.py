@@ -2,7 +2,9 @@
 
 ``EsgRack`` owns the physics and the five serial instruments (processor, head, turntable,
 theodolite, console) and registers them as a VirtualRack for ``sim://NAME``;
-``open_esg_station`` gives what a procedure sees.
+``open_esg_station`` gives what a procedure sees: the drivers over the rack's ``sim://``
+links on its virtual clock, or over other links (a rack served with ``station serve
+--station esg``: its ptys) on a real-time clock.
 """
 
 from __future__ import annotations
@@ -15,7 +17,8 @@ import simpy
 from instruments.base import ByteInstrument
 from instruments.esg import DataProcessor, DividingHead, GyroConsole, Theodolite, Turntable
 from sim.esg.world import EsgWorld
-from station.clock import VirtualClock
+from station.cigtf_rack import station_links
+from station.clock import Clock, VirtualClock
 from station.drivers.esg import (
     ConsoleDriver,
     HeadDriver,
@@ -27,6 +30,7 @@ from station.links import virtual
 
 _ids = itertools.count(1)
 LATENCY_S = 0.01
+INSTRUMENTS = ("processor", "head", "turntable", "theodolite", "console")
 
 
 class EsgRack:
@@ -57,26 +61,48 @@ class EsgRack:
 
 @dataclass
 class EsgStation:
-    clock: VirtualClock
+    clock: Clock
     processor: ProcessorDriver
     head: HeadDriver
     turntable: TurntableDriver
     theodolite: TheodoliteDriver
     console: ConsoleDriver
 
+    def drivers(self) -> list:
+        return [self.processor, self.head, self.turntable, self.theodolite, self.console]
+
     def close(self) -> None:
-        for d in (self.processor, self.head, self.turntable, self.theodolite, self.console):
+        for d in self.drivers():
             d.close()
 
 
-def open_esg_station(rack: EsgRack, timeout: float = 5.0) -> EsgStation:
-    clock = VirtualClock(rack.env)
-    url = {n: f"sim://{n}?rack={rack.rack_id}" for n in rack.serial}
-    return EsgStation(
-        clock=clock,
-        processor=ProcessorDriver(url["processor"], timeout=timeout),
-        head=HeadDriver(url["head"], clock, timeout=timeout),
-        turntable=TurntableDriver(url["turntable"], clock, timeout=timeout),
-        theodolite=TheodoliteDriver(url["theodolite"], timeout=timeout),
-        console=ConsoleDriver(url["console"], timeout=timeout),
-    )
+def open_esg_station(rack: EsgRack | None = None, timeout: float = 5.0,
+                     links: dict[str, str] | None = None,
+                     clock: Clock | None = None) -> EsgStation:
+    """Drivers of the five ESG instruments.
+
+    On ``rack`` (its ``sim://`` links; the clock defaults to its virtual clock), or on
+    ``links`` (instrument -> pyserial URL, e.g. the ptys of a served rack) with ``clock``
+    (a WallClock on the served rack's time). Every driver takes its link timeouts
+    through the clock (``bind_clock``), as in ``open_station``.
+    """
+    url = station_links(INSTRUMENTS, rack.rack_id if rack else None, links, "ESG")
+    if clock is None:
+        if rack is None:
+            raise ValueError("an ESG station on links needs its clock")
+        clock = VirtualClock(rack.env)
+    opened: list = []
+    try:
+        opened.append(ProcessorDriver(url["processor"], timeout=timeout))
+        opened.append(HeadDriver(url["head"], clock, timeout=timeout))
+        opened.append(TurntableDriver(url["turntable"], clock, timeout=timeout))
+        opened.append(TheodoliteDriver(url["theodolite"], timeout=timeout))
+        opened.append(ConsoleDriver(url["console"], timeout=timeout))
+    except BaseException:
+        for d in opened:
+            d.close()
+        raise
+    st = EsgStation(clock, *opened)
+    for d in st.drivers():
+        d.bind_clock(clock)
+    return st

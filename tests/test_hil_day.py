@@ -90,6 +90,7 @@ def rehearsal(tmp_path_factory):
          "--out", str(base / "sniff.jsonl")],
         stdout=subprocess.DEVNULL, stderr=open(base / "sniff.err", "w"))
     try:
+        check = _station("check", "--links", str(links), "--json", timeout=60)
         day = _station("day", "--links", str(links), "--seed", str(SEED), *DAY,
                        "--out", str(base / "run"), "--quiet")
         cal = base / "calibration"
@@ -101,8 +102,7 @@ def rehearsal(tmp_path_factory):
         _stop(sniffer)
         code = _stop(server)
     assert code == 0, (base / "server.err").read_text()[-2000:]
-    yield {"base": base, "day": day, "align": align, "server_out": (base / "server.out")
-           .read_text()}
+    yield {"base": base, "day": day, "align": align, "check": check}
 
 
 def test_day_over_links_equals_its_virtual_twin(rehearsal, tmp_path):
@@ -115,6 +115,8 @@ def test_day_over_links_equals_its_virtual_twin(rehearsal, tmp_path):
     run_day(load_config(seed=SEED), twin, quiet=True, only=("II-11", "II-13"),
             positions=(7, 8), start_s=start["t_sim"])
     assert compare_rehearsal(run, twin) == []
+    cmp = _station("compare", "--rehearsal", str(run), str(twin), timeout=60)
+    assert cmp.returncode == 0 and "equal within the real-time tolerances" in cmp.stdout
     sheets = {p.stem for p in (run / "sheets").glob("*.json")}
     assert {"check_I-1", "check_I-2", "check_II-11", "check_II-13", "survey_results",
             "counter_outputs"} <= sheets
@@ -140,6 +142,16 @@ def test_twin_comparison_can_fail(rehearsal, tmp_path):
             positions=(7, 8), start_s=start)
     problems = compare_rehearsal(run, other)
     assert problems and all("counter_outputs gyro" in p for p in problems), problems
+
+
+def test_check_over_links_reaches_every_served_instrument(rehearsal):
+    check = rehearsal["check"]
+    assert check.returncode == 0, check.stdout + check.stderr
+    rows = json.loads(check.stdout)
+    links = rehearsal["base"] / "links"
+    assert len(rows) == 13 and all(r["ok"] for r in rows)
+    assert all(r["link"].startswith(str(links)) for r in rows if r["instrument"] != "ieu")
+    assert next(r for r in rows if r["instrument"] == "ieu")["link"].startswith("socketcand:")
 
 
 def test_second_client_decodes_ieu_frames_with_the_dbc(rehearsal):

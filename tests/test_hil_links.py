@@ -10,9 +10,6 @@ from __future__ import annotations
 
 import math
 import os
-import signal
-import subprocess
-import sys
 import threading
 import time
 from pathlib import Path
@@ -20,6 +17,7 @@ from pathlib import Path
 import can
 import pytest
 import serial
+from hil_helpers import serving
 
 from station.clock import WallClock
 from station.drivers import IeuDriver, TableDriver
@@ -29,52 +27,14 @@ from station.hil.pty_port import PtyPort
 SPEED = 20.0
 PERIOD = 1000  # S2^T pulses: 0.1 s of simulated time
 STRING_HZ = 20000.0
-START_DEADLINE_S = 20.0
-
-
-def _stop(proc: subprocess.Popen) -> int:
-    """SIGTERM, then SIGKILL if it does not go; the process is always reaped."""
-    if proc.poll() is None:
-        proc.send_signal(signal.SIGTERM)
-        try:
-            proc.wait(10.0)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-            proc.wait(10.0)
-    return proc.returncode
 
 
 @pytest.fixture(scope="module")
 def served(tmp_path_factory):
     """A running server; yields (links dir, entries, process). Stops and checks the cleanup."""
-    base = tmp_path_factory.mktemp("hil")
-    links = base / "links"
-    cmd = [sys.executable, "-m", "station.hil.server", "--seed", "7", "--speed", str(SPEED)]
-    cmd += ["--links", str(links), "--only", "table,ieu"]
-    with open(base / "server.out", "w") as out, open(base / "server.err", "w") as err:
-        proc = subprocess.Popen(cmd, stdout=out, stderr=err, stdin=subprocess.DEVNULL)
-        try:
-            deadline = time.monotonic() + START_DEADLINE_S
-            map_path = links / link_map.FILENAME
-            while not map_path.exists():
-                if proc.poll() is not None:
-                    pytest.fail(f"server exited {proc.returncode}: {_text(base / 'server.err')}")
-                if time.monotonic() > deadline:
-                    pytest.fail(f"no {map_path} within {START_DEADLINE_S} s: {_text(base)}")
-                time.sleep(0.05)
-            yield links, link_map.read(map_path), proc
-            assert proc.poll() is None, f"server died: {_text(base / 'server.err')}"
-        finally:
-            code = _stop(proc)
-    assert code == 0, f"server exit status {code}: {_text(base / 'server.err')}"
-    assert not any(links.iterdir()), f"left behind: {sorted(p.name for p in links.iterdir())}"
-    assert "stopped at t =" in _text(base / "server.out")
-
-
-def _text(path: Path) -> str:
-    if path.is_dir():
-        return " | ".join(_text(p) for p in sorted(path.glob("server.*")))
-    return path.read_text()[-2000:]
+    args = ["--seed", "7", "--speed", str(SPEED), "--only", "table,ieu"]
+    with serving(tmp_path_factory.mktemp("hil"), args) as s:
+        yield s
 
 
 def _address(entries, instrument: str, kind: str, scheme: str | None = None) -> str:

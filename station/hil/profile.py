@@ -7,6 +7,7 @@ it carries the rack's time and is the faster link) and a WallClock on the rack's
 
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -47,3 +48,58 @@ def served(links_dir: Path, can_kind: str = "socketcand") -> ServedLinks:
             if is_scd == (can_kind == "socketcand"):
                 can[e.instrument] = link_map.can_config(e.address)
     return ServedLinks(serial, can, s)
+
+
+class WrongStation(ValueError):
+    """The rack served under a links directory is not the station a command needs."""
+
+
+@dataclass(frozen=True)
+class ServedRun:
+    """A client's hold on a served rack: link URLs, the clock on the rack's time, the
+    session, and whether ground truth may be computed locally (``truth``; ``note`` says why
+    not)."""
+
+    links: dict[str, str]  # serial instrument -> URL
+    can: dict[str, dict]  # CAN instrument -> python-can settings
+    clock: WallClock
+    session: session.Session
+    truth: bool
+    note: str
+
+    def record(self) -> dict:
+        """What a run's journal and results keep about the served rack."""
+        s = self.session
+        return {"session": s.session, "station": s.station, "seed": s.seed, "speed": s.speed,
+                "config_digest": s.config_digest, "truth": self.truth, "note": self.note}
+
+
+def attach(links_dir: Path, station: str, seed: int, digest: str) -> ServedRun:
+    """Links and clock of the ``station`` rack served under ``links_dir`` for a client whose
+    own seed and config digest are ``seed``/``digest``: ground truth (from a rack built
+    locally, never run) is only the served world's when both equal the session's.
+
+    Raises ``profile.NoServedRack`` if nothing is served there (or its server is gone) and
+    :class:`WrongStation` if another station is.
+    """
+    sv = served(Path(links_dir))
+    s = sv.session
+    try:
+        os.kill(s.pid, 0)
+    except ProcessLookupError:
+        raise NoServedRack(f"the server (pid {s.pid}) that published {links_dir} is gone: "
+                           "start `station serve` again") from None
+    except PermissionError:
+        pass  # alive, someone else's
+    if s.station != station:
+        raise WrongStation(f"{links_dir} serves the {s.station} station, not {station} "
+                           f"(start `station serve --station {station} --links {links_dir}`)")
+    diffs = []
+    if s.seed != seed:
+        diffs.append(f"seed {s.seed} (this run: {seed})")
+    if s.config_digest != digest:
+        diffs.append(f"config digest {s.config_digest} (this run: {digest})")
+    note = ("served world = this run's seed and config: ground truth computed locally"
+            if not diffs else
+            f"served rack has {' and '.join(diffs)}: ground truth left out")
+    return ServedRun(sv.serial, sv.can, sv.clock(), s, not diffs, note)

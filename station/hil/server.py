@@ -1,11 +1,18 @@
-"""The rack server: the simulated rack in real time, its instruments on OS-level links.
+"""The rack server: a simulated rack in real time, its instruments on OS-level links.
 
-``python -m station.hil.server [--config FILE] [--seed N] [--speed X] --links DIR
-[--only name,...] [--can-port P]`` builds the SimulatedRack on a :class:`RealtimeEnv`,
-serves each selected serial instrument on a raw pty (symlink ``DIR/<name>``) and the IEU
-on a socketcand server on 127.0.0.1 and on slcan (symlink ``DIR/ieu-slcan``), writes
-``DIR/links.json`` once every link is up, prints the map, and runs until SIGTERM/SIGINT.
+``python -m station.hil.server [--station isu|cigtf|esg] [--config FILE] [--seed N]
+[--speed X] --links DIR [--only name,...] [--can-port P]`` builds the station's rack on a
+:class:`RealtimeEnv` (the ISU SimulatedRack, the CIGTF gyrocompassing fixture's CigtfRack
+or the ESG laboratory's EsgRack), serves each selected serial instrument on a raw pty
+(symlink ``DIR/<name>``) and, if the rack has an IEU, the IEU on a socketcand server on
+127.0.0.1 and on slcan (symlink ``DIR/ieu-slcan``), writes ``DIR/session.json`` and
+``DIR/links.json`` once every link is up, prints the map, and runs until SIGTERM/SIGINT:
+with a live status table on a terminal, else with a plain status line every 10 s.
 A failure of the simulation itself stops the server with exit status 1.
+
+A rack is any object with ``.env`` (the environment it was built on), ``.serial`` (name ->
+ByteInstrument), optionally ``.ieu`` (a CAN instrument) and ``.close()``;
+:class:`ServedStation` says how to build one and what the session publishes about it.
 """
 
 from __future__ import annotations
@@ -18,24 +25,85 @@ import sys
 import threading
 import time
 import uuid
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
+from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 from station.config import ConfigError, StationConfig, load_config
-from station.hil import link_map, session
+from station.hil import link_map, session, status
 from station.hil.can_hub import CanHub
 from station.hil.link_map import LinkEntry
 from station.hil.realtime import RealtimeEnv
 from station.hil.serial_link import SerialPtyLink
 from station.hil.slcan import SlcanAdapter
 from station.hil.socketcand import SocketcandServer
-from station.rack import SimulatedRack
 
 log = logging.getLogger("station.hil")
 
 CAN_INSTRUMENT = "ieu"
 SLCAN_LINK = "ieu-slcan"
 GIL_SWITCH_S = 0.001  # s; Python's default is 0.005
+IEU_LOOKAHEAD_WALL_S = 0.003  # a sample's counts take about 0.8 ms (bench/hil_latency.py)
+STATIONS = ("isu", "cigtf", "esg")
+DEFAULT_SEED = 1  # cigtf, esg: the default of `station gyrocompass-test` / `esg-calibration`
+STATUS_EVERY_S = 10.0  # wall seconds between plain status lines (stdout not a terminal)
+LIVE_REFRESH_PER_S = 2.0
+
+
+@dataclass(frozen=True)
+class ServedStation:
+    """Which station to serve: its name, seed and config digest (published in the session)
+    and how to build its rack on the server's real-time environment."""
+
+    station: str
+    seed: int
+    config_digest: str
+    build: Callable[[RealtimeEnv], Any]
+
+
+def isu_station(cfg: StationConfig) -> ServedStation:
+    from station.rack import SimulatedRack
+
+    return ServedStation("isu", cfg.seed, session.config_digest(cfg),
+                         lambda env: SimulatedRack(cfg, env=env))
+
+
+def cigtf_station(seed: int, params=None) -> ServedStation:
+    from sim.cigtf_world import CigtfParams
+    from station.cigtf_rack import CigtfRack
+
+    params = params if params is not None else CigtfParams()
+    return ServedStation("cigtf", int(seed), session.params_digest("cigtf", params),
+                         lambda env: CigtfRack(seed, params, env=env))
+
+
+def esg_station(seed: int, params=None) -> ServedStation:
+    from sim.esg.world import EsgParams
+    from station.esg_rack import EsgRack
+
+    params = params if params is not None else EsgParams()
+    return ServedStation("esg", int(seed), session.params_digest("esg", params),
+                         lambda env: EsgRack(seed, params, env=env))
+
+
+def load_station(station: str, config: Path | None = None,
+                 seed: int | None = None) -> ServedStation:
+    """The station to serve from a config file, as its own command would read that file:
+    isu: the station config (seed: the config's unless given); cigtf: its [cigtf] section;
+    esg: its [esg] section (seed 1 unless given). Raises ConfigError or ValueError."""
+    if station == "isu":
+        return isu_station(load_config(config, seed=seed))
+    seed = DEFAULT_SEED if seed is None else seed
+    if station == "cigtf":
+        from station.cigtf_config import load_cigtf_params
+
+        return cigtf_station(seed, load_cigtf_params(config))
+    if station == "esg":
+        from station.esg_config import load_esg_params
+
+        return esg_station(seed, load_esg_params(config))
+    raise ValueError(f"unknown station {station!r}: {', '.join(STATIONS)}")
 
 
 class HilServer:
@@ -43,7 +111,7 @@ class HilServer:
 
     def __init__(
         self,
-        cfg: StationConfig,
+        target: ServedStation | StationConfig,
         speed: float,
         links_dir: Path,
         only: Iterable[str] | None = None,
@@ -55,10 +123,18 @@ class HilServer:
         self.links_dir.mkdir(parents=True, exist_ok=True)
         for stale in (link_map.FILENAME, session.FILENAME):  # a dead server's files
             (self.links_dir / stale).unlink(missing_ok=True)
+        spec = target if isinstance(target, ServedStation) else isu_station(target)
+        self.station = spec.station
+        self.seed = spec.seed
+        self.config_digest = spec.config_digest
         self.env = RealtimeEnv(speed, max_lag_s)
-        self.cfg = cfg
         self.session_id = uuid.uuid4().hex[:12]
-        self.rack = SimulatedRack(cfg, env=self.env)
+        self.rack = spec.build(self.env)
+        if self.rack.env is not self.env:
+            self.rack.close()
+            raise ValueError(f"the {self.station} rack was not built on the server's environment")
+        self.can_instrument = CAN_INSTRUMENT if getattr(self.rack, "ieu", None) is not None \
+            else None
         self.serial: dict[str, SerialPtyLink] = {}
         self.hub: CanHub | None = None
         self.socketcand: SocketcandServer | None = None
@@ -71,10 +147,12 @@ class HilServer:
         try:
             names = self._select(only)
             for n in names:
-                if n != CAN_INSTRUMENT:
+                if n != self.can_instrument:
                     link = self.links_dir / n
                     self.serial[n] = SerialPtyLink(self.env, self.rack.serial[n], link)
-            if CAN_INSTRUMENT in names:
+            if self.can_instrument is not None and self.can_instrument in names:
+                # count each sample a little ahead so its frames leave at the latch instant
+                self.rack.ieu.lookahead_s = IEU_LOOKAHEAD_WALL_S * speed
                 self.hub = CanHub(self.env, self.rack.ieu)
                 self.socketcand = SocketcandServer(self.hub, CAN_INSTRUMENT, can_host, can_port)
                 self.slcan = SlcanAdapter(self.hub, SLCAN_LINK, self.links_dir / SLCAN_LINK)
@@ -83,7 +161,7 @@ class HilServer:
             raise
 
     def _select(self, only: Iterable[str] | None) -> list[str]:
-        known = [*self.rack.serial, CAN_INSTRUMENT]
+        known = [*self.rack.serial, *([self.can_instrument] if self.can_instrument else [])]
         if only is None:
             return known
         names = [n.strip() for n in only if n.strip()]
@@ -91,7 +169,7 @@ class HilServer:
         if unknown or not names:
             raise ValueError(
                 f"unknown instrument(s) {', '.join(unknown) or '(none given)'}; "
-                f"known: {', '.join(known)}"
+                f"known to the {self.station} station: {', '.join(known)}"
             )
         return [n for n in known if n in names]
 
@@ -127,8 +205,8 @@ class HilServer:
 
     def session(self) -> session.Session:
         return session.Session(
-            session=self.session_id, station="isu", seed=self.cfg.seed, speed=self.env.speed,
-            config_digest=session.config_digest(self.cfg), t0_monotonic=self.env.wall_at(0),
+            session=self.session_id, station=self.station, seed=self.seed, speed=self.env.speed,
+            config_digest=self.config_digest, t0_monotonic=self.env.wall_at(0),
             pid=os.getpid(),
         )
 
@@ -174,9 +252,10 @@ class HilServer:
         self.close()
 
 
-def _print_map(server: HilServer, speed: float, cfg: StationConfig) -> None:
+def _print_map(server: HilServer) -> None:
     devices = server.devices()
-    print(f"station HIL server (pid {os.getpid()}): seed {cfg.seed}, speed {speed:g}x")
+    print(f"station HIL server (pid {os.getpid()}): station {server.station}, seed "
+          f"{server.seed}, speed {server.env.speed:g}x, session {server.session_id}")
     for e in server.entries():
         dev = devices.get(e.address)
         extra = f"  -> {dev}" if dev else ""
@@ -185,42 +264,94 @@ def _print_map(server: HilServer, speed: float, cfg: StationConfig) -> None:
 
 
 def serve(
-    cfg: StationConfig,
+    target: ServedStation | StationConfig,
     speed: float,
     links_dir: str | Path,
     only: Iterable[str] | None = None,
     can_port: int = 0,
+    live: bool | None = None,
 ) -> None:
-    """Serve the rack until SIGTERM/SIGINT (or :meth:`HilServer.stop`); raise if the sim fails."""
+    """Serve a rack until SIGTERM/SIGINT (or :meth:`HilServer.stop`); raise if the sim fails.
+
+    ``target``: a ServedStation, or a StationConfig for the ISU rack. ``live``: keep a rich
+    status table on screen (default: when stdout is a terminal); otherwise print a plain
+    status line every STATUS_EVERY_S wall seconds.
+    """
     switch = sys.getswitchinterval()
     # I/O threads take their arrival time once they hold the GIL: keep that wait short
     sys.setswitchinterval(min(switch, GIL_SWITCH_S))
+    if live is None:
+        live = sys.stdout.isatty()
     try:
-        with HilServer(cfg, speed, Path(links_dir), only, can_port=can_port) as server:
-            _serve_until_stopped(server, speed, cfg)
+        with HilServer(target, speed, Path(links_dir), only, can_port=can_port) as server:
+            _serve_until_stopped(server, live)
     finally:
         sys.setswitchinterval(switch)
 
 
-def _serve_until_stopped(server: HilServer, speed: float, cfg: StationConfig) -> None:
+def _watch(server: HilServer, tick: Callable[[], None] | None = None) -> None:
+    """Until the simulation stops: re-publish the session when the time base slips; call
+    ``tick`` about every STATUS_EVERY_S seconds."""
+    published = 0.0
+    next_tick = time.monotonic() + STATUS_EVERY_S
+    while not server.done.wait(0.5):
+        if server.env.slipped_s - published > 1e-3:  # the time base moved
+            published = server.env.slipped_s
+            server.publish_session()
+        if tick is not None and time.monotonic() >= next_tick:
+            next_tick += STATUS_EVERY_S
+            tick()
+
+
+def _live_table(server: HilServer):
+    try:
+        return status.render(server)
+    except Exception as e:  # a display bug must not take the server down
+        from rich.text import Text
+
+        return Text(f"status unavailable: {e!r}")
+
+
+def _watch_live(server: HilServer) -> None:
+    """_watch under a rich Live status table; log records go above the table meanwhile."""
+    from rich.console import Console
+    from rich.live import Live
+
+    with Live(console=Console(), get_renderable=lambda: _live_table(server),
+              refresh_per_second=LIVE_REFRESH_PER_S, redirect_stdout=True,
+              redirect_stderr=True):
+        # handlers made before Live hold the real stderr: point them at Live's proxy
+        moved = []
+        for h in logging.getLogger().handlers:
+            if type(h) is logging.StreamHandler and h.stream in (sys.__stderr__, sys.__stdout__):
+                moved.append((h, h.setStream(sys.stderr)))
+        try:
+            _watch(server)
+        finally:
+            for h, stream in moved:
+                h.setStream(stream)
+
+
+def _serve_until_stopped(server: HilServer, live: bool = False) -> None:
     handlers = {}
     if threading.current_thread() is threading.main_thread():
         for sig in (signal.SIGTERM, signal.SIGINT):
             handlers[sig] = signal.signal(sig, lambda *_: server.stop())
     try:
         server.start()
-        _print_map(server, speed, cfg)
-        published = 0.0
-        while not server.done.wait(1.0):
-            if server.env.slipped_s - published > 1e-3:  # the time base moved
-                published = server.env.slipped_s
-                server.publish_session()
+        _print_map(server)
+        if live:
+            _watch_live(server)
+        else:
+            _watch(server, lambda: print(status.status_line(server), flush=True))
     finally:
         for sig, h in handlers.items():
             signal.signal(sig, h)
     env = server.env
+    t = env.now_s if server.error is not None else status.simulated_now(server)
     print(
-        f"stopped at t = {env.now_s:.3f} s simulated; {env.inputs_applied} inputs applied; "
+        f"stopped at t = {t:.3f} s simulated; "
+        f"{env.inputs_applied} inputs applied; "
         f"slipped {env.slipped_s:.3f} s behind real time",
         flush=True,
     )
@@ -231,10 +362,13 @@ def _serve_until_stopped(server: HilServer, speed: float, cfg: StationConfig) ->
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(
         prog="python -m station.hil.server",
-        description="Serve the simulated rack in real time on ptys, socketcand and slcan.",
+        description="Serve a simulated rack in real time on ptys (and the ISU's IEU on "
+        "socketcand and slcan).",
     )
-    p.add_argument("--config", type=Path, help="station config TOML (merged over the default)")
-    p.add_argument("--seed", type=int, help="run seed (default: the config's)")
+    p.add_argument("--station", choices=STATIONS, default="isu", help="which rack to serve")
+    p.add_argument("--config", type=Path, help="config TOML (isu: merged over the default; "
+                   "cigtf/esg: its [cigtf]/[esg] section)")
+    p.add_argument("--seed", type=int, help="run seed (default: the config's; cigtf/esg: 1)")
     p.add_argument("--speed", type=float, default=1.0, help="simulated seconds per wall second")
     p.add_argument("--links", type=Path, required=True, help="directory for symlinks, links.json")
     p.add_argument("--only", help="comma-separated instruments to serve (default: all)")
@@ -242,8 +376,8 @@ def main(argv: list[str] | None = None) -> int:
     a = p.parse_args(argv)
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(name)s: %(message)s")
     try:
-        cfg = load_config(a.config, seed=a.seed)
-        serve(cfg, a.speed, a.links, a.only.split(",") if a.only else None, a.can_port)
+        target = load_station(a.station, a.config, a.seed)
+        serve(target, a.speed, a.links, a.only.split(",") if a.only else None, a.can_port)
     except (ConfigError, ValueError, OSError) as e:
         print(f"error: {e}", file=sys.stderr)
         return 2

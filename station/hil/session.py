@@ -15,8 +15,9 @@ import json
 import os
 from dataclasses import asdict, dataclass
 from pathlib import Path
+from typing import Any
 
-from pydantic import BaseModel
+from pydantic import BaseModel, ConfigDict, TypeAdapter
 
 FILENAME = "session.json"
 
@@ -54,3 +55,20 @@ def read(links_dir: Path) -> Session | None:
     if not path.exists():
         return None
     return Session(**json.loads(path.read_text()))
+
+
+class StationParams(BaseModel):
+    """What the session of a CIGTF or ESG rack digests: the station and its effective
+    parameters. Those are dataclasses (CigtfParams, EsgParams), not pydantic models, so they
+    are dumped to JSON data first; a client that loads the same ``[cigtf]``/``[esg]`` config
+    (``load_cigtf_params``/``load_esg_params``) gets the same params, hence the same digest."""
+
+    model_config = ConfigDict(frozen=True)
+    station: str
+    params: dict
+
+
+def params_digest(station: str, params: Any) -> str:
+    """``session.config_digest`` of a station's effective params (see StationParams)."""
+    data = TypeAdapter(type(params)).dump_python(params, mode="json")
+    return config_digest(StationParams(station=station, params=data))

@@ -6,7 +6,9 @@ not refused, since python-can always sends it). Frames: ``tIIIL<data hex>`` (sta
 frames only: the IEU bus carries nothing else); a sent frame is acknowledged ``z`` CR as by
 a Lawicel adapter. Frames reach the host only while the channel is open; ``C`` also drops
 frames still queued for the host (pyserial's flush on open clears the pty itself). Commands
-run in the simulation thread, in order with the frames the bus delivers.
+run in the simulation thread, in order with the frames the bus delivers. ``counters``
+(display only): frames the host sent (accepted ``t`` commands) and frames delivered to it,
+bytes both ways, the last command line.
 """
 
 from __future__ import annotations
@@ -17,6 +19,7 @@ from pathlib import Path
 
 from station.hil.can_hub import CanHub
 from station.hil.pty_port import PtyPort
+from station.hil.status import LinkCounters, short
 
 log = logging.getLogger(__name__)
 
@@ -41,6 +44,7 @@ class SlcanAdapter:
         self.is_open = False  # simulation thread only
         self.listen_only = False
         self._line = bytearray()  # reader thread only
+        self.counters = LinkCounters()
         hub.attach(self)
 
     @property
@@ -57,22 +61,31 @@ class SlcanAdapter:
     # ----- host to bus -----
     def _from_host(self, data: bytes) -> None:
         """Reader thread: split into CR-terminated commands and post them in order."""
+        self.counters.rx_bytes += len(data)
+        self.counters.touch()
         for b in data:
             if b in (0x0D, 0x0A):
                 if b == 0x0A and not self._line:
                     continue  # a CR LF pair
                 line = bytes(self._line)
                 self._line.clear()
+                if line:
+                    self.counters.last_msg = short(line)
                 self.env.post(lambda line=line: self._command(line))
             elif len(self._line) < MAX_LINE:
                 self._line.append(b)
             else:
                 self._line.clear()
-                self.env.post(lambda: self.port.write(ERROR))
+                self.env.post(lambda: self._write(ERROR))
 
     def _command(self, raw: bytes) -> None:
         """Simulation thread: execute one command line and answer it."""
-        self.port.write(self._execute(raw.decode("ascii", "replace").strip()))
+        self._write(self._execute(raw.decode("ascii", "replace").strip()))
+
+    def _write(self, data: bytes) -> None:
+        """Simulation thread: bytes to the host."""
+        self.port.write(data)
+        self.counters.tx_bytes += len(data)
 
     def _execute(self, line: str) -> bytes:
         if not line:
@@ -103,6 +116,7 @@ class SlcanAdapter:
             if m is None or len(m.group(3)) != 2 * int(m.group(2)):
                 return ERROR
             self.hub.on_bus(self, int(m.group(1), 16), bytes.fromhex(m.group(3)))
+            self.counters.rx_msgs += 1
             return b"z\r"
         # T/r/R/d/D/b/B: extended, remote and FD frames do not exist on the IEU bus
         log.info("slcan %s: refused %r", self.port.name, line[:20])
@@ -111,4 +125,6 @@ class SlcanAdapter:
     # ----- bus to host -----
     def deliver(self, t: float, arbitration_id: int, data: bytes) -> None:
         if self.is_open:
-            self.port.write(format_frame(arbitration_id, data))
+            self._write(format_frame(arbitration_id, data))
+            self.counters.tx_msgs += 1
+            self.counters.touch()

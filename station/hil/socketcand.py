@@ -8,6 +8,8 @@ the client sends ``< send IIII L B0 B1 ... >`` (hex, bytes unpadded) and receive
 Timestamps are simulated seconds. Several clients may be connected at once (a sniffer next
 to a procedure). Frames for a client that has just entered raw mode are held back until it
 speaks or a short grace period passes, so they never share a read with its ``< ok >``.
+Each client counts (display only) the frames it sent and was sent and the bytes both ways;
+``SocketcandServer.snapshot()`` sums them, with the totals of clients gone.
 """
 
 from __future__ import annotations
@@ -18,6 +20,7 @@ import socket
 import threading
 
 from station.hil.can_hub import CanHub
+from station.hil.status import LinkCounters, short
 
 log = logging.getLogger(__name__)
 
@@ -53,6 +56,7 @@ class SocketcandClient:
         self.peer = peer
         self.raw = False
         self.opened = False
+        self.counters = LinkCounters()  # rx: reader thread; frames out: sim; bytes out: writer
         self._out: queue.Queue = queue.Queue(MAX_QUEUED)
         self._spoke = threading.Event()  # the client sent something after entering raw mode
         self._closed = threading.Event()
@@ -80,6 +84,7 @@ class SocketcandClient:
     def deliver(self, t: float, arbitration_id: int, data: bytes) -> None:
         """Simulation thread: queue a frame (only clients in raw mode are on the hub)."""
         self._say(format_frame(t, arbitration_id, data))
+        self.counters.tx_msgs += 1
 
     def _write_loop(self) -> None:
         while True:
@@ -100,11 +105,14 @@ class SocketcandClient:
                 except queue.Empty:
                     break
             if batch:
+                out = "".join(batch).encode("ascii")
                 try:
-                    self.sock.sendall("".join(batch).encode("ascii"))
+                    self.sock.sendall(out)
                 except OSError:
                     self._closed.set()
                     return
+                self.counters.tx_bytes += len(out)
+                self.counters.touch()
             if item is None or self._closed.is_set():
                 return
             if hold:
@@ -123,6 +131,8 @@ class SocketcandClient:
                     break
                 if self.raw:
                     self._spoke.set()
+                self.counters.rx_bytes += len(chunk)
+                self.counters.touch()
                 buf += chunk.decode("ascii", "replace")
                 while True:
                     start = buf.find("<")
@@ -142,6 +152,7 @@ class SocketcandClient:
         if not tokens:
             return
         cmd = tokens[0]
+        self.counters.last_msg = short(" ".join(tokens))
         if cmd == "echo":
             self._say("< echo >")
         elif not self.opened:
@@ -166,6 +177,7 @@ class SocketcandClient:
                 log.info("socketcand %s: ignored %s: %s", self.peer, " ".join(tokens)[:40], e)
                 return
             self.server.hub.send(self, ident, data)
+            self.counters.rx_msgs += 1
         elif not self.raw:
             self._say("< error unsupported command >")
         else:  # an error message in raw mode would break python-can's frame parser
@@ -203,6 +215,7 @@ class SocketcandServer:
         self._listener = socket.create_server((host, port), reuse_port=False)
         self.host, self.port = self._listener.getsockname()[:2]
         self._clients: set[SocketcandClient] = set()
+        self._retired = LinkCounters()  # totals of the clients gone (under the lock)
         self._lock = threading.Lock()
         self._closing = False
         self._thread = threading.Thread(target=self._accept_loop, name="scd-accept", daemon=True)
@@ -231,7 +244,18 @@ class SocketcandServer:
 
     def _forget(self, client: SocketcandClient) -> None:
         with self._lock:
-            self._clients.discard(client)
+            if client in self._clients:
+                self._clients.discard(client)
+                self._retired.add(client.counters)
+
+    def snapshot(self) -> tuple[int, LinkCounters]:
+        """(clients connected, counters summed over every client past and present)."""
+        total = LinkCounters()
+        with self._lock:
+            total.add(self._retired)
+            for c in self._clients:
+                total.add(c.counters)
+            return len(self._clients), total
 
     @property
     def clients(self) -> int:

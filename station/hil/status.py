@@ -1,0 +1,137 @@
+"""What a running rack server shows: per-link counters, a live table and a plain status line.
+
+The link classes (``SerialPtyLink``, ``SocketcandServer`` and its clients, ``SlcanAdapter``)
+each own a :class:`LinkCounters` and update its plain integer fields from their own
+threads, every field from one thread only (the reader counts what comes in, the
+simulation or writer thread what goes out). The counters are for display: they take no
+lock, and nothing here iterates a structure another thread may change (the socketcand
+server sums its clients under its own lock).
+
+``render(server)`` is the rich table ``station serve`` keeps live on a terminal;
+``status_line(server)`` the one line it prints every 10 s when stdout is a file.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+from sim.timebase import TICKS_PER_SECOND
+
+if TYPE_CHECKING:
+    from station.hil.server import HilServer
+
+LAST_CHARS = 32  # of the last command shown
+
+
+class LinkCounters:
+    """Display-only counters of one link (each field has a single writing thread)."""
+
+    __slots__ = ("rx_msgs", "tx_msgs", "rx_bytes", "tx_bytes", "last_msg", "last_at")
+
+    def __init__(self) -> None:
+        self.rx_msgs = 0  # lines, commands or frames from the host
+        self.tx_msgs = 0  # replies, lines or frames to the host
+        self.rx_bytes = 0
+        self.tx_bytes = 0
+        self.last_msg = ""  # the last command seen from the host (truncated)
+        self.last_at: float | None = None  # time.monotonic() of the last traffic either way
+
+    def touch(self) -> None:
+        self.last_at = time.monotonic()
+
+    def add(self, other: LinkCounters) -> None:
+        """Accumulate ``other`` into this one (a snapshot, or a retired client's totals)."""
+        self.rx_msgs += other.rx_msgs
+        self.tx_msgs += other.tx_msgs
+        self.rx_bytes += other.rx_bytes
+        self.tx_bytes += other.tx_bytes
+        if other.last_at is not None and (self.last_at is None or other.last_at > self.last_at):
+            self.last_at = other.last_at
+            self.last_msg = other.last_msg or self.last_msg
+
+
+def short(text: bytes | str, n: int = LAST_CHARS) -> str:
+    """Printable, truncated text of a command for display."""
+    if isinstance(text, bytes):
+        text = text.decode("ascii", "replace")
+    text = "".join(c if c.isprintable() else "?" for c in text.strip())
+    return text if len(text) <= n else text[: n - 1] + "~"
+
+
+@dataclass(frozen=True)
+class LinkRow:
+    instrument: str
+    kind: str  # "serial" | "socketcand" | "slcan"
+    address: str
+    device: str | None
+    clients: int | None  # socketcand only
+    counters: LinkCounters
+
+
+def rows(server: HilServer) -> list[LinkRow]:
+    """One row per link of the server, from a consistent-enough read of its counters."""
+    out = [LinkRow(n, "serial", s.address, s.port.device, None, s.counters)
+           for n, s in server.serial.items()]
+    if server.socketcand is not None:
+        clients, counters = server.socketcand.snapshot()
+        out.append(LinkRow(server.can_instrument, "socketcand", server.socketcand.address,
+                           None, clients, counters))
+    if server.slcan is not None:
+        out.append(LinkRow(server.can_instrument, "slcan", server.slcan.address,
+                           server.slcan.port.device, None, server.slcan.counters))
+    return out
+
+
+def _idle(c: LinkCounters, now: float) -> str:
+    return "-" if c.last_at is None else f"{now - c.last_at:.1f}"
+
+
+def simulated_now(server: HilServer) -> float:
+    """The rack's time now, s: the wall mapping (simpy's ``now`` moves only at events)."""
+    env = server.env
+    return max(env.now, env.tick_at(time.monotonic())) / TICKS_PER_SECOND
+
+
+def header(server: HilServer) -> str:
+    env = server.env
+    return (f"station {server.station} | session {server.session_id} | seed {server.seed} | "
+            f"speed {env.speed:g}x | t = {simulated_now(server):.1f} s simulated | slip "
+            f"{env.slipped_s:.3f} s | {env.inputs_applied} inputs applied")
+
+
+def render(server: HilServer):
+    """The live status: a header line and a table of the links (a rich renderable)."""
+    from rich import box
+    from rich.console import Group
+    from rich.table import Table
+    from rich.text import Text
+
+    now = time.monotonic()
+    t = Table(box=box.SIMPLE_HEAD, expand=False)
+    for c, justify in (("instrument", "left"), ("kind", "left"), ("address", "left"),
+                       ("clients", "right"), ("in", "right"), ("out", "right"),
+                       ("bytes in", "right"), ("bytes out", "right"), ("last command", "left"),
+                       ("idle s", "right")):
+        t.add_column(c, justify=justify, no_wrap=c != "address")
+    for r in rows(server):
+        c = r.counters
+        addr = r.address if r.device is None else f"{r.address} -> {r.device}"
+        t.add_row(r.instrument, r.kind, addr, "" if r.clients is None else str(r.clients),
+                  str(c.rx_msgs), str(c.tx_msgs), str(c.rx_bytes), str(c.tx_bytes),
+                  c.last_msg, _idle(c, now))
+    note = Text("in/out: lines for serial links, frames for CAN; Ctrl-C stops", style="dim")
+    return Group(Text(header(server), style="bold"), t, note)
+
+
+def status_line(server: HilServer) -> str:
+    """One plain line: the header and, per link, messages and bytes in/out."""
+    parts = [header(server)]
+    for r in rows(server):
+        c = r.counters
+        who = r.instrument if r.kind == "serial" else f"{r.instrument}/{r.kind}"
+        extra = f" clients {r.clients}" if r.clients is not None else ""
+        parts.append(f"{who}{extra} in {c.rx_msgs} out {c.tx_msgs} "
+                     f"({c.rx_bytes}/{c.tx_bytes} B)")
+    return "status: " + "; ".join(parts)

@@ -50,26 +50,33 @@ def slipped_s(base: Path) -> float | None:
     return float(m.group(1)) if m else None
 
 
-@contextmanager
-def serving(base: Path, args: list[str]) -> Iterator[tuple[Path, list, subprocess.Popen]]:
-    """A running server with ``args`` (``--links`` is added); see the module doc."""
+def start(base: Path, args: list[str]) -> tuple[Path, subprocess.Popen]:
+    """Start a server with ``args`` (``--links base/links`` added); wait for its map."""
     links = base / "links"
     cmd = [sys.executable, "-m", "station.hil.server", *args, "--links", str(links)]
     with open(base / "server.out", "w") as out, open(base / "server.err", "w") as err:
         proc = subprocess.Popen(cmd, stdout=out, stderr=err, stdin=subprocess.DEVNULL)
-        try:
-            deadline = time.monotonic() + START_DEADLINE_S
-            map_path = links / link_map.FILENAME
-            while not map_path.exists():
-                if proc.poll() is not None:
-                    pytest.fail(f"server exited {proc.returncode}: {text(base / 'server.err')}")
-                if time.monotonic() > deadline:
-                    pytest.fail(f"no {map_path} within {START_DEADLINE_S} s: {text(base)}")
-                time.sleep(0.05)
-            yield links, link_map.read(map_path), proc
-            assert proc.poll() is None, f"server died: {text(base / 'server.err')}"
-        finally:
-            code = stop(proc)
+    deadline = time.monotonic() + START_DEADLINE_S
+    map_path = links / link_map.FILENAME
+    while not map_path.exists():
+        if proc.poll() is not None:
+            pytest.fail(f"server exited {proc.returncode}: {text(base / 'server.err')}")
+        if time.monotonic() > deadline:
+            stop(proc)
+            pytest.fail(f"no {map_path} within {START_DEADLINE_S} s: {text(base)}")
+        time.sleep(0.05)
+    return links, proc
+
+
+@contextmanager
+def serving(base: Path, args: list[str]) -> Iterator[tuple[Path, list, subprocess.Popen]]:
+    """A running server with ``args`` (``--links`` is added); see the module doc."""
+    links, proc = start(base, args)
+    try:
+        yield links, link_map.read(links / link_map.FILENAME), proc
+        assert proc.poll() is None, f"server died: {text(base / 'server.err')}"
+    finally:
+        code = stop(proc)
     assert code == 0, f"server exit status {code}: {text(base / 'server.err')}"
     assert not any(links.iterdir()), f"left behind: {sorted(p.name for p in links.iterdir())}"
     assert "stopped at t =" in text(base / "server.out")

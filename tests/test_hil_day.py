@@ -12,51 +12,27 @@ from __future__ import annotations
 
 import json
 import os
-import signal
 import subprocess
 import sys
 import time
 from pathlib import Path
 
 import pytest
+from hil_helpers import start, stop, text
 
 from station.config import StationConfig, load_config
 from station.day_cmd import run_day
-from station.hil import link_map
 from station.hil.twin import compare_rehearsal
 
 SPEED = 500.0
 SEED = 11
 DAY = ["--only", "II-11", "--only", "II-13", "--positions", "7", "--positions", "8"]
-START_DEADLINE_S = 30.0
 RUN_DEADLINE_S = 240.0
 
 
-def _serve(links: Path, log: Path) -> subprocess.Popen:
-    """Start a server and wait for its link map (its readiness signal)."""
-    cmd = [sys.executable, "-m", "station.hil.server", "--seed", str(SEED),
-           "--speed", str(SPEED), "--links", str(links)]
-    proc = subprocess.Popen(cmd, stdout=open(log.with_suffix(".out"), "w"),
-                            stderr=open(log.with_suffix(".err"), "w"),
-                            stdin=subprocess.DEVNULL)
-    deadline = time.monotonic() + START_DEADLINE_S
-    while not (links / link_map.FILENAME).exists():
-        if proc.poll() is not None or time.monotonic() > deadline:
-            _stop(proc)
-            pytest.fail(f"server not up: {log.with_suffix('.err').read_text()[-2000:]}")
-        time.sleep(0.05)
-    return proc
-
-
-def _stop(proc: subprocess.Popen) -> int:
-    if proc.poll() is None:
-        proc.send_signal(signal.SIGTERM)
-        try:
-            proc.wait(15.0)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-            proc.wait(10.0)
-    return proc.returncode
+def _serve(base: Path, extra: tuple[str, ...] = ()) -> tuple[Path, subprocess.Popen]:
+    base.mkdir(parents=True, exist_ok=True)
+    return start(base, ["--seed", str(SEED), "--speed", str(SPEED), *extra])
 
 
 def _station(*args: str, timeout: float = RUN_DEADLINE_S) -> subprocess.CompletedProcess:
@@ -83,8 +59,7 @@ def _journal(run: Path) -> list[dict]:
 def rehearsal(tmp_path_factory):
     """One served rack; the day's survey and positions 7, 8 over its links, sniffed."""
     base = tmp_path_factory.mktemp("rehearsal")
-    links = base / "links"
-    server = _serve(links, base / "server")
+    links, server = _serve(base)
     sniffer = subprocess.Popen(
         [sys.executable, "-m", "station.hil.sniff", "--links", str(links),
          "--out", str(base / "sniff.jsonl")],
@@ -99,9 +74,9 @@ def rehearsal(tmp_path_factory):
                          "--links", str(links), "--seed", str(SEED),
                          "--out", str(base / "align"), "--quiet")
     finally:
-        _stop(sniffer)
-        code = _stop(server)
-    assert code == 0, (base / "server.err").read_text()[-2000:]
+        stop(sniffer)
+        code = stop(server)
+    assert code == 0, text(base / "server.err")
     yield {"base": base, "day": day, "align": align, "check": check}
 
 
@@ -192,9 +167,8 @@ def test_level_alignment_over_links(rehearsal):
 
 
 def test_server_stop_fails_naming_the_link_then_resume_finishes(tmp_path):
-    links = tmp_path / "links"
     run = tmp_path / "run"
-    server = _serve(links, tmp_path / "server1")
+    links, server = _serve(tmp_path / "server1")
     client = subprocess.Popen(
         [sys.executable, "-m", "station.cli", "day", "--links", str(links), "--seed",
          str(SEED), *DAY, "--out", str(run), "--quiet"],
@@ -207,12 +181,12 @@ def test_server_stop_fails_naming_the_link_then_resume_finishes(tmp_path):
             assert client.poll() is None, client.stdout.read()
             assert time.monotonic() < deadline
             time.sleep(0.05)
-        _stop(server)  # mid-chart II-11
+        stop(server)  # mid-chart II-11
         out, _ = client.communicate(timeout=60)
     finally:
         if client.poll() is None:
             client.kill()
-        _stop(server)
+        stop(server)
     assert client.returncode == 1, out
     assert "stopped:" in out and str(links) in out.replace("\n", ""), out
     before = _journal(run)
@@ -221,12 +195,12 @@ def test_server_stop_fails_naming_the_link_then_resume_finishes(tmp_path):
     survey_before = next(r["data"] for r in before
                          if r["kind"] == "sheet" and r["name"] == "survey_results")
 
-    server = _serve(links, tmp_path / "server2")  # a new session: the rack was power-cycled
+    links, server = _serve(tmp_path / "server2")  # a new session: the rack was power-cycled
     try:
         res = _station("day", "--links", str(links), "--seed", str(SEED), *DAY,
                        "--resume", str(run), "--quiet")
     finally:
-        _stop(server)
+        stop(server)
     assert res.returncode == 0, res.stdout[-3000:] + res.stderr[-3000:]
     after = _journal(run)
     assert after[:len(before)] == before  # appended, never rewritten
@@ -239,3 +213,21 @@ def test_server_stop_fails_naming_the_link_then_resume_finishes(tmp_path):
     ii11 = json.loads((run / "sheets" / "check_II-11.json").read_text())
     assert [s["number"] for s in ii11["steps"]][:4] == ["1", "2", "3", "4"]
     assert all(s["done"] for s in ii11["steps"])
+
+
+def test_fault_configured_on_the_server_is_reported_by_the_procedure(tmp_path):
+    """A table axis that seizes in the served rack: the day stops at the step that needs it,
+    naming the chart, the step and the axis, as the table driver sees it."""
+    faults = tmp_path / "faults.toml"
+    faults.write_text("[faults.table]\nstall_axis = 3\nstall_after_s = 0.0\n")
+    links, server = _serve(tmp_path / "server", ("--config", str(faults)))
+    try:
+        res = _station("day", "--links", str(links), "--seed", str(SEED), *DAY,
+                       "--out", str(tmp_path / "run"), "--quiet")
+    finally:
+        stop(server)
+    said = " ".join(res.stdout.split())
+    assert res.returncode == 1, said
+    assert "stopped: Chart I-2, step 2" in said and "axis 3 (MOVING) not settled" in said
+    steps = [(r["chart"], r["step"]) for r in _journal(tmp_path / "run") if r["kind"] == "step"]
+    assert ("I-1", "11") in steps and ("I-2", "1") in steps  # turn-on done, then stopped

@@ -39,16 +39,25 @@ class FaultSettings(Protocol):
     stall_after_s: float
 
 
-class ReplyFault:
-    """Delays, garbles and loses the reply bytes of one serial instrument."""
+class _LossyOutput:
+    """Rates and seeded streams shared by the reply and frame faults."""
 
     def __init__(self, name: str, seed: int, latency_s: float, drop_rate: float,
                  corrupt_rate: float) -> None:
-        self.latency = ticks(latency_s)  # extra ticks before each reply
+        self.latency_s = latency_s
         self.drop_rate = drop_rate
         self.corrupt_rate = corrupt_rate
         self._drop = stream(seed, "faults", name, "drop")
         self._corrupt = stream(seed, "faults", name, "corrupt")
+
+
+class ReplyFault(_LossyOutput):
+    """Delays, garbles and loses the reply bytes of one serial instrument."""
+
+    def __init__(self, name: str, seed: int, latency_s: float, drop_rate: float,
+                 corrupt_rate: float) -> None:
+        super().__init__(name, seed, latency_s, drop_rate, corrupt_rate)
+        self.latency = ticks(latency_s)  # extra ticks before each reply
         self.bytes_seen = 0
         self.bytes_corrupted = 0
         self.bytes_dropped = 0
@@ -72,16 +81,12 @@ class ReplyFault:
         return buf.tobytes()
 
 
-class FrameFault:
-    """Delays, loses and alters the CAN frames the IEU sends."""
+class FrameFault(_LossyOutput):
+    """Delays (``latency_s`` added to each send time), loses and alters the IEU's frames."""
 
     def __init__(self, name: str, seed: int, latency_s: float, drop_rate: float,
                  corrupt_rate: float) -> None:
-        self.latency_s = latency_s  # added to each frame's send time
-        self.drop_rate = drop_rate
-        self.corrupt_rate = corrupt_rate
-        self._drop = stream(seed, "faults", name, "drop")
-        self._corrupt = stream(seed, "faults", name, "corrupt")
+        super().__init__(name, seed, latency_s, drop_rate, corrupt_rate)
         self.frames_seen = 0
         self.frames_dropped = 0
         self.frames_corrupted = 0

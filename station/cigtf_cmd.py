@@ -22,6 +22,8 @@ from procedures.journal import Journal
 from procedures.runner import Run
 from sim.cigtf_world import CigtfParams
 from station.cigtf_rack import CigtfRack, open_cigtf_station
+from station.connect import connect_rack
+from station.hil.session import params_digest
 from station.record import write_sheets
 
 PHASES = ("operating", "shutdown")
@@ -196,31 +198,10 @@ def run_gyrocompass_test(seed: int, out: Path, params: CigtfParams | None = None
     """
     out = Path(out)
     wall0 = time.perf_counter()
-    served = None
-    if links is not None:
-        from station.hil.profile import WrongStation, attach
-        from station.hil.session import params_digest
-
-        if rack_hook is not None:
-            raise ValueError("rack_hook needs the local rack: not with links")
-        served = attach(links, "cigtf", seed, params_digest("cigtf", params or CigtfParams()))
+    st, rack, served = connect_rack(
+        "cigtf", seed, params_digest("cigtf", params or CigtfParams()),
+        lambda: CigtfRack(seed, params), open_cigtf_station, links, rack_hook)
     out.mkdir(parents=True, exist_ok=True)
-    # the run's rack; against a served rack only the truth's (built, never run)
-    rack = CigtfRack(seed, params) if served is None or served.truth else None
-    if rack_hook is not None:
-        rack_hook(rack)
-    try:
-        if served is None:
-            st = open_cigtf_station(rack)
-        else:
-            try:
-                st = open_cigtf_station(links=served.links, clock=served.clock)
-            except ValueError as e:  # served with --only: instruments missing
-                raise WrongStation(f"{links}: {e}") from None
-    except BaseException:
-        if rack is not None:
-            rack.close()
-        raise
     journal = Journal(out / "journal.jsonl")
     try:
         run = Run(st.clock, journal)

@@ -16,13 +16,13 @@ import simpy
 from instruments.base import ByteInstrument
 from instruments.cigtf import AveragingDvm, FixtureProgrammer, GyroPower
 from sim.cigtf_world import CigtfParams, CigtfWorld
-from station.clock import Clock, VirtualClock
+from station.clock import Clock
 from station.drivers.cigtf import DvmDriver, FixtureDriver, GyroPowerDriver
 from station.links import virtual
+from station.serial_station import open_drivers
 
 _ids = itertools.count(1)
 LATENCY_S = 0.01
-INSTRUMENTS = ("fixture", "dvm", "gyro_power")
 
 
 class CigtfRack:
@@ -64,20 +64,6 @@ class CigtfStation:
             d.close()
 
 
-def station_links(names, rack_id: str | None, links: dict[str, str] | None,
-                  what: str) -> dict[str, str]:
-    """URL per instrument: ``sim://NAME?rack=ID`` of a local rack, or the given ``links``."""
-    if links is None:
-        if rack_id is None:
-            raise ValueError(f"open the {what} station on a rack or on links")
-        return {n: f"sim://{n}?rack={rack_id}" for n in names}
-    missing = [n for n in names if n not in links]
-    if missing:
-        raise ValueError(f"no link for the {what} instrument(s) {', '.join(missing)} "
-                         f"(links for: {', '.join(sorted(links)) or 'none'})")
-    return dict(links)
-
-
 def open_cigtf_station(rack: CigtfRack | None = None, timeout: float = 5.0,
                        links: dict[str, str] | None = None,
                        clock: Clock | None = None) -> CigtfStation:
@@ -88,21 +74,9 @@ def open_cigtf_station(rack: CigtfRack | None = None, timeout: float = 5.0,
     (a WallClock on the served rack's time). Every driver takes its link timeouts
     through the clock (``bind_clock``), as in ``open_station``.
     """
-    url = station_links(INSTRUMENTS, rack.rack_id if rack else None, links, "CIGTF")
-    if clock is None:
-        if rack is None:
-            raise ValueError("a CIGTF station on links needs its clock")
-        clock = VirtualClock(rack.env)
-    opened: list = []
-    try:
-        opened.append(FixtureDriver(url["fixture"], clock, timeout=timeout))
-        opened.append(DvmDriver(url["dvm"], timeout=timeout))
-        opened.append(GyroPowerDriver(url["gyro_power"], timeout=timeout))
-    except BaseException:
-        for d in opened:
-            d.close()
-        raise
-    st = CigtfStation(clock, *opened)
-    for d in st.drivers():
-        d.bind_clock(clock)
-    return st
+    clock, drivers = open_drivers(rack, links, clock, "CIGTF", {
+        "fixture": lambda url, clk: FixtureDriver(url, clk, timeout=timeout),
+        "dvm": lambda url, clk: DvmDriver(url, timeout=timeout),
+        "gyro_power": lambda url, clk: GyroPowerDriver(url, timeout=timeout),
+    })
+    return CigtfStation(clock, *drivers)

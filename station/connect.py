@@ -14,13 +14,14 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 from sim.world import World
 from station.check import needs_simulation
 from station.clock import WallClock
 from station.config import ConfigError, StationConfig
 from station.hil import session
-from station.hil.profile import ServedRun, attach
+from station.hil.profile import ServedRun, WrongStation, attach
 from station.hil.session import Session
 from station.rack import SimulatedRack, Station, open_station
 
@@ -95,3 +96,35 @@ def connect(cfg: StationConfig, links_dir: Path | None = None,
     served = attach(links_dir, "isu", cfg.seed, session.config_digest(cfg))
     st = open_station(served_config(cfg, served), clock=served.clock)
     return Connection(st, None, SimulatedRack(cfg) if served.truth else None, served.session)
+
+
+def connect_rack(station: str, seed: int, digest: str, build_rack: Callable[[], Any],
+                 open_fn: Callable[..., Any], links: Path | None = None,
+                 rack_hook: Callable[[Any], None] | None = None) -> tuple[Any, Any, Any]:
+    """The same choice for the CIGTF and ESG stations: ``(station, rack, served)``.
+
+    Virtual: ``rack`` is the run's rack and ``served`` None. Over ``links``: ``served`` is
+    the ``attach`` of the rack served there, and ``rack`` a never-run twin for the truth
+    (None unless the served seed and config digest are the run's own).
+    """
+    served = None
+    if links is not None:
+        if rack_hook is not None:
+            raise ValueError("rack_hook needs the local rack: not with links")
+        served = attach(links, station, seed, digest)
+    rack = build_rack() if served is None or served.truth else None
+    if rack_hook is not None:
+        rack_hook(rack)
+    try:
+        if served is None:
+            st = open_fn(rack)
+        else:
+            try:
+                st = open_fn(links=served.links, clock=served.clock)
+            except ValueError as e:  # served with --only: instruments missing
+                raise WrongStation(f"{links}: {e}") from None
+    except BaseException:
+        if rack is not None:
+            rack.close()
+        raise
+    return st, rack, served

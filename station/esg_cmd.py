@@ -31,7 +31,9 @@ from procedures.esg.calibration import SCHEDULES, ScheduleResult, assign, calibr
 from procedures.journal import Journal
 from procedures.runner import Run
 from sim.esg.world import EsgParams, EsgWorld
+from station.connect import connect_rack
 from station.esg_rack import EsgRack, open_esg_station
+from station.hil.session import params_digest
 from station.record import write_sheets
 
 GOAL_ARCSEC = 15.0
@@ -189,31 +191,10 @@ def run_esg_calibration(seed: int, out: Path, params: EsgParams | None = None,
     params = params or EsgParams()
     plan = plan or EsgPlan()
     plan = replace(plan, latitude_deg=params.latitude_deg)
-    served = None
-    if links is not None:
-        from station.hil.profile import WrongStation, attach
-        from station.hil.session import params_digest
-
-        if rack_hook is not None:
-            raise ValueError("rack_hook needs the local rack: not with links")
-        served = attach(links, "esg", seed, params_digest("esg", params))
+    st, rack, served = connect_rack(
+        "esg", seed, params_digest("esg", params),
+        lambda: EsgRack(seed, params), open_esg_station, links, rack_hook)
     out.mkdir(parents=True, exist_ok=True)
-    # the run's rack; against a served rack only the static truth's (built, never run)
-    rack = EsgRack(seed, params) if served is None or served.truth else None
-    if rack_hook is not None:
-        rack_hook(rack)
-    try:
-        if served is None:
-            st = open_esg_station(rack)
-        else:
-            try:
-                st = open_esg_station(links=served.links, clock=served.clock)
-            except ValueError as e:  # served with --only: instruments missing
-                raise WrongStation(f"{links}: {e}") from None
-    except BaseException:
-        if rack is not None:
-            rack.close()
-        raise
     journal = Journal(out / "journal.jsonl")
     try:
         run = Run(st.clock, journal)

@@ -17,8 +17,7 @@ import simpy
 from instruments.base import ByteInstrument
 from instruments.esg import DataProcessor, DividingHead, GyroConsole, Theodolite, Turntable
 from sim.esg.world import EsgWorld
-from station.cigtf_rack import station_links
-from station.clock import Clock, VirtualClock
+from station.clock import Clock
 from station.drivers.esg import (
     ConsoleDriver,
     HeadDriver,
@@ -27,10 +26,10 @@ from station.drivers.esg import (
     TurntableDriver,
 )
 from station.links import virtual
+from station.serial_station import open_drivers
 
 _ids = itertools.count(1)
 LATENCY_S = 0.01
-INSTRUMENTS = ("processor", "head", "turntable", "theodolite", "console")
 
 
 class EsgRack:
@@ -86,23 +85,11 @@ def open_esg_station(rack: EsgRack | None = None, timeout: float = 5.0,
     (a WallClock on the served rack's time). Every driver takes its link timeouts
     through the clock (``bind_clock``), as in ``open_station``.
     """
-    url = station_links(INSTRUMENTS, rack.rack_id if rack else None, links, "ESG")
-    if clock is None:
-        if rack is None:
-            raise ValueError("an ESG station on links needs its clock")
-        clock = VirtualClock(rack.env)
-    opened: list = []
-    try:
-        opened.append(ProcessorDriver(url["processor"], timeout=timeout))
-        opened.append(HeadDriver(url["head"], clock, timeout=timeout))
-        opened.append(TurntableDriver(url["turntable"], clock, timeout=timeout))
-        opened.append(TheodoliteDriver(url["theodolite"], timeout=timeout))
-        opened.append(ConsoleDriver(url["console"], timeout=timeout))
-    except BaseException:
-        for d in opened:
-            d.close()
-        raise
-    st = EsgStation(clock, *opened)
-    for d in st.drivers():
-        d.bind_clock(clock)
-    return st
+    clock, drivers = open_drivers(rack, links, clock, "ESG", {
+        "processor": lambda url, clk: ProcessorDriver(url, timeout=timeout),
+        "head": lambda url, clk: HeadDriver(url, clk, timeout=timeout),
+        "turntable": lambda url, clk: TurntableDriver(url, clk, timeout=timeout),
+        "theodolite": lambda url, clk: TheodoliteDriver(url, timeout=timeout),
+        "console": lambda url, clk: ConsoleDriver(url, timeout=timeout),
+    })
+    return EsgStation(clock, *drivers)

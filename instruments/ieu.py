@@ -32,7 +32,7 @@ GYRO_LINES = ("G1", "G2", "G3")
 ACCEL_LINES = ("A1S1", "A1S2", "A2S1", "A2S2", "A3S1", "A3S2")
 CMD_STOP, CMD_START, CMD_RESET, CMD_STATUS, CMD_RESEND = 0, 1, 2, 3, 4
 ERR_ID, ERR_DLC, ERR_CMD, ERR_PERIOD, ERR_RESEND = 1, 2, 3, 4, 5
-HISTORY_LEN = 16  # samples held for RESEND (8 s at 0.5 s samples)
+HISTORY_LEN = 16  # samples held for RESEND (1.6 s at 1000 S2^T pulses, 0.1 s, a sample)
 
 
 def load_dbc() -> cantools.database.Database:

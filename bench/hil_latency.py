@@ -25,7 +25,7 @@ from pathlib import Path
 
 from station.config import load_config
 from station.drivers import IeuDriver, OscillatorDriver
-from station.hil import link_map, session
+from station.hil import link_map
 from station.hil.profile import served
 
 
@@ -56,7 +56,7 @@ def replies(url: str, n: int, latency_s: float) -> list[float]:
 
 def frames(links: Path, seconds: float, period: int) -> list[float]:
     link = served(links)
-    s = session.read(links)
+    s = link.session
     ieu = IeuDriver(link.can["ieu"], timeout=2.0)
     out = []
     try:

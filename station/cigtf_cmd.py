@@ -18,11 +18,9 @@ from pathlib import Path
 from procedures.gyrocompass_test.analysis import phase_values, run_values
 from procedures.gyrocompass_test.procedure import TestData, TestPlan, gyrocompass_test
 from procedures.gyrocompass_test.significance import TestOutcome, judge
-from procedures.journal import Journal
-from procedures.runner import Run
 from sim.cigtf_world import CigtfParams
 from station.cigtf_rack import CigtfRack, open_cigtf_station
-from station.connect import connect_rack
+from station.connect import connect_rack, journaled_run
 from station.hil.session import params_digest
 from station.record import write_sheets
 
@@ -201,13 +199,8 @@ def run_gyrocompass_test(seed: int, out: Path, params: CigtfParams | None = None
     st, rack, served = connect_rack(
         "cigtf", seed, params_digest("cigtf", params or CigtfParams()),
         lambda: CigtfRack(seed, params), open_cigtf_station, links, rack_hook)
-    out.mkdir(parents=True, exist_ok=True)
-    journal = Journal(out / "journal.jsonl")
-    try:
-        run = Run(st.clock, journal)
-        t_start = st.clock.now()  # 0 in virtual time; the rack's time when served
-        extra = {} if served is None else {"served": served.record()}
-        run.note(event="start", seed=seed, test="gyrocompass", **extra)
+    with journaled_run(out, st, rack, served, seed=seed, test="gyrocompass") as (
+            run, extra, t_start):
         data = gyrocompass_test(st, run, plan)
         runs, phases, tests, conclusions = analyse(data)
         run.save_sheet("gyrocompass_runs", runs)
@@ -232,8 +225,3 @@ def run_gyrocompass_test(seed: int, out: Path, params: CigtfParams | None = None
         theta_plot(res, out / "gyrocompass.png")
         run.note(event="end", sim_seconds=st.clock.now() - t_start)
         return res
-    finally:
-        journal.close()
-        st.close()
-        if rack is not None:
-            rack.close()

@@ -245,6 +245,31 @@ def compare(
     raise typer.Exit(1)
 
 
+def _station_run(load_params, config: Path | None, out: Path, unit: str, run):
+    """Load a station's params from ``config`` and ``run(params)``: exit 2 on a bad config
+    or a missing or wrong served rack, 1 when a step fails (the journal keeps every
+    completed ``unit``)."""
+    from procedures.runner import ProcedureError
+    from station.config import ConfigError
+    from station.errors import StationError
+    from station.hil.profile import NoServedRack, WrongStation
+
+    try:
+        params = load_params(config)
+    except ConfigError as e:
+        console.print(f"[red]{e}[/red]")
+        raise typer.Exit(2) from None
+    try:
+        return run(params)
+    except (NoServedRack, WrongStation) as e:
+        console.print(f"[red]{e}[/red]")
+        raise typer.Exit(2) from None
+    except (ProcedureError, StationError) as e:
+        console.print(f"[red]stopped:[/red] {e}")
+        console.print(f"the journal keeps every completed {unit}: {out / 'journal.jsonl'}")
+        raise typer.Exit(1) from None
+
+
 @app.command("gyrocompass-test")
 def gyrocompass_test(
     seed: Annotated[int, typer.Option("--seed", help="run seed")] = 1,
@@ -257,9 +282,7 @@ def gyrocompass_test(
                      "`station serve --station cigtf --links DIR` serves (real time)")] = None,
 ) -> None:
     """The CIGTF gyrocompassing accuracy test (report 001) on the simulated fixture."""
-    from procedures.runner import ProcedureError
     from station.cigtf_cmd import analyse_journal, run_gyrocompass_test
-    from station.errors import StationError
 
     if analyse is not None:
         try:
@@ -273,24 +296,10 @@ def gyrocompass_test(
         console.print(f"written {analyse / 'gyrocompass_analysis.json'}")
         return
     from station.cigtf_config import load_cigtf_params
-    from station.config import ConfigError
 
-    try:
-        params = load_cigtf_params(config)
-    except ConfigError as e:
-        console.print(f"[red]{e}[/red]")
-        raise typer.Exit(2) from None
-    from station.hil.profile import NoServedRack, WrongStation
-
-    try:
-        res = run_gyrocompass_test(seed, out, params=params, links=links)
-    except (NoServedRack, WrongStation) as e:
-        console.print(f"[red]{e}[/red]")
-        raise typer.Exit(2) from None
-    except (ProcedureError, StationError) as e:
-        console.print(f"[red]stopped:[/red] {e}")
-        console.print(f"the journal keeps every completed run: {out / 'journal.jsonl'}")
-        raise typer.Exit(1) from None
+    res = _station_run(load_cigtf_params, config, out, "run",
+                       lambda params: run_gyrocompass_test(seed, out, params=params,
+                                                           links=links))
     from station.cigtf_cmd import render_tables
 
     render_tables(console, res)
@@ -317,28 +326,12 @@ def esg_calibration(
                      "`station serve --station esg --links DIR` serves (real time)")] = None,
 ) -> None:
     """The strapdown ESG pattern calibration and readout study (report 004)."""
-    from procedures.runner import ProcedureError
-    from station.config import ConfigError
-    from station.errors import StationError
     from station.esg_cmd import render_tables, run_esg_calibration
     from station.esg_config import load_esg_params
 
-    try:
-        params = load_esg_params(config)
-    except ConfigError as e:
-        console.print(f"[red]{e}[/red]")
-        raise typer.Exit(2) from None
-    from station.hil.profile import NoServedRack, WrongStation
-
-    try:
-        res = run_esg_calibration(seed, out, params=params, links=links)
-    except (NoServedRack, WrongStation) as e:
-        console.print(f"[red]{e}[/red]")
-        raise typer.Exit(2) from None
-    except (ProcedureError, StationError) as e:
-        console.print(f"[red]stopped:[/red] {e}")
-        console.print(f"the journal keeps every completed step: {out / 'journal.jsonl'}")
-        raise typer.Exit(1) from None
+    res = _station_run(load_esg_params, config, out, "step",
+                       lambda params: run_esg_calibration(seed, out, params=params,
+                                                          links=links))
     render_tables(console, res)
     if "served" in res:
         console.print(f"served rack (session {res['served']['session']}): "

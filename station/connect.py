@@ -11,11 +11,14 @@ attitude of the table only to the server, so alignment truth is absent over link
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from procedures.journal import Journal
+from procedures.runner import Run
 from sim.world import World
 from station.check import needs_simulation
 from station.clock import WallClock
@@ -128,3 +131,25 @@ def connect_rack(station: str, seed: int, digest: str, build_rack: Callable[[], 
             rack.close()
         raise
     return st, rack, served
+
+
+@contextmanager
+def journaled_run(out: Path, st: Any, rack: Any, served: Any, **start: Any
+                  ) -> Iterator[tuple[Run, dict, float]]:
+    """The journal and Run of a CIGTF or ESG run on ``connect_rack``'s station:
+    ``(run, served_record, t_start)``; the start note carries ``start`` and the served
+    rack's record; the journal, drivers and rack are closed however the run ends.
+    ``t_start`` is 0 in virtual time and the rack's time when served."""
+    out.mkdir(parents=True, exist_ok=True)
+    journal = Journal(out / "journal.jsonl")
+    try:
+        run = Run(st.clock, journal)
+        t_start = st.clock.now()
+        extra = {} if served is None else {"served": served.record()}
+        run.note(event="start", **start, **extra)
+        yield run, extra, t_start
+    finally:
+        journal.close()
+        st.close()
+        if rack is not None:
+            rack.close()

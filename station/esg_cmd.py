@@ -28,10 +28,8 @@ import numpy as np
 from procedures.esg import strategy
 from procedures.esg.acquisition import Acquisition, EsgPlan, acquire
 from procedures.esg.calibration import SCHEDULES, ScheduleResult, assign, calibrate, nominal
-from procedures.journal import Journal
-from procedures.runner import Run
 from sim.esg.world import EsgParams, EsgWorld
-from station.connect import connect_rack
+from station.connect import connect_rack, journaled_run
 from station.esg_rack import EsgRack, open_esg_station
 from station.hil.session import params_digest
 from station.record import write_sheets
@@ -194,13 +192,8 @@ def run_esg_calibration(seed: int, out: Path, params: EsgParams | None = None,
     st, rack, served = connect_rack(
         "esg", seed, params_digest("esg", params),
         lambda: EsgRack(seed, params), open_esg_station, links, rack_hook)
-    out.mkdir(parents=True, exist_ok=True)
-    journal = Journal(out / "journal.jsonl")
-    try:
-        run = Run(st.clock, journal)
-        t_start = st.clock.now()  # 0 in virtual time; the rack's time when served
-        extra = {} if served is None else {"served": served.record()}
-        run.note(event="start", seed=seed, test="esg-calibration", **extra)
+    with journaled_run(out, st, rack, served, seed=seed, test="esg-calibration") as (
+            run, extra, t_start):
         acq = acquire(st, run, plan)
         points, bud = assign(acq, plan, plan.lines_per_setting)
         times = {(p.scan, p.offset_deg): p.times_s for p in points}
@@ -254,8 +247,3 @@ def run_esg_calibration(seed: int, out: Path, params: EsgParams | None = None,
         (out / "esg.json").write_text(json.dumps(res_json, indent=1, sort_keys=True))
         run.note(event="end", sim_seconds=st.clock.now() - t_start)
         return res_json
-    finally:
-        journal.close()
-        st.close()
-        if rack is not None:
-            rack.close()

@@ -87,20 +87,10 @@ def _check_samples(ieu: IeuDriver, n: int = 6) -> None:
             assert math.isclose(count, expect, rel_tol=0.10), s
 
 
-def test_ieu_over_socketcand(served):
+@pytest.mark.parametrize("kind, extra", [("socketcand", {}), ("slcan", {"bitrate": 500000})])
+def test_ieu_over_can_link(served, kind, extra):
     _, entries, _ = served
-    cfg = link_map.can_config(_address(entries, "ieu", "can", "socketcand"))
-    ieu = IeuDriver(cfg, timeout=10.0)
-    try:
-        assert ieu.identify().startswith("ISU-LAB,IEU")
-        _check_samples(ieu)
-    finally:
-        ieu.close()
-
-
-def test_ieu_over_slcan(served):
-    _, entries, _ = served
-    cfg = link_map.can_config(_address(entries, "ieu", "can", "slcan")) | {"bitrate": 500000}
+    cfg = link_map.can_config(_address(entries, "ieu", "can", kind)) | extra
     ieu = IeuDriver(cfg, timeout=10.0)
     try:
         assert ieu.identify().startswith("ISU-LAB,IEU")

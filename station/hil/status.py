@@ -17,7 +17,7 @@ import time
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
-from sim.timebase import TICKS_PER_SECOND
+from sim.timebase import seconds
 
 if TYPE_CHECKING:
     from station.hil.server import HilServer
@@ -91,7 +91,7 @@ def _idle(c: LinkCounters, now: float) -> str:
 def simulated_now(server: HilServer) -> float:
     """The rack's time now, s: the wall mapping (simpy's ``now`` moves only at events)."""
     env = server.env
-    return max(env.now, env.tick_at(time.monotonic())) / TICKS_PER_SECOND
+    return seconds(max(env.now, env.tick_at(time.monotonic())))
 
 
 def header(server: HilServer) -> str:

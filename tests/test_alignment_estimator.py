@@ -9,7 +9,6 @@
 from __future__ import annotations
 
 import math
-import time
 
 import numpy as np
 import pytest
@@ -296,23 +295,19 @@ def test_default_spec_posterior_against_average():
     rows = []
     for K, dt in ((10, 1.0), (30, 1.0), (60, 1.0), (30, 2.0), (120, 0.5), (120, 1.0), (300, 1.0)):
         params = default_params(K, dt)
-        t0 = time.perf_counter()
         M, b, cov = posterior_level(params)
-        elapsed = time.perf_counter() - t0
         avg = covariance_of_average(K, dt, params)
         assert _psd(avg - cov)
         post_s = predicted_level_sigma_arcsec(cov, g_body)
         avg_s = predicted_level_sigma_arcsec(avg, g_body)
-        rows.append((K, dt, post_s, avg_s, elapsed))
+        rows.append((K, dt, post_s, avg_s))
         if (K, dt) == (60, 1.0):
             assert max(post_s) < 0.75 * min(avg_s)
-        if K == 300:
-            assert elapsed < 1.0
     print("\nlevel sigma (arcsec, about h1 / h2), default NoiseSpec, prior 60 arcsec, eps_t = 0")
-    for K, dt, p, a, el in rows:
+    for K, dt, p, a in rows:
         print(
             f"K={K:4d} dt={dt:4.1f}s  posterior {p[0]:.3f}/{p[1]:.3f}  "
-            f"average {a[0]:.3f}/{a[1]:.3f}  ratio {p[0] / a[0]:.2f}  ({el * 1e3:.0f} ms)"
+            f"average {a[0]:.3f}/{a[1]:.3f}  ratio {p[0] / a[0]:.2f}"
         )
 
 

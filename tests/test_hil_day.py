@@ -179,7 +179,8 @@ def test_server_stop_fails_naming_the_link_then_resume_finishes(tmp_path):
         while not any(r.get("chart") == "II-11" and r.get("kind") == "step"
                       for r in _journal(run)):
             assert client.poll() is None, client.stdout.read()
-            assert time.monotonic() < deadline
+            if time.monotonic() > deadline:  # a hang guard, not a speed figure
+                pytest.fail("the client never reached Chart II-11")
             time.sleep(0.05)
         stop(server)  # mid-chart II-11
         out, _ = client.communicate(timeout=60)

@@ -24,7 +24,9 @@ from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from typing import Any, TypeVar
 
-from procedures.journal import Journal, dumps
+from pydantic import ValidationError
+
+from procedures.journal import Journal, JournalError, dumps
 from procedures.sheets import SHEET_MODELS, CheckSheet, StepRecord
 from station.clock import Clock
 from station.errors import current_step
@@ -48,6 +50,22 @@ class ResumeMismatch(Exception):
 
 def _stable(rec: dict) -> dict:
     return {k: v for k, v in json.loads(dumps(rec)).items() if k not in VOLATILE}
+
+
+def _sheet_value(journal: Journal, rec: dict, line: int) -> Any:
+    """A journaled sheet as its model (plain data if it has none); JournalError naming the
+    line when the data is not such a sheet."""
+    name = rec["name"]
+    model = SHEET_MODELS.get("check" if name.startswith("check_") else name)
+    if model is None:
+        return rec["data"]
+    try:
+        return model.model_validate(rec["data"])
+    except ValidationError as e:
+        err = e.errors()[0]
+        where = ".".join(str(x) for x in err["loc"]) or "(top)"
+        raise JournalError(f"{journal.path}:{line}: sheet {name!r} is not a valid "
+                           f"{model.__name__}: {where}: {err['msg']}") from None
 
 
 class StepContext:
@@ -74,11 +92,16 @@ class Run:
         self.resume = resume
         self.repeat = set(repeat)
         old = journal.records
+        lines = journal.lines or list(range(1, len(old) + 1))
         self._blocks = {r["key"]: r for r in old if r.get("kind") == "block"}
-        self._old = [r for r in old if r.get("kind") in ("step", "sheet")]
+        replayed = [(r, n) for r, n in zip(old, lines, strict=True)
+                    if r.get("kind") in ("step", "sheet")]
+        self._old = [r for r, _ in replayed]
+        self._old_lines = [n for _, n in replayed]
         self._old_sheets: dict[str, Any] = {}
         if resume == "skip":
-            self._old_sheets = {r["name"]: r["data"] for r in self._old if r["kind"] == "sheet"}
+            self._old_sheets = {r["name"]: _sheet_value(journal, r, n) for r, n in replayed
+                                if r["kind"] == "sheet"}
             self._old = []
         self._pos = 0
         self._saved: list[str] = []  # names of the sheets saved, in order
@@ -95,10 +118,11 @@ class Run:
         if self.replaying:
             old = self._old[self._pos]
             if _stable(old) != _stable(rec):
+                what = " ".join(str(x) for x in (old.get("kind"), old.get("chart", old.get(
+                    "name")), old.get("step", "")) if x != "")
                 raise ResumeMismatch(
-                    f"journal record {self._pos + 1} differs from the replay "
-                    f"({old.get('kind')} {old.get('chart', old.get('name'))} "
-                    f"{old.get('step', '')}): was the seed, config or code changed?"
+                    f"{self.journal.path}:{self._old_lines[self._pos]}: the replay differs "
+                    f"from the journal's {what}: was the seed, config or code changed?"
                 )
             self._pos += 1
         else:
@@ -149,10 +173,10 @@ class Run:
         return load(value)
 
     def _restore_sheet(self, name: str) -> None:
-        data = self._old_sheets[name]
-        model = SHEET_MODELS.get("check" if name.startswith("check_") else name)
-        value = model.model_validate(data) if model else data
+        value = self._old_sheets[name]
         self.sheets[name] = value
+        if isinstance(value, CheckSheet):
+            self.check_sheets[value.chart] = value
         if isinstance(value, CheckSheet):
             self.check_sheets[value.chart] = value
 

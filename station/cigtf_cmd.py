@@ -10,19 +10,20 @@ config digest."""
 
 from __future__ import annotations
 
-import json
 import time
 from collections.abc import Callable
 from pathlib import Path
 
 from procedures.gyrocompass_test.analysis import phase_values, run_values
 from procedures.gyrocompass_test.procedure import TestData, TestPlan, gyrocompass_test
-from procedures.gyrocompass_test.significance import TestOutcome, judge
+from procedures.gyrocompass_test.significance import TestOutcome, judge_phase, shutdown_f_test
+from procedures.journal import JournalError, scan
 from sim.cigtf_world import CigtfParams
 from station.cigtf_rack import CigtfRack, open_cigtf_station
 from station.connect import connect_rack, journaled_run
 from station.hil.session import params_digest
-from station.record import write_sheets
+from station.record import atomic_path, write_json, write_sheets
+from station.rundir import JOURNAL, RunDirError, prepare
 
 PHASES = ("operating", "shutdown")
 
@@ -60,99 +61,112 @@ def theta_plot(res: dict, path: Path) -> None:
     plt.close(fig)
 
 
+TEST_NAMES = {
+    "operating": ("5.4.2 operating F (delta^2 / s1^2)", "5.4.1 operating t |theta1 / se|"),
+    "shutdown": ("5.4.3 shutdown F (Delta^2 / s2^2)", "5.4.1 shutdown t |theta2 / se|"),
+}
+
+
 def analyse(data: TestData) -> tuple[list[dict], list[dict], list[dict], dict]:
-    """Section 5: run table, phase table, significance tests and conclusions of a test."""
+    """Section 5: run table, phase table, significance tests and conclusions of a test.
+
+    A phase with fewer than two completed runs (a test stopped early) has no phase values
+    and no tests; the shutdown-versus-operating test needs both phases."""
     runs = [{"phase": ph, "run": i, "theta_arcsec": r.theta, "sigma_arcsec": r.sigma}
             for ph in PHASES for i, r in enumerate(data.runs[ph], start=1)]
-    pv = {ph: phase_values(data.runs[ph]) for ph in PHASES}
+    pv = {ph: phase_values(data.runs[ph]) for ph in PHASES if len(data.runs[ph]) >= 2}
     phases = [{"phase": ph, "theta_arcsec": p.theta, "sigma_arcsec": p.sigma,
                "s_arcsec": p.s, "n": p.n, "instability_arcsec": p.instability}
               for ph, p in pv.items()]
-    rep = judge(pv["operating"], pv["shutdown"])
-    tests = [
-        _test("5.4.2 operating F (delta^2 / s1^2)", rep.operating.noise_test),
-        _test("5.4.1 operating t |theta1 / se|", rep.operating.mean_test),
-        _test("5.4.3 shutdown F (Delta^2 / s2^2)", rep.shutdown.noise_test),
-        _test("5.4.1 shutdown t |theta2 / se|", rep.shutdown.mean_test),
-        _test("5.4.4 shutdown vs operating F (Delta^2 / delta^2)", rep.shutdown_test),
-    ]
-    conclusions = {
-        "gsf_arcsec_per_ma": data.gsf,
-        "operating": {"theta_arcsec": pv["operating"].theta,
-                      "standard_error_arcsec": rep.operating.standard_error,
-                      "bias_significant": rep.operating.mean_test.significant,
-                      "instability_exceeds_noise": rep.operating.noise_test.significant},
-        "shutdown": {"theta_arcsec": pv["shutdown"].theta,
-                     "standard_error_arcsec": rep.shutdown.standard_error,
-                     "bias_significant": rep.shutdown.mean_test.significant,
-                     "instability_exceeds_noise": rep.shutdown.noise_test.significant},
-        "operating_instability_arcsec": pv["operating"].instability,
-        "shutdown_instability_arcsec": pv["shutdown"].instability,
-        "shutdown_adds_instability": rep.shutdown_test.significant,
-    }
+    verdicts = {ph: judge_phase(p) for ph, p in pv.items()}
+    tests = []
+    for ph, v in verdicts.items():
+        tests += [_test(TEST_NAMES[ph][0], v.noise_test), _test(TEST_NAMES[ph][1], v.mean_test)]
+    conclusions: dict = {"gsf_arcsec_per_ma": data.gsf}
+    for ph, v in verdicts.items():
+        conclusions[ph] = {"theta_arcsec": v.phase.theta,
+                           "standard_error_arcsec": v.standard_error,
+                           "bias_significant": v.mean_test.significant,
+                           "instability_exceeds_noise": v.noise_test.significant}
+        conclusions[f"{ph}_instability_arcsec"] = v.phase.instability
+    if len(pv) == 2:
+        both = shutdown_f_test(pv["operating"], pv["shutdown"])
+        tests.append(_test("5.4.4 shutdown vs operating F (Delta^2 / delta^2)", both))
+        conclusions["shutdown_adds_instability"] = both.significant
     return runs, phases, tests, conclusions
 
 
-def data_from_journal(path: Path) -> tuple[TestData, int | None]:
-    """Rebuild the test data from a journal: every completed run (its step 5.2 recorded)."""
+def data_from_records(records: list[dict]) -> tuple[TestData, dict | None]:
+    """The test data of a journal's records: every completed run (its step 5.2 recorded
+    after its four orientations); and the run's start note."""
     data = TestData()
-    seed = None
+    start = None
     currents: dict[str, dict[int, list[float]]] = {}
-    for line in Path(path).read_text(encoding="utf-8").splitlines():
-        try:
-            rec = json.loads(line)
-        except json.JSONDecodeError:
-            break  # a record cut by a kill ends the usable journal
-        if rec.get("kind") == "note" and rec.get("event") == "start":
-            seed = rec.get("seed")
-        if rec.get("kind") != "step":
+    for rec in records:
+        if start is None and rec["kind"] == "note" and rec["event"] == "start":
+            start = rec
+        if rec["kind"] != "step":
             continue
-        chart, step, reading = rec["chart"], rec["step"], rec.get("reading") or {}
+        chart, step, reading = rec["chart"], rec["step"], rec.get("reading")
+        reading = reading if isinstance(reading, dict) else {}
         if "gsf_arcsec_per_ma" in reading:
-            data.gsf = reading["gsf_arcsec_per_ma"]
+            data.gsf = float(reading["gsf_arcsec_per_ma"])
         if "orientation" in reading and "-R" in chart:
+            if step == "4.2.1":  # a run (re)started: earlier partial orientations are void
+                currents[chart] = {}
             currents.setdefault(chart, {})[int(reading["orientation"])] = reading["currents_ma"]
-        if step == "5.2" and chart in currents and len(currents[chart]) == 4:
+        if step == "5.2" and len(currents.get(chart, {})) == 4:
             phase = "operating" if chart.startswith("4.3") else "shutdown"
             samples = [currents[chart][k] for k in (1, 2, 3, 4)]
             data.runs[phase].append(run_values(samples, data.gsf))
-    return data, seed
+    return data, start
 
 
-def _served_without_truth(path: Path) -> bool:
-    """The journal's run was against a served rack whose world was not the run's own."""
-    for line in Path(path).read_text(encoding="utf-8").splitlines():
-        try:
-            rec = json.loads(line)
-        except json.JSONDecodeError:
-            break
-        if rec.get("kind") == "note" and rec.get("event") == "start":
-            served = rec.get("served")
-            return served is not None and not served.get("truth")
-    return False
+def data_from_journal(path: Path) -> tuple[TestData, int | None]:
+    """Rebuild the test data from a journal (checked; a torn last line is left out)."""
+    data, start = data_from_records(scan(Path(path)).records)
+    return data, None if start is None else start.get("seed")
 
 
-def analyse_journal(d: Path) -> dict:
-    """`station gyrocompass-test --analyse DIR`: the phase analysis again, from the journal."""
+def analyse_journal(d: Path, params: CigtfParams | None = None) -> dict:
+    """`station gyrocompass-test --analyse DIR`: the analysis of every run the journal
+    completed, however the test ended; written to DIR/gyrocompass_analysis.json.
+
+    The truth (eq. 26) is given when the journal's start note names the ``params``
+    (default: the default fixture) by digest, and its run was virtual or served with truth.
+    """
     d = Path(d)
-    data, seed = data_from_journal(d / "journal.jsonl")
-    no_truth = _served_without_truth(d / "journal.jsonl")
-    if not data.gsf:
-        raise ValueError(f"{d / 'journal.jsonl'} holds no scale factor (section 4.1)")
-    for ph in PHASES:
-        if len(data.runs[ph]) < 2:
-            raise ValueError(f"{d / 'journal.jsonl'} holds {len(data.runs[ph])} completed "
-                             f"{ph} run(s): at least 2 are needed")
+    if not d.is_dir():
+        raise RunDirError(f"--analyse {d}: no such directory")
+    path = d / JOURNAL
+    try:
+        records = scan(path).records
+        data, start = data_from_records(records)
+    except (KeyError, TypeError, ValueError) as e:  # a step reading that is not the test's
+        raise JournalError(f"{path}: a step reading is not this test's: {e!r}") from None
+    params = params or CigtfParams()
+    seed = None if start is None else start.get("seed")
+    served = (start or {}).get("served")
+    truthful = (isinstance(seed, int) and (start or {}).get("params_digest")
+                == params_digest("cigtf", params)
+                and (served is None or bool(served.get("truth"))))
     runs, phases, tests, conclusions = analyse(data)
-    truth = (CigtfRack(seed).world.truth_theta_arcsec()
-             if seed is not None and not no_truth else None)
+    truth = None
+    if truthful:
+        with CigtfRack(seed, params) as twin:
+            truth = twin.world.truth_theta_arcsec()
+    missing = [f"{ph}: {len(data.runs[ph])} completed run(s), a phase needs 2"
+               for ph in PHASES if len(data.runs[ph]) < 2]
     res = {
-        "seed": seed, "gsf": data.gsf, "runs": runs, "phases": phases,
-        "delta_arcsec": conclusions["operating_instability_arcsec"],
-        "Delta_arcsec": conclusions["shutdown_instability_arcsec"], "tests": tests,
-        "truth": {"theta_arcsec": truth}, "from_journal": True,
+        "seed": seed, "gsf": data.gsf or None, "runs": runs, "phases": phases,
+        "delta_arcsec": conclusions.get("operating_instability_arcsec"),
+        "Delta_arcsec": conclusions.get("shutdown_instability_arcsec"), "tests": tests,
+        "truth": {"theta_arcsec": truth},
+        "from_journal": True, "complete": any(r["kind"] == "note" and r["event"] == "end"
+                                              for r in records),
+        "incomplete_phases": missing,
     }
-    (d / "gyrocompass_analysis.json").write_text(json.dumps(res, indent=1, sort_keys=True))
+    write_json(d / "gyrocompass_analysis.json", res)
     return res
 
 
@@ -188,19 +202,24 @@ def render_tables(console, res: dict) -> None:
 def run_gyrocompass_test(seed: int, out: Path, params: CigtfParams | None = None,
                          plan: TestPlan | None = None,
                          rack_hook: Callable[[CigtfRack], None] | None = None,
-                         links: Path | None = None) -> dict:
+                         links: Path | None = None, resume: bool = False) -> dict:
     """Run the whole test into ``out``; ``rack_hook`` may inject faults into the rack.
 
     ``links``: run against the CIGTF rack served there instead (see the module doc);
     raises ``NoServedRack`` or ``WrongStation`` (both OSError/ValueError) if it is not.
+    ``resume``: continue the interrupted test in ``out`` (replayed and checked against its
+    journal in virtual time); ``out`` must hold no record otherwise (RunDirError).
     """
     out = Path(out)
+    params = params or CigtfParams()
+    prepare(out, resume, links)
     wall0 = time.perf_counter()
+    digest = params_digest("cigtf", params)
     st, rack, served = connect_rack(
-        "cigtf", seed, params_digest("cigtf", params or CigtfParams()),
-        lambda: CigtfRack(seed, params), open_cigtf_station, links, rack_hook)
-    with journaled_run(out, st, rack, served, seed=seed, test="gyrocompass") as (
-            run, extra, t_start):
+        "cigtf", seed, digest, lambda: CigtfRack(seed, params), open_cigtf_station, links,
+        rack_hook)
+    with journaled_run(out, st, rack, served, resume, seed=seed, test="gyrocompass",
+                       params_digest=digest) as (run, extra, t_start):
         data = gyrocompass_test(st, run, plan)
         runs, phases, tests, conclusions = analyse(data)
         run.save_sheet("gyrocompass_runs", runs)
@@ -212,8 +231,8 @@ def run_gyrocompass_test(seed: int, out: Path, params: CigtfParams | None = None
             "gsf": data.gsf,
             "runs": runs,
             "phases": phases,
-            "delta_arcsec": conclusions["operating_instability_arcsec"],
-            "Delta_arcsec": conclusions["shutdown_instability_arcsec"],
+            "delta_arcsec": conclusions.get("operating_instability_arcsec"),
+            "Delta_arcsec": conclusions.get("shutdown_instability_arcsec"),
             "tests": tests,
             "truth": {"theta_arcsec": rack.world.truth_theta_arcsec()
                       if rack is not None else None},
@@ -221,7 +240,8 @@ def run_gyrocompass_test(seed: int, out: Path, params: CigtfParams | None = None
             "wall_seconds": time.perf_counter() - wall0,
             **extra,
         }
-        (out / "gyrocompass.json").write_text(json.dumps(res, indent=1, sort_keys=True))
-        theta_plot(res, out / "gyrocompass.png")
+        write_json(out / "gyrocompass.json", res)
+        with atomic_path(out / "gyrocompass.png") as tmp:
+            theta_plot(res, tmp)
         run.note(event="end", sim_seconds=st.clock.now() - t_start)
         return res

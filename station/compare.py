@@ -1,8 +1,9 @@
 """`station compare DIR_A DIR_B`: which sheet and result values differ between two runs.
 
 The regression-test use of the product: the same procedure, seed and config must give the
-same record; a code change shows here as the list of values it moved. Wall-clock fields
-are ignored.
+same record; a code change shows here as the list of values it moved. The record is every
+sheet and the results file of each laboratory (results.json, gyrocompass.json, esg.json);
+wall-clock fields are ignored.
 """
 
 from __future__ import annotations
@@ -33,17 +34,39 @@ def _row_key(v, i: int) -> str:
     return str(i)
 
 
+RESULT_FILES = ("results.json", "gyrocompass.json", "esg.json")
+
+
+def _read_json(f: Path) -> object:
+    try:
+        return json.loads(f.read_bytes())
+    except OSError as e:
+        raise ValueError(f"{f}: cannot read it ({e.strerror})") from None
+    except (ValueError, RecursionError) as e:
+        raise ValueError(f"{f}: not JSON ({one_line(e)})") from None
+
+
+def one_line(e: BaseException) -> str:
+    return " ".join(str(e).split())
+
+
 def load_record(d: Path) -> dict:
+    """The results files and sheets of a run directory (keyed by file name without .json)."""
+    d = Path(d)
+    if not d.is_dir():
+        raise FileNotFoundError(f"{d}: no such run directory")
     rec: dict = {}
-    res = d / "results.json"
-    if res.exists():
-        rec["results"] = json.loads(res.read_text())
+    for name in RESULT_FILES:
+        f = d / name
+        if f.is_file():
+            rec[f.stem if name != "results.json" else "results"] = _read_json(f)
     sheets = d / "sheets"
     if sheets.is_dir():
         for f in sorted(sheets.glob("*.json")):
-            rec[f"sheets/{f.stem}"] = json.loads(f.read_text())
+            rec[f"sheets/{f.stem}"] = _read_json(f)
     if not rec:
-        raise FileNotFoundError(f"{d} holds no results.json and no sheets/")
+        raise FileNotFoundError(f"{d} holds no results ({', '.join(RESULT_FILES)}) and no "
+                                "sheets/")
     return rec
 
 

@@ -17,7 +17,6 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from procedures.journal import Journal
 from procedures.runner import Run
 from sim.world import World
 from station.check import needs_simulation
@@ -27,6 +26,7 @@ from station.hil import session
 from station.hil.profile import ServedRun, WrongStation, attach
 from station.hil.session import Session
 from station.rack import SimulatedRack, Station, open_station
+from station.rundir import opened_journal, resume_note
 
 
 @dataclass
@@ -134,22 +134,24 @@ def connect_rack(station: str, seed: int, digest: str, build_rack: Callable[[], 
 
 
 @contextmanager
-def journaled_run(out: Path, st: Any, rack: Any, served: Any, **start: Any
-                  ) -> Iterator[tuple[Run, dict, float]]:
+def journaled_run(out: Path, st: Any, rack: Any, served: Any, resume: bool = False,
+                  **start: Any) -> Iterator[tuple[Run, dict, float]]:
     """The journal and Run of a CIGTF or ESG run on ``connect_rack``'s station:
     ``(run, served_record, t_start)``; the start note carries ``start`` and the served
     rack's record; the journal, drivers and rack are closed however the run ends.
-    ``t_start`` is 0 in virtual time and the rack's time when served."""
-    out.mkdir(parents=True, exist_ok=True)
-    journal = Journal(out / "journal.jsonl")
+    ``t_start`` is 0 in virtual time and the rack's time when served. ``resume``: the
+    journal in ``out`` is continued, replayed in virtual time (each step checked against
+    it), with its completed blocks restored over links."""
     try:
-        run = Run(st.clock, journal)
-        t_start = st.clock.now()
-        extra = {} if served is None else {"served": served.record()}
-        run.note(event="start", **start, **extra)
-        yield run, extra, t_start
+        with opened_journal(out, resume) as journal:
+            run = Run(st.clock, journal, resume="replay" if served is None else "skip")
+            if resume:
+                resume_note(run)
+            t_start = st.clock.now()
+            extra = {} if served is None else {"served": served.record()}
+            run.note(event="start", **start, **extra)
+            yield run, extra, t_start
     finally:
-        journal.close()
         st.close()
         if rack is not None:
             rack.close()

@@ -19,16 +19,17 @@ from rich.table import Table
 
 from procedures.calibration import NoiseSpec
 from procedures.computations import compute_calibration
-from procedures.day import measure_day
+from procedures.day import EXPERIMENTS, measure_day
 from procedures.journal import Journal
 from procedures.plan import DayPlan
 from procedures.runner import Run
 from sim import units
 from station.config import StationConfig
-from station.connect import connect
+from station.connect import Connection, connect
 from station.plots import nonlinearity_plot
 from station.rack import SimulatedRack
-from station.record import write_results, write_sheets
+from station.record import atomic_path, write_results, write_sheets
+from station.rundir import opened_journal, prepare, resume_note
 from station.truth import calibration_truth
 
 EXPECTED_SIM_S = 9.0 * 3600.0  # for the progress bar only
@@ -120,6 +121,19 @@ def rack_session(journal: Journal) -> str | None:
     return starts[-1].get("session") if starts else None
 
 
+def check_selection(only: tuple[str, ...] | None, positions: tuple[int, ...] | None) -> None:
+    """ValueError naming the unknown charts or positions of ``--only`` / ``--positions``
+    (before anything is opened; measure_day checks the same again)."""
+    unknown = sorted(set(only or ()) - set(EXPERIMENTS) - {"I-1", "I-2"})
+    if unknown:
+        raise ValueError(f"--only: unknown chart(s) {', '.join(unknown)}; choose from "
+                         f"{', '.join(EXPERIMENTS)}")
+    bad = sorted(set(positions or ()) - set(range(1, 16)))
+    if bad:
+        raise ValueError(f"--positions: unknown position(s) {', '.join(map(str, bad))}; "
+                         "calibration positions are 1 to 15")
+
+
 def run_day(cfg: StationConfig, out: Path, only: tuple[str, ...] | None = None,
             resume: bool = False, console: Console | None = None, quiet: bool = False,
             plan: DayPlan | None = None,
@@ -132,63 +146,72 @@ def run_day(cfg: StationConfig, out: Path, only: tuple[str, ...] | None = None,
     ``links``: run over the links of a rack served under that directory (real time); a
     resume then restores the completed charts instead of replaying them, and repeats
     turn-on if the rack was restarted meanwhile. ``start_s`` (virtual): begin at that
-    simulated time, to compare with a rehearsal that began then.
+    simulated time, to compare with a rehearsal that began then. ``out`` must hold no
+    record unless ``resume`` (RunDirError); nothing is written before the checks pass.
     """
     console = console or Console()
     plan = plan or DayPlan()
-    out.mkdir(parents=True, exist_ok=True)
-    (out / "sheets").mkdir(exist_ok=True)
+    out = Path(out)
+    check_selection(only, positions)
+    prepare(out, resume, links)
     wall0 = time.perf_counter()
     conn = connect(cfg, links, rack_hook, start_s)
-    st = conn.station
-    journal = Journal(out / "journal.jsonl", resume=resume)
     try:
-        sid = conn.session.session if conn.session else None
-        if resume and links is None and rack_session(journal) is not None:
-            raise ValueError(f"{out} was recorded over links (a served rack): resume it "
-                             "with --links, where completed charts are restored")
-        repeat = ("I-1",) if resume and sid != rack_session(journal) else ()
-        with DayDisplay(console, quiet) as display:
-            run = Run(st.clock, journal, listener=display,
-                      resume="replay" if conn.rack is not None else "skip", repeat=repeat)
-            run.note(event="start", t_sim=st.clock.now(), seed=cfg.seed,
-                     only=list(only or ()), resume=resume,
-                     positions=list(positions or ()), session=sid,
-                     links=None if links is None else str(links))
-            data = measure_day(st, run, plan, site_info(cfg), cfg.isu.accels[0].f0_hz, only,
-                               positions)
-            calib = compute_calibration(run, data, plan, noise_spec(cfg), site_info(cfg))
-            alignment = []
-            if align and data.survey is not None:
-                from station.align_cmd import day_alignments
-
-                alignment = day_alignments(st, run, calib, cfg, conn.attitude_world,
-                                           tape_dir=out / "tapes")
-        write_sheets(out, run)
-        nonlinearity_plot(data.nonlinearity, out / "nonlinearity.png")
-        world = conn.coefficient_world
-        rows = results_rows(calib, calibration_truth(world) if world else {})
-        res = {
-            "seed": cfg.seed,
-            "sim_seconds": st.clock.now(),
-            "wall_seconds": time.perf_counter() - wall0,
-            "calibration": rows,
-            "alignment": alignment,
-            "links": None if links is None else str(links),
-            "restored_charts": run.restored,
-        }
-        write_results(out, res)
-        run.note(event="end", sim_seconds=st.clock.now())
-        if not quiet:
-            render_results(console, rows)
-            if alignment:
-                from station.align_cmd import render_alignment
-
-                render_alignment(console, alignment)
-        return res
+        with opened_journal(out, resume) as journal:
+            return _day(cfg, out, conn, journal, only, resume, console, quiet, plan, align,
+                        links, positions, wall0)
     finally:
-        journal.close()
         conn.close()
+
+
+def _day(cfg: StationConfig, out: Path, conn: Connection, journal: Journal,
+         only: tuple[str, ...] | None, resume: bool, console: Console, quiet: bool,
+         plan: DayPlan, align: bool, links: Path | None, positions: tuple[int, ...] | None,
+         wall0: float) -> dict:
+    st = conn.station
+    sid = conn.session.session if conn.session else None
+    repeat = ("I-1",) if resume and sid != rack_session(journal) else ()
+    with DayDisplay(console, quiet) as display:
+        run = Run(st.clock, journal, listener=display,
+                  resume="replay" if conn.rack is not None else "skip", repeat=repeat)
+        if resume:
+            resume_note(run)
+        run.note(event="start", t_sim=st.clock.now(), seed=cfg.seed,
+                 only=list(only or ()), resume=resume,
+                 positions=list(positions or ()), session=sid,
+                 links=None if links is None else str(links))
+        data = measure_day(st, run, plan, site_info(cfg), cfg.isu.accels[0].f0_hz, only,
+                           positions)
+        calib = compute_calibration(run, data, plan, noise_spec(cfg), site_info(cfg))
+        alignment = []
+        if align and data.survey is not None:
+            from station.align_cmd import day_alignments
+
+            alignment = day_alignments(st, run, calib, cfg, conn.attitude_world,
+                                       tape_dir=out / "tapes")
+    write_sheets(out, run)
+    with atomic_path(out / "nonlinearity.png") as tmp:
+        nonlinearity_plot(data.nonlinearity, tmp)
+    world = conn.coefficient_world
+    rows = results_rows(calib, calibration_truth(world) if world else {})
+    res = {
+        "seed": cfg.seed,
+        "sim_seconds": st.clock.now(),
+        "wall_seconds": time.perf_counter() - wall0,
+        "calibration": rows,
+        "alignment": alignment,
+        "links": None if links is None else str(links),
+        "restored_charts": run.restored,
+    }
+    write_results(out, res)
+    run.note(event="end", sim_seconds=st.clock.now())
+    if not quiet:
+        render_results(console, rows)
+        if alignment:
+            from station.align_cmd import render_alignment
+
+            render_alignment(console, alignment)
+    return res
 
 
 def noise_spec(cfg: StationConfig) -> NoiseSpec:

@@ -16,7 +16,6 @@ digest.
 
 from __future__ import annotations
 
-import json
 import math
 import time
 from collections.abc import Callable
@@ -32,7 +31,8 @@ from sim.esg.world import EsgParams, EsgWorld
 from station.connect import connect_rack, journaled_run
 from station.esg_rack import EsgRack, open_esg_station
 from station.hil.session import params_digest
-from station.record import write_sheets
+from station.record import atomic_path, write_json, write_sheets
+from station.rundir import prepare
 
 GOAL_ARCSEC = 15.0
 STUDY_RANGES = tuple(range(35, 48))
@@ -178,21 +178,25 @@ def calibration_plot(results: list[ScheduleResult], path: Path) -> None:
 def run_esg_calibration(seed: int, out: Path, params: EsgParams | None = None,
                         plan: EsgPlan | None = None,
                         rack_hook: Callable[[EsgRack], None] | None = None,
-                        with_study: bool = True, links: Path | None = None) -> dict:
+                        with_study: bool = True, links: Path | None = None,
+                        resume: bool = False) -> dict:
     """The whole ESG calibration into ``out``; ``rack_hook`` may inject faults.
 
     ``links``: run against the ESG rack served there instead (see the module doc);
     raises ``NoServedRack`` or ``WrongStation`` (both OSError/ValueError) if it is not.
+    ``resume``: continue the interrupted calibration in ``out`` (replayed and checked
+    against its journal in virtual time); ``out`` must hold no record otherwise.
     """
     out = Path(out)
-    wall0 = time.perf_counter()
     params = params or EsgParams()
     plan = plan or EsgPlan()
     plan = replace(plan, latitude_deg=params.latitude_deg)
+    prepare(out, resume, links)
+    wall0 = time.perf_counter()
     st, rack, served = connect_rack(
         "esg", seed, params_digest("esg", params),
         lambda: EsgRack(seed, params), open_esg_station, links, rack_hook)
-    with journaled_run(out, st, rack, served, seed=seed, test="esg-calibration") as (
+    with journaled_run(out, st, rack, served, resume, seed=seed, test="esg-calibration") as (
             run, extra, t_start):
         acq = acquire(st, run, plan)
         points, bud = assign(acq, plan, plan.lines_per_setting)
@@ -238,12 +242,14 @@ def run_esg_calibration(seed: int, out: Path, params: EsgParams | None = None,
             res_json["amplification"] = amp
             res_json["amplification_curve"] = curve
             res_json["edge_resolution"] = edge
-            strategy.figure2_plot(curve, out / "esg_strategy.png")
+            with atomic_path(out / "esg_strategy.png") as tmp:
+                strategy.figure2_plot(curve, tmp)
             run.save_sheet("esg_strategy", curve)
-        calibration_plot(results, out / "esg_calibration.png")
+        with atomic_path(out / "esg_calibration.png") as tmp:
+            calibration_plot(results, tmp)
         write_sheets(out, run)
         res_json["sim_seconds"] = st.clock.now() - t_start
         res_json["wall_seconds"] = time.perf_counter() - wall0
-        (out / "esg.json").write_text(json.dumps(res_json, indent=1, sort_keys=True))
+        write_json(out / "esg.json", res_json)
         run.note(event="end", sim_seconds=st.clock.now() - t_start)
         return res_json

@@ -1,6 +1,7 @@
 """Where a command's record goes: a new run directory, or the interrupted run it resumes.
 
-A directory that already holds a record is never written into by a new run; each run
+A new run goes to a new or empty directory (one that holds a record can only be resumed,
+nothing else may be mixed with a record); each run
 without ``--out`` gets a fresh ``<base>/<UTC time>-seed<N>``; ``--resume DIR`` needs DIR's
 journal, whole but for a torn last line, and the run's own arguments (its start note). All
 of this is decided before anything is written, and every refusal is one ``RunDirError``
@@ -40,12 +41,17 @@ def holds_record(d: Path) -> bool:
 
 
 def check_new(out: Path) -> None:
-    """``out`` may receive a new run: refuse a file, a path through a file, or a record."""
+    """``out`` may receive a new run: it is new or an empty directory. Refused: a record
+    (to be resumed instead), any other content (a run must not mix with it), a file, a
+    path through a file."""
     out = Path(out)
     if out.is_dir():
         if holds_record(out):
             raise RunDirError(f"{out} already holds a run's record and was left untouched: "
                               f"continue that run with --resume {out}, or choose another --out")
+        if any(out.iterdir()):
+            raise RunDirError(f"--out {out} is not empty: a new run needs a new or empty "
+                              "directory (its record must not mix with other files)")
         return
     if out.exists() or out.is_symlink():
         raise RunDirError(f"--out {out} is an existing file, not a run directory")

@@ -110,7 +110,9 @@ def _reported(where: Callable[[], Path | None]) -> Iterator[None]:
     except RunComplete as e:
         typer.echo(one_line(e))
         raise typer.Exit(0) from None
-    except (ProcedureError, ResumeMismatch, StationError) as e:
+    except ResumeMismatch as e:  # the journal is another run's: nothing was measured
+        fail(e)
+    except (ProcedureError, StationError) as e:
         d = where()
         keep = (f" (the journal keeps every completed step: {d / 'journal.jsonl'}; continue "
                 f"with --resume {d})") if d is not None else ""

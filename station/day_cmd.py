@@ -64,7 +64,8 @@ class DayDisplay:
         return self
 
     def __exit__(self, *exc) -> None:
-        self.progress.stop()
+        if not self.quiet:
+            self.progress.stop()
 
     def __call__(self, ev: dict) -> None:
         if self.quiet:

@@ -227,7 +227,7 @@ def test_fault_configured_on_the_server_is_reported_by_the_procedure(tmp_path):
                        "--out", str(tmp_path / "run"), "--quiet")
     finally:
         stop(server)
-    said = " ".join(res.stdout.split())
+    said = " ".join(res.stderr.split())  # stop messages go to stderr
     assert res.returncode == 1, said
     assert "stopped: Chart I-2, step 2" in said and "axis 3 (MOVING) not settled" in said
     steps = [(r["chart"], r["step"]) for r in _journal(tmp_path / "run") if r["kind"] == "step"]

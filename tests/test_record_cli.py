@@ -252,3 +252,21 @@ def test_gyrocompass_alignment_near_a_pole_is_refused_or_skipped(cli, tmp_path):
     assert "site.latitude_deg = 89" in res["alignment"][-1]["skipped"]
     assert not any(s.name.startswith("alignment_results_gyrocompass")
                    for s in (tmp_path / "D" / "sheets").iterdir())
+
+
+def test_resume_with_another_config_is_refused_at_the_first_differing_step(finished, cli,
+                                                                           tmp_path):
+    """The replay checks each step against the journal: another latitude changes the
+    survey's readings, and the resume stops there (exit 2) with nothing measured after."""
+    d = _unfinished(finished, tmp_path / "C")
+    cfg = tmp_path / "elsewhere.toml"
+    cfg.write_text("[site]\nlatitude_deg = 40.0\n")
+    before = (d / "journal.jsonl").read_bytes()
+    r = cli("day", "--resume", d, "--config", cfg, "--quiet")
+    refused(r, f"{d / 'journal.jsonl'}:", "was the seed, config or code changed")
+    line = int(r.stderr.split("journal.jsonl:")[1].split(":")[0])
+    rec = json.loads(before.splitlines()[line - 1])
+    assert rec["kind"] == "step" and rec["chart"] in ("I-1", "I-2")
+    after = (d / "journal.jsonl").read_bytes()
+    assert after.startswith(before)
+    assert [json.loads(x)["event"] for x in after[len(before):].splitlines()] == ["resume"]

@@ -26,6 +26,7 @@ from station.record import atomic_path, write_json, write_sheets
 from station.rundir import JOURNAL, RunDirError, prepare
 
 PHASES = ("operating", "shutdown")
+RENEW = ("4.0",)  # a restarted served rack powered the gyro off: its warm-up again
 
 
 def _test(name: str, t: TestOutcome) -> dict:
@@ -152,7 +153,7 @@ def analyse_journal(d: Path, params: CigtfParams | None = None) -> dict:
                 and (served is None or bool(served.get("truth"))))
     runs, phases, tests, conclusions = analyse(data)
     truth = None
-    if truthful:
+    if truthful and isinstance(seed, int):
         with CigtfRack(seed, params) as twin:
             truth = twin.world.truth_theta_arcsec()
     missing = [f"{ph}: {len(data.runs[ph])} completed run(s), a phase needs 2"
@@ -218,8 +219,8 @@ def run_gyrocompass_test(seed: int, out: Path, params: CigtfParams | None = None
     st, rack, served = connect_rack(
         "cigtf", seed, digest, lambda: CigtfRack(seed, params), open_cigtf_station, links,
         rack_hook)
-    with journaled_run(out, st, rack, served, resume, seed=seed, test="gyrocompass",
-                       params_digest=digest) as (run, extra, t_start):
+    with journaled_run(out, st, rack, served, resume, renew=RENEW, seed=seed,
+                       test="gyrocompass", params_digest=digest) as (run, extra, t_start):
         data = gyrocompass_test(st, run, plan)
         runs, phases, tests, conclusions = analyse(data)
         run.save_sheet("gyrocompass_runs", runs)

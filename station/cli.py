@@ -485,11 +485,14 @@ def esg_calibration(
 
 def _usage_error() -> type[Exception]:
     """The parser's usage-error class (typer's own click, or click before typer 0.2x)."""
-    try:
-        from typer._click.exceptions import UsageError
-    except ImportError:
-        from click.exceptions import UsageError
-    return UsageError
+    import importlib
+
+    for module in ("typer._click.exceptions", "click.exceptions"):
+        try:
+            return importlib.import_module(module).UsageError
+        except (ImportError, AttributeError):
+            continue
+    raise ImportError("no click UsageError")
 
 
 def main() -> None:

@@ -133,18 +133,30 @@ def connect_rack(station: str, seed: int, digest: str, build_rack: Callable[[], 
     return st, rack, served
 
 
+def served_session(records: list[dict]) -> str | None:
+    """The served rack's session of a CIGTF or ESG journal's last start (None: virtual)."""
+    starts = [r for r in records if r.get("event") == "start"]
+    served = starts[-1].get("served") if starts else None
+    return served.get("session") if isinstance(served, dict) else None
+
+
 @contextmanager
 def journaled_run(out: Path, st: Any, rack: Any, served: Any, resume: bool = False,
-                  **start: Any) -> Iterator[tuple[Run, dict, float]]:
+                  renew: tuple[str, ...] = (), **start: Any
+                  ) -> Iterator[tuple[Run, dict, float]]:
     """The journal and Run of a CIGTF or ESG run on ``connect_rack``'s station:
     ``(run, served_record, t_start)``; the start note carries ``start`` and the served
     rack's record; the journal, drivers and rack are closed however the run ends.
     ``t_start`` is 0 in virtual time and the rack's time when served. ``resume``: the
     journal in ``out`` is continued, replayed in virtual time (each step checked against
-    it), with its completed blocks restored over links."""
+    it), with its completed blocks restored over links; ``renew`` names the blocks a
+    restarted rack (another session) must repeat even if completed (a warm-up)."""
     try:
         with opened_journal(out, resume) as journal:
-            run = Run(st.clock, journal, resume="replay" if served is None else "skip")
+            now = served.session.session if served is not None else None
+            renewed = renew if resume and now != served_session(journal.records) else ()
+            run = Run(st.clock, journal, resume="replay" if served is None else "skip",
+                      repeat=renewed)
             if resume:
                 resume_note(run)
             t_start = st.clock.now()

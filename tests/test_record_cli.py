@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import os
 import shutil
 import subprocess
 import sys
@@ -208,8 +209,8 @@ def test_fresh_directories_are_unique_within_a_second(tmp_path):
 
 def _station(*args: str, cwd: Path) -> subprocess.CompletedProcess:
     return subprocess.run([sys.executable, "-m", "station.cli", *args], capture_output=True,
-                          text=True, cwd=cwd, timeout=120, env={"PYTHONPATH": str(REPO),
-                                                                "PATH": "/usr/bin:/bin"})
+                          text=True, cwd=cwd, timeout=120,
+                          env={**os.environ, "PYTHONPATH": str(REPO)})
 
 
 def test_the_station_command_itself_gives_one_line_errors_and_its_version(tmp_path):
@@ -270,3 +271,13 @@ def test_resume_with_another_config_is_refused_at_the_first_differing_step(finis
     after = (d / "journal.jsonl").read_bytes()
     assert after.startswith(before)
     assert [json.loads(x)["event"] for x in after[len(before):].splitlines()] == ["resume"]
+
+
+def test_a_run_directory_being_recorded_is_not_resumed_twice(finished, cli, tmp_path):
+    from station.rundir import recording
+
+    d = _unfinished(finished, tmp_path / "busy")
+    before = tree(d)
+    with recording(d):  # another run holds it
+        refused(cli("day", "--resume", d, "--quiet"), "another run is recording in it")
+    assert tree(d) == before

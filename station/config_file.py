@@ -178,7 +178,7 @@ def _listing(names: tuple[str, ...]) -> str:
 
 
 def _shown(value: object) -> bool:
-    return isinstance(value, int | float | str | bool) or value is None
+    return isinstance(value, int | float | str | bool)
 
 
 def _short(value: object, n: int = 40) -> str:

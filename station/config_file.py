@@ -16,7 +16,8 @@ import stat
 import tomllib
 from collections.abc import Iterable, Mapping
 from pathlib import Path
-from typing import Any, TypeVar
+from types import UnionType
+from typing import Annotated, Any, TypeVar, Union, get_args, get_origin
 
 from pydantic import BaseModel, ValidationError
 
@@ -130,12 +131,13 @@ def check_sections(doc: Mapping[str, Any], where: str, lab: str) -> None:
         if owner is not None:
             raise ConfigError(
                 f"{where}: {name(key)} belongs to the {owner} laboratory's configuration "
-                f"({COMMANDS[owner]}); a {lab} file holds only {_listing(own)}")
+                f"({COMMANDS[owner]}); the {lab} laboratory's file holds only "
+                f"{_listing(own)}")
         known = [n for names in LABORATORIES.values() for n in names]
         close = difflib.get_close_matches(str(key), known, n=1, cutoff=0.6)
         hint = f" (did you mean {close[0]}?)" if close else ""
-        raise ConfigError(f"{where}: unknown section or field {name(key)}{hint}; a {lab} "
-                          f"file holds only {_listing(own)}")
+        raise ConfigError(f"{where}: unknown section or field {name(key)}{hint}; the {lab} "
+                          f"laboratory's file holds only {_listing(own)}")
 
 
 def validate(model: type[M], data: Any, where: str, what: str, prefix: tuple = ()) -> M:
@@ -143,19 +145,25 @@ def validate(model: type[M], data: Any, where: str, what: str, prefix: tuple = (
     try:
         return model.model_validate(data)
     except ValidationError as e:
-        raise ConfigError(describe(e, where, what, prefix)) from None
+        raise ConfigError(describe(e, where, what, prefix, model)) from None
     except RecursionError:  # only a document that escaped check_depth could get here
         raise ConfigError(f"{where}: nested too deeply to be a configuration") from None
 
 
-def describe(e: ValidationError, where: str, what: str, prefix: tuple = ()) -> str:
+def describe(e: ValidationError, where: str, what: str, prefix: tuple = (),
+             model: type[BaseModel] | None = None) -> str:
     """``invalid <what> configuration in <file>: a.b: msg (got x); c: msg``."""
     parts = []
-    errors = e.errors()
+    rank = {"extra_forbidden": 0, "missing": 2}  # a misspelt field first, its absence last
+    errors = sorted(e.errors(), key=lambda err: rank.get(err["type"], 1))
     for err in errors[:MAX_ERRORS]:
         loc = [p for p in (*prefix, *err["loc"]) if p != "[key]"]
         msg = _one_line(err["msg"].removeprefix("Value error, "))
-        if err["type"] not in ("missing", "extra_forbidden") and _shown(err.get("input")):
+        if err["type"] == "extra_forbidden":
+            msg = "unknown field" + _suggestion(model, err["loc"])
+        elif err["type"] == "missing":
+            msg = "missing (required)"
+        elif _shown(err.get("input")):
             msg += f" (got {_short(err['input'])})"
         parts.append(f"{dotted(loc)}: {msg}" if loc else msg)
     if len(errors) > MAX_ERRORS:
@@ -171,6 +179,51 @@ def read_section(path: str | Path, section: str, model: type[M], what: str) -> M
     lab = next(k for k, names in LABORATORIES.items() if names == (section,))
     check_sections(doc, where, lab)
     return validate(model, doc.get(section, {}), where, what, (section,))
+
+
+def _suggestion(model: type[BaseModel] | None, loc: tuple) -> str:
+    """`` (did you mean x?)`` for an unknown field, from the fields of the model that
+    holds it; empty when nothing is close."""
+    holder = _model_at(model, loc[:-1]) if model is not None else None
+    if holder is None or not loc:
+        return ""
+    close = difflib.get_close_matches(str(loc[-1]), list(holder.model_fields), n=1, cutoff=0.6)
+    return f" (did you mean {close[0]}?)" if close else ""
+
+
+def _model_at(model: type[BaseModel], loc: tuple) -> type[BaseModel] | None:
+    """The model class whose fields sit at ``loc`` below ``model`` (an array index or a
+    mapping key after a container field passes through), or None."""
+    current: Any = model
+    i = 0
+    while i < len(loc):
+        if not (isinstance(current, type) and issubclass(current, BaseModel)):
+            return None
+        field = current.model_fields.get(str(loc[i]))
+        if field is None:
+            return None
+        tp = _bare(field.annotation)
+        i += 1
+        while get_origin(tp) in (dict, tuple, list) and i < len(loc):
+            args = get_args(tp)
+            tp = _bare(args[-1] if get_origin(tp) is dict else args[0])
+            i += 1
+        current = tp
+    return current if isinstance(current, type) and issubclass(current, BaseModel) else None
+
+
+def _bare(tp: Any) -> Any:
+    """An annotation without Annotated and without None in an Optional."""
+    while True:
+        if get_origin(tp) is Annotated:
+            tp = get_args(tp)[0]
+        elif get_origin(tp) in (Union, UnionType):
+            rest = [a for a in get_args(tp) if a is not type(None)]
+            if len(rest) != 1:
+                return tp
+            tp = rest[0]
+        else:
+            return tp
 
 
 def _listing(names: tuple[str, ...]) -> str:

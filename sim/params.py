@@ -75,7 +75,7 @@ class PierTiltParams(_Model):
 class WobbleParams(_Model):
     amplitude_arcsec: float = Field(ge=0, le=10)
     period_s: float = Field(ge=1, le=3600)  # a wobble: about a cycle a minute
-    coherence_s: float = Field(le=MAX_TAU_S)
+    coherence_s: float = Field(ge=1, le=MAX_TAU_S)
 
     @field_validator("coherence_s")
     @classmethod

@@ -71,10 +71,13 @@ class CigtfConfig(BaseModel):
     mount_sd_arcsec: float | None = Field(None, ge=0, le=600)  # h, i, j: first-order models
     # 180 deg turns must hold within the procedure's 120 s wait: 2 deg/s at least.
     slew_deg_s: float | None = Field(None, ge=2.0, le=60.0)
-    average_s: float | None = Field(None, ge=1.0, le=120.0)  # a DVM's averaging aperture
+    # The test waits 10 s plus the DVM driver's 5-s reply timeout for each average (it
+    # does not ask APER?): a longer aperture is a certain LinkTimeout in step 4.1.1.
+    average_s: float | None = Field(None, ge=1.0, le=14.0)
     latitude_deg: float | None = Field(None, ge=-LATITUDE_MAX_DEG, le=LATITUDE_MAX_DEG,
                                        validate_default=True)
-    current_noise_ma: float | None = Field(None, ge=0, validate_default=True)
+    # at most 0.059 cos(lat) mA (module docstring): never more than 0.06
+    current_noise_ma: float | None = Field(None, ge=0, le=0.06, validate_default=True)
 
     @field_validator("latitude_deg")
     @classmethod

@@ -187,7 +187,9 @@ def _suggestion(model: type[BaseModel] | None, loc: tuple) -> str:
     holder = _model_at(model, loc[:-1]) if model is not None else None
     if holder is None or not loc:
         return ""
-    close = difflib.get_close_matches(str(loc[-1]), list(holder.model_fields), n=1, cutoff=0.6)
+    word, fields = str(loc[-1]), list(holder.model_fields)
+    close = difflib.get_close_matches(word, fields, n=1, cutoff=0.6)
+    close = close or [f for f in fields if f.startswith(word + "_")][:1]  # a unit left off
     return f" (did you mean {close[0]}?)" if close else ""
 
 

@@ -195,8 +195,13 @@ def test_an_oscillator_that_would_run_backwards(tmp_path, text):
 def test_cigtf_noise_that_would_write_nan(tmp_path):
     p = tmp_path / "c.toml"
     p.write_text("[cigtf]\ncurrent_noise_ma = 1e300\n")
-    refused("CIGTF", p, "cigtf.current_noise_ma: 1e+300 mA is too much noise",
+    refused("CIGTF", p, "cigtf.current_noise_ma: Input should be less than or equal to 0.06")
+    p.write_text("[cigtf]\ncurrent_noise_ma = 0.05\n")  # at the report's latitude
+    refused("CIGTF", p, "cigtf.current_noise_ma: 0.05 mA is too much noise",
             "at most 0.0493 mA")
+    p.write_text("[cigtf]\ncurrent_noise_ma = 0.02\nlatitude_deg = 75.0\n")
+    refused("CIGTF", p, "cigtf.current_noise_ma: 0.02 mA is too much noise",
+            "at latitude 75 deg: at most 0.0152 mA")
 
 
 @pytest.mark.parametrize("lat", [90.0, -90.0, 89.0, 88.5, -88.0])

@@ -220,9 +220,7 @@ class FaultSpec(BaseModel):
 
 def _fault_instrument(name: str) -> str:
     if name not in FAULT_INSTRUMENTS:
-        raise ValueError(
-            f"unknown instrument {name!r} in faults; known: {', '.join(FAULT_INSTRUMENTS)}"
-        )
+        raise ValueError(f"no instrument of that name; known: {', '.join(FAULT_INSTRUMENTS)}")
     return name
 
 

@@ -143,11 +143,23 @@ def check_sections(doc: Mapping[str, Any], where: str, lab: str) -> None:
 def validate(model: type[M], data: Any, where: str, what: str, prefix: tuple = ()) -> M:
     """``model`` from ``data``, or a one-line ConfigError naming the file and each field."""
     try:
-        return model.model_validate(data)
+        return model.model_validate(_without_negative_zero(data))
     except ValidationError as e:
         raise ConfigError(describe(e, where, what, prefix, model)) from None
     except RecursionError:  # only a document that escaped check_depth could get here
         raise ConfigError(f"{where}: nested too deeply to be a configuration") from None
+
+
+def _without_negative_zero(data: Any) -> Any:
+    """The data with every -0.0 made 0.0: the same number to a bound (-0.0 >= 0), but
+    numpy refuses it as a standard deviation ("scale < 0")."""
+    if isinstance(data, float) and data == 0.0:
+        return 0.0
+    if isinstance(data, Mapping):
+        return {k: _without_negative_zero(v) for k, v in data.items()}
+    if isinstance(data, list | tuple):
+        return type(data)(_without_negative_zero(v) for v in data)
+    return data
 
 
 def describe(e: ValidationError, where: str, what: str, prefix: tuple = (),

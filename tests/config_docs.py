@@ -230,7 +230,9 @@ def mutate(rng: random.Random, doc: dict[str, Any], lab: str) -> dict[str, Any]:
                   "silent_after_s": 3600.0, "stall_axis": 2, "stall_after_s": 60.0}
         spec = {k: (_extreme(rng, v) if rng.random() < 0.4 else v)
                 for k, v in fields.items() if rng.random() < 0.4}
-        doc.setdefault("faults", {})[name] = spec
+        if not isinstance(doc.get("faults"), dict):
+            doc["faults"] = {}
+        doc["faults"][name] = spec
     return doc
 
 
@@ -259,9 +261,9 @@ def damage(rng: random.Random, raw: bytes) -> bytes:
     return bytes(b)
 
 
-def document(rng: random.Random) -> tuple[str, bytes]:
-    """A laboratory and a (usually) mutated document of it, as bytes."""
-    lab = rng.choice(LABS)
+def document(rng: random.Random, lab: str | None = None) -> tuple[str, bytes]:
+    """A laboratory (``lab`` or a random one) and a (usually) mutated document of it."""
+    lab = lab or rng.choice(LABS)
     doc = base_document(rng, lab)
     for _ in range(rng.choice((0, 1, 1, 1, 2, 3))):
         doc = mutate(rng, doc, lab)

@@ -255,3 +255,22 @@ def test_a_directory_as_config_for_every_command(tmp_path, command):
     assert r.exit_code == 2 and isinstance(r.exception, SystemExit), r.output
     assert "is a directory" in " ".join(r.output.split())
     assert not (tmp_path / "out").exists()
+
+
+def test_negative_zero_is_zero(tmp_path):
+    """-0.0 passes 'ge=0' but numpy refuses it as a standard deviation ('scale < 0'); the
+    fuzz bench found it building a CIGTF rack."""
+    from station.cigtf_rack import CigtfRack
+    from station.rack import SimulatedRack
+
+    p = tmp_path / "c.toml"
+    p.write_text("[cigtf]\nperpendicular_sd_arcsec = -0.0\n")
+    params = load_cigtf_params(p)
+    assert params.perpendicular_sd_arcsec == 0.0
+    with CigtfRack(1, params) as rack:
+        assert rack.world.misalignments.d == 0.0
+    p.write_text("[table]\nsetting_noise_arcsec = -0.0\n")
+    cfg = load_config(p)
+    assert str(cfg.table.setting_noise_arcsec) == "0.0"
+    with SimulatedRack(cfg) as rack:
+        rack.world.table.move(2, 1.0, 0.0)  # draws the setting noise

@@ -30,7 +30,15 @@ DRIFT_KNOT_S = 10.0
 KNOTS_PER_TAU = 10
 MAX_TAU_S = 1e9  # 30 years: longer is a constant over any run
 G_MAX = 1.1  # g: the largest specific force an ISU sees on the table (gravity + vibration)
-MIN_RANGE_DEG_HR = 15.1 + 100 + 3 * 100 + 5 * 10  # Earth, R, B at 1 g, C at 1 g^2 (bounds)
+# What report 000's charts ask of the table and the gyros (procedures.plan.DayPlan, the
+# table driver's wait; tests/test_config_bounds.py checks them against the code):
+TOP_RATE_DEG_S = 15.0  # II-6.2 turns and II-10's top rate
+RAMP_DEG_S2 = 5.0  # II-10's rate ramps
+MOVE_WAIT_S = 120.0  # a position setting must hold within the driver's wait_still
+SETTLE_TAUS = 6.64  # sim.trajectory.plan_move settles in 6.64 time constants
+# The rebalance range must hold the top rate, the Earth rate and the largest error terms
+# (R, B at 1 g, C at 1 g^2 at their bounds): a gyro that saturates gives clipped counts.
+MIN_RANGE_DEG_HR = TOP_RATE_DEG_S * 3600 + 15.1 + 100 + 3 * 100 + 5 * 10
 
 
 def _as_tuple(v: Any) -> Any:
@@ -45,7 +53,9 @@ AxisDeg = Annotated[float, Field(ge=-180.0, le=180.0)]
 # Misalignments: the calibration's models are first order; at 600 arcsec the neglected
 # m^2/2 is 0.9 arcsec, below the autocollimators' 1 arcsec noise.
 MisalignArcsec = Annotated[float, Field(ge=-600.0, le=600.0)]
-MountDeg = Annotated[float, Field(ge=-5.0, le=5.0)]  # bolted within tenths of a degree
+# Bolted within tenths of a degree; the survey's autocollimators search +-3 deg around the
+# nominal aim for the mirrors (Chart I-2 step 2), so 2 deg leaves room for the base.
+MountDeg = Annotated[float, Field(ge=-2.0, le=2.0)]
 
 
 class _Model(BaseModel):
@@ -108,9 +118,12 @@ class EnvironmentParams(_Model):
 
 
 class TableParams(_Model):
-    # Imperfections: a precision table's are arcsec; an arcminute is a bound, not a table.
-    resolver_error_arcsec: float = Field(ge=0, le=60)
-    setting_noise_arcsec: float = Field(ge=0, le=60)
+    # Imperfections of a precision table (arcsec); bounded where the charts' checks refuse
+    # the table: at 60 arcsec of resolver error the survey's trunnion check (Chart I-2
+    # step 5a) fails, and every setting must land within the 10 arcsec the procedures
+    # allow (Chart I-1 step 7, I-2 step 2): 3 sigma of the setting noise.
+    resolver_error_arcsec: float = Field(ge=0, le=20)
+    setting_noise_arcsec: float = Field(ge=0, le=3)
     nonorthogonality_arcsec: float = Field(ge=0, le=60)
     base_tilt_arcsec: Annotated[tuple[TiltArcsec, TiltArcsec], AsTuple]
     base_azimuth_arcsec: float = Field(ge=-600, le=600)  # the autocollimators see +-0.5 deg
@@ -118,10 +131,26 @@ class TableParams(_Model):
     slew_accel_deg_s2: float = Field(gt=0, le=1000)
     settle_tau_s: float = Field(gt=0, le=60)
     overshoot_arcsec: float = Field(ge=0, le=600)
-    max_rate_deg_s: float = Field(gt=0, le=100)
-    max_accel_deg_s2: float = Field(gt=0, le=1000)
+    max_rate_deg_s: float = Field(ge=TOP_RATE_DEG_S, le=100)
+    max_accel_deg_s2: float = Field(ge=RAMP_DEG_S2, le=1000)
     trunnion_range_deg: Annotated[tuple[AxisDeg, AxisDeg], AsTuple]
     resolver_resolution_arcsec: float = Field(ge=1e-4, le=60)
+
+    @field_validator("settle_tau_s")
+    @classmethod
+    def _a_half_turn_settles_in_time(cls, v: float, info: ValidationInfo) -> float:
+        """The longest move, half a turn, slews and settles within the driver's wait
+        (with 20 s to spare): 180/rate + rate/accel + 6.64 tau <= 100 s."""
+        rate, acc = info.data.get("slew_rate_deg_s"), info.data.get("slew_accel_deg_s2")
+        if rate is None or acc is None:
+            return v
+        t = 180.0 / rate + rate / acc + SETTLE_TAUS * v
+        if t > MOVE_WAIT_S - 20.0:
+            raise ValueError(
+                f"with slew_rate_deg_s = {rate} and slew_accel_deg_s2 = {acc}, a 180 deg move "
+                f"would take {t:.0f} s to settle: at most {MOVE_WAIT_S - 20:.0f} s (the "
+                f"procedures wait {MOVE_WAIT_S:.0f} s for the table to hold)")
+        return v
 
     @field_validator("trunnion_range_deg")
     @classmethod
@@ -162,13 +191,14 @@ class GyroParams(_Model):
     @classmethod
     def _range_covers_the_earth(cls, v: float, info: ValidationInfo) -> float:
         """The rebalance range (pulse rate x scale factor; arcsec/s = deg/hr) must hold the
-        Earth rate and the largest error terms at 1 g, or the gyro saturates at rest."""
+        table's top rate, the Earth rate and the largest error terms at 1 g."""
         sf = info.data.get("scale_factor_arcsec_per_pulse")
         if sf is not None and v * sf < MIN_RANGE_DEG_HR:
             raise ValueError(
                 f"with scale_factor_arcsec_per_pulse = {sf} the rebalance range is "
                 f"{v * sf:.4g} deg/hr: it must be at least {MIN_RANGE_DEG_HR:.0f} deg/hr "
-                "(the Earth rate and the largest error terms at 1 g)")
+                f"(the table's {TOP_RATE_DEG_S:g} deg/s, the Earth rate and the largest error "
+                "terms at 1 g)")
         return v
 
 

@@ -55,8 +55,8 @@ class EsgConfig(BaseModel):
     unbalance_dyne_cm: float | None = Field(None, ge=0, le=100)
     electric_deg_h: float | None = Field(None, ge=0, le=10)
     damping_tau_s: float | None = Field(None, ge=10.0, le=300.0)
-    pattern: PatternConfig = PatternConfig()
-    signal: SignalConfig = SignalConfig()
+    pattern: PatternConfig = PatternConfig.model_validate({})
+    signal: SignalConfig = SignalConfig.model_validate({})
 
 
 def _set(obj, model: BaseModel):

@@ -320,20 +320,20 @@ def exercise(lab: str, params: Any, seed: int, minutes: float = 3.0) -> None:
             vals += [np.array([w.string_phase(k, s, float(t[-1])) for k in range(3)
                                for s in (1, 2)])]
     elif lab == "CIGTF":
-        with CigtfRack(seed, params) as rack:
-            w = rack.world
-            w.power_on()
-            w.env.run(until=int(t[-1] * 1e9))
-            vals = [np.array([w.gyro.current(float(x)) for x in t]),
-                    np.array([w.average_current_ma(0.0, float(t[-1])), w.truth_theta_arcsec()])]
+        with CigtfRack(seed, params) as cigtf:
+            c = cigtf.world
+            c.power_on()
+            c.env.run(until=int(t[-1] * 1e9))
+            vals = [np.array([c.gyro.current(float(x)) for x in t]),
+                    np.array([c.average_current_ma(0.0, float(t[-1])), c.truth_theta_arcsec()])]
     else:
-        with EsgRack(seed, params) as rack:
-            w = rack.world
-            w.spin_up()
-            w.env.run(until=int(t[-1] * 1e9))
-            vals = [np.array([w.rotor.spin_rps(float(x)) for x in t]),
-                    np.array([w.spin_axis_lab(float(x)) for x in t]),
-                    w.true_colatitudes(float(t[-1]))]
+        with EsgRack(seed, params) as esg:
+            e = esg.world
+            e.spin_up()
+            e.env.run(until=int(t[-1] * 1e9))
+            vals = [np.array([e.rotor.spin_rps(float(x)) for x in t]),
+                    np.array([e.spin_axis_lab(float(x)) for x in t]),
+                    e.true_colatitudes(float(t[-1]))]
     for v in vals:
         assert np.all(np.isfinite(np.asarray(v, dtype=float))), (lab, v)
 

@@ -14,18 +14,22 @@ import pytest
 from pydantic import BaseModel
 
 import sim.isu
+import sim.params
 from procedures.esg.acquisition import EsgPlan
 from procedures.gyrocompass_test import procedure as gyrocompass_procedure
 from procedures.gyrocompass_test.scale import gsf_from_turn
+from procedures.plan import DayPlan
 from sim.cigtf_world import CigtfParams
 from sim.environment import Environment
 from sim.esg.world import EsgParams
 from sim.params import DRIFT_KNOT_S, WANDER_KNOT_S
+from sim.trajectory import plan_move
 from station import cigtf_config
 from station.cigtf_cmd import run_gyrocompass_test
 from station.cigtf_config import CigtfConfig, load_cigtf_params, max_tan_latitude
-from station.config import ConfigError, StationConfig, load_config
+from station.config import ConfigError, StationConfig, default_dict, load_config
 from station.config_file import LABORATORIES
+from station.drivers.table import TableDriver
 from station.esg_config import EsgConfig, PatternConfig, SignalConfig
 
 MODELS = (StationConfig, CigtfConfig, EsgConfig)
@@ -97,6 +101,42 @@ def test_knot_steps_agree_with_the_simulation():
     and sim.isu."""
     assert WANDER_KNOT_S == Environment.WANDER_KNOT
     assert DRIFT_KNOT_S == sim.isu.DRIFT_KNOT
+
+
+def test_table_and_gyro_bounds_agree_with_the_day():
+    """The table must turn at the day's top rate and ramp as II-10 does, settle a half
+    turn within the driver's wait, and the gyros must not saturate at that rate."""
+    plan = DayPlan()
+    top = max(plan.table_rate_deg_s, plan.j_rate_deg_s,
+              *(abs(r) for r in plan.nonlinearity_rates_deg_s))
+    assert top <= sim.params.TOP_RATE_DEG_S
+    assert plan.j_accel_deg_s2 <= sim.params.RAMP_DEG_S2
+    wait = inspect.signature(TableDriver.wait_still).parameters["timeout"].default
+    assert wait == sim.params.MOVE_WAIT_S
+    _, t_done = plan_move(0.0, 0.0, 0.0, 1.0, 1.0, 0.0, 2.0)
+    assert t_done == pytest.approx(sim.params.SETTLE_TAUS * 2.0)
+    cfg = load_config()
+    for g in cfg.isu.gyros:
+        assert g.pulse_rate_hz * g.scale_factor_arcsec_per_pulse >= sim.params.MIN_RANGE_DEG_HR
+
+
+def test_a_table_that_cannot_settle_in_time_is_refused():
+    with pytest.raises(ConfigError, match=r"table\.settle_tau_s: with slew_rate_deg_s = 2\.0 "
+                       r"and slew_accel_deg_s2 = 1\.0, a 180 deg move would take 158 s"):
+        load_config(overrides={"table": {"slew_rate_deg_s": 2.0, "slew_accel_deg_s2": 1.0,
+                                         "settle_tau_s": 10.0}})
+    with pytest.raises(ConfigError, match=r"table\.max_rate_deg_s: Input should be greater "
+                       r"than or equal to 15"):
+        load_config(overrides={"table": {"max_rate_deg_s": 12.0}})
+
+
+def test_a_gyro_that_saturates_at_the_top_rate_is_refused():
+    gyros = default_dict()["isu"]["gyros"]
+    gyros[2]["pulse_rate_hz"] = 15000.0  # 45000 deg/hr: under 15 deg/s
+    with pytest.raises(ConfigError, match=r"isu\.gyros\.2\.pulse_rate_hz: with "
+                       r"scale_factor_arcsec_per_pulse = 3\.0031 the rebalance range is "
+                       r"4\.505e\+04 deg/hr"):
+        load_config(overrides={"isu": {"gyros": gyros}})
 
 
 def test_cigtf_figures_agree_with_the_test_plan():

@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import builtins
 import os
+from collections.abc import Callable
+from typing import Any
 
 import pytest
 from typer.testing import CliRunner
@@ -15,7 +17,8 @@ from station.config import ConfigError, load_config
 from station.config_file import LABORATORIES, MAX_BYTES, MAX_DEPTH
 from station.esg_config import load_esg_params
 
-LOADERS = {"ISU": load_config, "CIGTF": load_cigtf_params, "ESG": load_esg_params}
+LOADERS: dict[str, Callable[[Any], object]] = {
+    "ISU": load_config, "CIGTF": load_cigtf_params, "ESG": load_esg_params}
 
 
 def refused(lab: str, path, *needles: str) -> str:

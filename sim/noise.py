@@ -11,6 +11,7 @@ import math
 from collections.abc import Callable
 
 import numpy as np
+from scipy.signal import lfilter
 
 from sim.rng import stream
 
@@ -81,20 +82,11 @@ class KnotProcess:
         return v.reshape(ta.shape) if ta.ndim else float(v[0])
 
 
-def _ar1(a: float, x: float, w: np.ndarray, chunk: int = 256) -> np.ndarray:
-    """x_i = a x_{i-1} + w_i, in closed form chunk by chunk (no Python loop per sample)."""
-    out = np.empty_like(w)
-    if a < 0.05:  # nearly white: the closed form would divide by tiny powers of a
-        for i, wi in enumerate(w):
-            x = a * x + wi
-            out[i] = x
-        return out
-    for s in range(0, w.size, chunk):
-        seg = w[s : s + chunk]
-        p = a ** np.arange(1, seg.size + 1)
-        out[s : s + seg.size] = p * (x + np.cumsum(seg / p))
-        x = float(out[s + seg.size - 1])
-    return out
+def _ar1(a: float, x: float, w: np.ndarray) -> np.ndarray:
+    """x_i = a x_{i-1} + w_i from x_0 = x: the recursion run by scipy.signal.lfilter
+    (a stable first-order filter: finite for every 0 <= a <= 1 and every finite w)."""
+    y, _ = lfilter([1.0], [1.0, -a], w, zi=[a * x])
+    return y
 
 
 class RandomWalk:
@@ -158,9 +150,14 @@ def random_walk(h: float, q: float, seed: int, *names: str | int) -> RandomWalk:
 
 
 def gauss_markov(h: float, sigma: float, tau: float, seed: int, *names: str | int) -> KnotProcess:
-    """Stationary first-order Gauss-Markov process: covariance sigma^2 exp(-|dt|/tau)."""
+    """Stationary first-order Gauss-Markov process: covariance sigma^2 exp(-|dt|/tau).
+
+    Exact discretisation at the knots, for any tau > 0 against the step h:
+    phi = exp(-h/tau), innovation variance sigma^2 (1 - phi^2) (no Euler step to go
+    unstable when tau nears h). Between knots the process is linear.
+    """
     a = math.exp(-h / tau)
-    b = sigma * math.sqrt(1.0 - a * a)
+    b = sigma * math.sqrt(-math.expm1(-2.0 * h / tau))  # sigma sqrt(1 - a^2), exact for small h/tau
 
     def step(rng: np.random.Generator, x: float, n: int) -> np.ndarray:
         return _ar1(a, x, rng.standard_normal(n) * b)

@@ -1,13 +1,15 @@
-"""Station configuration (TOML -> pydantic): site, truth, noise, instruments and links.
+"""Station configuration of the ISU laboratory (TOML -> pydantic): site, truth, noise,
+instruments, links and rehearsal faults.
 
 A user file is merged over the embedded default, so it need only name what it changes.
-Unknown or malformed fields are refused with a message naming the field.
+Reading is station.config_file's (one reader for the three laboratories); every mistake
+is a one-line ConfigError naming the file and the field, before anything is built.
 """
 
 from __future__ import annotations
 
 import copy
-import tomllib
+import re
 from pathlib import Path
 from typing import Annotated
 
@@ -16,14 +18,21 @@ from pydantic import (
     BaseModel,
     ConfigDict,
     Field,
-    ValidationError,
+    ValidationInfo,
     field_validator,
     model_validator,
 )
 
 import config as config_pkg
-from instruments.params import InstrumentParams
+from instruments.params import (
+    AutocollimatorParams,
+    BubbleLevelParams,
+    IeuParams,
+    InstrumentParams,
+    SerialParams,
+)
 from sim.params import (
+    AsTuple,
     EnvironmentParams,
     IsuParams,
     OscillatorParams,
@@ -31,6 +40,16 @@ from sim.params import (
     TableParams,
     WorldParams,
 )
+from station.config_file import (
+    ConfigError,
+    check_depth,
+    check_sections,
+    read_document,
+    read_section,
+    validate,
+)
+
+__all__ = ["ConfigError", "StationConfig", "default_dict", "load_config", "read_section"]
 
 SERIAL_INSTRUMENTS = (
     "table",
@@ -41,35 +60,17 @@ SERIAL_INSTRUMENTS = (
     "bubble_levels",
     "oscillator",
 )
-
-
-class ConfigError(ValueError):
-    """A configuration that cannot be used; the message names the file and the field."""
-
-
-def read_section(path: str | Path, section: str, model: type[BaseModel], what: str):
-    """One TOML section validated by ``model``; every failure is a ConfigError naming the
-    file and the field (``section.field``)."""
-    try:
-        with open(path, "rb") as f:
-            data = tomllib.load(f).get(section, {})
-    except FileNotFoundError:
-        raise ConfigError(f"configuration file not found: {path}") from None
-    except tomllib.TOMLDecodeError as e:
-        raise ConfigError(f"{path} is not valid TOML: {e}") from None
-    try:
-        return model.model_validate(data)
-    except ValidationError as e:
-        lines = [f"invalid {what} configuration in {path}:"]
-        lines += [f"  {section}.{'.'.join(map(str, er['loc']))}: {er['msg']}"
-                  for er in e.errors()]
-        raise ConfigError("\n".join(lines)) from None
+MAX_RUN_S = 1e6  # s: no run of any laboratory lasts this long (the longest is 52 h)
+MAX_SEED = 2**63 - 1  # the journal stores the seed as a JSON number
+_STRICT = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False, strict=True)
+_BUS_KEY = re.compile(r"[a-z_][a-z0-9_]*")
 
 
 class CanLink(BaseModel):
-    """python-can settings of the IEU's bus; extra keys go to ``can.Bus`` as given."""
+    """python-can settings of the IEU's bus; extra keys go to ``can.Bus`` as given
+    (scalars only: a python-can option is a number, a string or a flag)."""
 
-    model_config = ConfigDict(extra="allow", frozen=True)
+    model_config = ConfigDict(extra="allow", frozen=True, strict=True)
     interface: str
     channel: str
 
@@ -85,9 +86,21 @@ class CanLink(BaseModel):
                              "slcan, sim, ...)")
         return v
 
+    @model_validator(mode="after")
+    def _scalar_options(self) -> CanLink:
+        for key, value in (self.model_extra or {}).items():
+            if not _BUS_KEY.fullmatch(key):
+                raise ValueError(f"links.can: {key!r} is not a python-can option name")
+            if not isinstance(value, str | int | float | bool) or value != value:
+                raise ValueError(f"links.can.{key}: a python-can option is a number, a "
+                                 f"string or a flag, not {type(value).__name__}")
+            if isinstance(value, float) and abs(value) == float("inf"):
+                raise ValueError(f"links.can.{key}: must be finite")
+        return self
+
 
 class Links(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True)
+    model_config = _STRICT
     serial: dict[str, str]
     can: CanLink
 
@@ -118,6 +131,71 @@ class Links(BaseModel):
         return self
 
 
+# ----------------------------------------------------------------------------- instruments
+# The instruments' own models (instruments/params.py) name the fields; the bounds a
+# configuration must meet are here, as subclasses the rack takes in their place.
+
+ZenithDeg = Annotated[float, Field(ge=0.0, le=180.0)]
+AzimuthDeg = Annotated[float, Field(ge=-360.0, le=360.0)]
+Aim = Annotated[tuple[AzimuthDeg, ZenithDeg], AsTuple]
+
+
+class SerialSettings(SerialParams):
+    model_config = _STRICT
+    latency_s: float = Field(ge=0, le=1.0)
+
+
+class AutocollimatorSettings(AutocollimatorParams):
+    model_config = _STRICT
+    noise_arcsec: float = Field(ge=0, le=60)  # an arcminute: the coarsest of the kind
+    fov_deg: float = Field(gt=0, le=5)
+    # A MEAS? reply comes after the integration: within the driver's 5 s reply timeout.
+    integration_s: float = Field(ge=0, le=2.0)
+    zenith_range_deg: Annotated[tuple[ZenithDeg, ZenithDeg], AsTuple]
+    initial_aim_deg: Annotated[tuple[Aim, Aim], AsTuple]
+
+    @field_validator("zenith_range_deg")
+    @classmethod
+    def _range_in_order(cls, v: tuple[float, float]) -> tuple[float, float]:
+        if not v[0] < v[1]:
+            raise ValueError("the low end must be below the high end")
+        return v
+
+    @field_validator("initial_aim_deg")
+    @classmethod
+    def _aims_within_the_mount(cls, v: tuple[tuple[float, float], ...], info: ValidationInfo
+                               ) -> tuple[tuple[float, float], ...]:
+        lo, hi = info.data.get("zenith_range_deg", (0.0, 180.0))
+        for i, (_, zen) in enumerate(v):
+            if not lo <= zen <= hi:
+                raise ValueError(f"autocollimator {i + 1} aimed at zenith {zen} deg, outside "
+                                 f"zenith_range_deg [{lo}, {hi}]")
+        return v
+
+
+class BubbleLevelSettings(BubbleLevelParams):
+    model_config = _STRICT
+    noise_arcsec: float = Field(ge=0, le=10)  # fifty times a precision level's 0.2
+    resolution_arcsec: float = Field(ge=1e-3, le=10)
+    range_arcsec: float = Field(gt=0, le=3600)
+
+
+class IeuSettings(IeuParams):
+    model_config = _STRICT
+    frame_gap_s: float = Field(ge=0, le=0.013)  # a frame at 10 kbit/s, CAN's slowest rate
+    max_period_s: float = Field(gt=0, le=3.2)  # 65535 counts of a 20 kHz string
+
+
+class InstrumentSettings(InstrumentParams):
+    model_config = _STRICT
+    serial: SerialSettings
+    autocollimator: AutocollimatorSettings
+    bubble_level: BubbleLevelSettings
+    ieu: IeuSettings
+
+
+# ----------------------------------------------------------------------------- faults
+
 FAULT_INSTRUMENTS = (*SERIAL_INSTRUMENTS, "ieu")
 TABLE_ONLY_FAULTS = ("stall_axis", "stall_after_s")
 
@@ -129,32 +207,35 @@ class FaultSpec(BaseModel):
     served rack misbehave alike; every random choice is seeded from the run's seed.
     """
 
-    model_config = ConfigDict(extra="forbid", frozen=True)
-    latency_s: float = Field(0.0, ge=0, allow_inf_nan=False)  # extra delay per reply / frame
+    model_config = _STRICT
+    # Extra delay per reply / frame. Past a minute (twelve times the drivers' 5 s reply
+    # timeout) a late reply is silence: rehearse that with silent_after_s.
+    latency_s: float = Field(0.0, ge=0, le=60.0)
     drop_rate: float = Field(0.0, ge=0, lt=1)  # serial: per reply byte; IEU: per frame
     corrupt_rate: float = Field(0.0, ge=0, lt=1)  # serial: one bit per byte; IEU: one byte
-    silent_after_s: float | None = Field(None, ge=0, allow_inf_nan=False)  # sends nothing after
+    silent_after_s: float | None = Field(None, ge=0, le=MAX_RUN_S)  # sends nothing after
     stall_axis: int | None = Field(None, ge=1, le=4)  # table only: the axis whose drive seizes
-    stall_after_s: float = Field(0.0, ge=0, allow_inf_nan=False)  # table only: when it seizes
+    stall_after_s: float = Field(0.0, ge=0, le=MAX_RUN_S)  # table only: when it seizes
 
 
 def _fault_instrument(name: str) -> str:
     if name not in FAULT_INSTRUMENTS:
-        raise ValueError(
-            f"unknown instrument {name!r} in faults.{name}; known: {', '.join(FAULT_INSTRUMENTS)}"
-        )
+        raise ValueError(f"no instrument of that name; known: {', '.join(FAULT_INSTRUMENTS)}")
     return name
 
 
+# ----------------------------------------------------------------------------- the station
+
+
 class StationConfig(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True)
-    seed: int = Field(ge=0)
+    model_config = _STRICT
+    seed: int = Field(ge=0, le=MAX_SEED)
     site: SiteParams
     environment: EnvironmentParams
     table: TableParams
     isu: IsuParams
     oscillator: OscillatorParams
-    instruments: InstrumentParams
+    instruments: InstrumentSettings
     links: Links
     faults: dict[Annotated[str, AfterValidator(_fault_instrument)], FaultSpec] = {}
 
@@ -174,6 +255,24 @@ class StationConfig(BaseModel):
         table = v.get("table")
         if table and "stall_after_s" in table.model_fields_set and table.stall_axis is None:
             raise ValueError("faults.table.stall_after_s needs faults.table.stall_axis")
+        return v
+
+    @field_validator("instruments")
+    @classmethod
+    def _registers_hold_a_sample(cls, v: InstrumentSettings, info: ValidationInfo
+                                 ) -> InstrumentSettings:
+        """The IEU counts each string in a 16-bit register: over the longest sample period
+        the fastest string (at 1.1 g) must count fewer than 65536 cycles."""
+        isu = info.data.get("isu")
+        if isu is None:
+            return v
+        f = max(a.fastest_string_hz() for a in isu.accels)
+        t = v.ieu.max_period_s
+        if f * t >= 65536:
+            raise ValueError(
+                f"ieu.max_period_s = {t} s would overflow the IEU's 16-bit string registers: "
+                f"the fastest accelerometer string runs at {f:.0f} Hz at 1.1 g (at most "
+                f"{65535 / f:.3g} s)")
         return v
 
     def world_params(self) -> WorldParams:
@@ -197,16 +296,8 @@ def _merge(base: dict, over: dict) -> dict:
 
 
 def default_dict() -> dict:
-    with open(config_pkg.path(config_pkg.DEFAULT_CONFIG), "rb") as f:
-        return tomllib.load(f)
-
-
-def _describe(e: ValidationError, source: str) -> str:
-    lines = [f"invalid station configuration in {source}:"]
-    for err in e.errors():
-        loc = ".".join(str(x) for x in err["loc"])
-        lines.append(f"  {loc}: {err['msg']}")
-    return "\n".join(lines)
+    """The embedded default configuration as a document."""
+    return read_document(config_pkg.path(config_pkg.DEFAULT_CONFIG))
 
 
 def load_config(
@@ -217,18 +308,13 @@ def load_config(
     source = "the embedded default"
     if path is not None:
         source = str(path)
-        try:
-            with open(path, "rb") as f:
-                data = _merge(data, tomllib.load(f))
-        except FileNotFoundError:
-            raise ConfigError(f"configuration file not found: {path}") from None
-        except tomllib.TOMLDecodeError as e:
-            raise ConfigError(f"{path} is not valid TOML: {e}") from None
+        doc = read_document(path)
+        check_sections(doc, source, "ISU")
+        data = _merge(data, doc)
     if overrides:
+        check_depth(overrides, "the overrides")
         data = _merge(data, overrides)
+        source += " with overrides"
     if seed is not None:
         data["seed"] = seed
-    try:
-        return StationConfig.model_validate(data)
-    except ValidationError as e:
-        raise ConfigError(_describe(e, source)) from None
+    return validate(StationConfig, data, source, "station")

@@ -3,6 +3,15 @@
 Scalars of the gyro and the site at the top of the section; ``[esg.pattern]`` and
 ``[esg.signal]`` hold the pattern and the pickoff-signal magnitudes. A bad or unknown
 field is refused with a message naming it (esg.pattern.roughness_rms_in, ...).
+
+Bounds: the pattern's and the signal's keep the simulated processor's pulses countable;
+the rotor's come from the calibration's own timing (a test checks these figures against
+procedures.esg.acquisition.EsgPlan): it waits for 248 rps, so the rotor must spin up to
+at least 250 (the report's operating speed, usable to 500); over three hours (the longest
+calibration seen took 2.8 h) a rundown must leave it above the usable 200 rps, so
+tau >= 3 h / ln(250/200) = 13.4 h; the
+console damps for 900 s, so the damping time constant is at most a third of that, and at
+least two of the rotor's 5-s integration steps (RK4: accurate to 1e-4 per step there).
 """
 
 from __future__ import annotations
@@ -16,7 +25,7 @@ from pydantic import BaseModel, ConfigDict, Field
 from sim.esg.world import EsgParams
 from station.config import read_section
 
-_STRICT = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
+_STRICT = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False, strict=True)
 
 
 class PatternConfig(BaseModel):
@@ -26,7 +35,8 @@ class PatternConfig(BaseModel):
     top_colatitude_deg: float | None = Field(None, ge=30.0, le=60.0)
     application_in: float | None = Field(None, ge=0, le=0.002)
     roughness_rms_in: float | None = Field(None, ge=0, le=0.001)
-    roughness_corr_in: float | None = Field(None, gt=0, le=0.1)
+    # the roughness is tabulated every corr/6 of arc: 1e-3 in is 2e4 points per edge
+    roughness_corr_in: float | None = Field(None, ge=0.001, le=0.1)
     d0_sd_in: float | None = Field(None, ge=0, le=0.01)
 
 
@@ -40,13 +50,13 @@ class SignalConfig(BaseModel):
 class EsgConfig(BaseModel):
     model_config = _STRICT
     latitude_deg: float | None = Field(None, ge=-89.0, le=89.0)
-    spin_rps: float | None = Field(None, ge=200.0, le=500.0)
-    rundown_tau_h: float | None = Field(None, gt=0)
+    spin_rps: float | None = Field(None, ge=250.0, le=500.0)
+    rundown_tau_h: float | None = Field(None, ge=13.5, le=1e6)
     unbalance_dyne_cm: float | None = Field(None, ge=0, le=100)
     electric_deg_h: float | None = Field(None, ge=0, le=10)
-    damping_tau_s: float | None = Field(None, gt=0, le=3600)
-    pattern: PatternConfig = PatternConfig()
-    signal: SignalConfig = SignalConfig()
+    damping_tau_s: float | None = Field(None, ge=10.0, le=300.0)
+    pattern: PatternConfig = PatternConfig.model_validate({})
+    signal: SignalConfig = SignalConfig.model_validate({})
 
 
 def _set(obj, model: BaseModel):

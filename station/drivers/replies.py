@@ -19,7 +19,8 @@ from typing import Any
 
 # --------------------------------------------------------------------------- tokens
 
-_UINT = r"(?:0|[1-9][0-9]{0,%d})"  # str(int) of a non-negative integer, at most N+1 digits
+# str(int) of an integer: no sign but a minus, no leading zero (a line has at most 512 bytes)
+_INT = r"(?:0|-?[1-9][0-9]{0,511})"
 
 
 class OutOfRange(Exception):
@@ -63,17 +64,18 @@ class Field:
 
 def fixed(what: str, decimals: int, lo: float, hi: float) -> Field:
     """A number printed with ``f"{v:.{decimals}f}"`` (decimals >= 1): optional minus, no
-    leading zeros, a decimal point and exactly ``decimals`` digits after it."""
-    return Field(what, "-?" + _UINT % 15 + rf"\.[0-9]{{{decimals}}}",
-                 "[-]d." + "d" * decimals, float, lo, hi)
+    leading zeros, a decimal point and exactly ``decimals`` digits after it; the round trip
+    through the format refuses digits a double cannot carry."""
+    fmt = f".{decimals}f"
+    return Field(what, r"-?(?:0|[1-9][0-9]{0,511})" + rf"\.[0-9]{{{decimals}}}",
+                 "[-]d." + "d" * decimals, float, lo, hi,
+                 canonical=lambda t: format(float(t), fmt) == t)
 
 
 def integer(what: str, lo: int, hi: int) -> Field:
-    """An integer printed with ``str(n)``: optional minus (never ``-0``), no leading zeros."""
-    digits = max(len(str(abs(lo))), len(str(abs(hi))))
-    body = _UINT % (digits - 1)
-    pattern = rf"(?:0|-?[1-9][0-9]{{0,{digits - 1}}})" if lo < 0 else body
-    return Field(what, pattern, "[-]d" if lo < 0 else "d", int, lo, hi)
+    """An integer printed with ``str(n)``: optional minus (never ``-0``), no leading zeros.
+    The sign and the digit count are the range's business, not the syntax's."""
+    return Field(what, _INT, "[-]d" if lo < 0 else "d", int, lo, hi)
 
 
 def _is_g(token: str) -> bool:
@@ -196,7 +198,7 @@ ReplyForm = Form | OneOf | ListForm
 OK = Form([literal("OK")])
 PASS = Form([literal("PASS")])
 # ERR <code> <text>: the refusal every instrument gives (docs/protocols.md, common rules)
-ERR = re.compile(r"ERR (-?(?:0|[1-9][0-9]{0,3}))(?: ([ -~]*))?", re.ASCII)
+ERR = re.compile(r"ERR (0|-?[1-9][0-9]{0,3})(?: ([ -~]*))?", re.ASCII)
 # maker,model,unit,version of any instrument (station check does not know the model)
 _FIELD = r"[\x20-\x2b\x2d-\x7e]"  # printable ASCII but the comma
 ANY_IDENTITY = re.compile(rf"{_FIELD}+,{_FIELD}+,{_FIELD}*,[0-9]+(?:\.[0-9]+)*", re.ASCII)

@@ -270,8 +270,8 @@ class SerialDriver:
         self.out_of_step = True
 
     def _marks_sync(self, text: str) -> bool:
-        if self.ident is not None:
-            return text == self.ident
+        """The end of stale output: this instrument's identity (by its model's pattern, so a
+        damaged earlier *IDN? reply cannot make the marker wrong)."""
         return self.identity.fullmatch(text) is not None
 
     def _drain(self, cmd: str) -> None:

@@ -38,6 +38,7 @@ from station.drivers import (
     esg,
     oscillator,
     patch_panel,
+    replies,
     table,
 )
 from station.drivers.bubble_level import BubbleLevelDriver
@@ -122,6 +123,25 @@ def test_esg_data_lines_are_checked_against_appendix_a(seed):
 @given(seed=SEEDS)
 def test_esg_stream_lines_never_raise_and_leftovers_never_disturb(seed):
     assert run_lines(random.Random(seed)) in ("accepted", "rejected")
+
+
+@BOUNDED
+@given(v=st.floats(allow_nan=False, allow_infinity=False, min_value=-1e12, max_value=1e12),
+       n=st.integers(min_value=1, max_value=7))
+def test_every_number_an_instrument_prints_is_its_grammar(v, n):
+    for field, text in ((replies.fixed("x", n, -1e12, 1e12), f"{v:.{n}f}"),
+                        (replies.general("x", -1e12, 1e12), f"{v:g}"),
+                        (replies.integer("x", -10**12, 10**12), str(int(v))),
+                        (replies.scientific("x", 0.0, 1e12), f"{abs(v):.1E}")):
+        form = replies.Form([field])
+        assert form.matches(text), text
+        assert form.parse(text) == (field.convert(text),)
+        for junk in (text + "0", "+" + text, text.replace("-", ""), text + "_1", " " + text):
+            if junk != text and not form.matches(junk):
+                continue
+            # what still matches must be what the format prints for its value
+            assert junk in (f"{float(junk):.{n}f}", f"{float(junk):g}", str(int(float(junk))),
+                            f"{float(junk):.1E}")
 
 
 # ------------------------------------------------------------------------- the cases of issue 13

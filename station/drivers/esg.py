@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import re
 from dataclasses import dataclass
+from typing import Any
 
 import serial
 
@@ -97,7 +98,7 @@ class ProcessorDriver(SerialDriver):
     def _background(self, body: bytes) -> bool:
         return _DATA_SHAPE.fullmatch(body) is not None
 
-    def _exchange(self, cmd, form, timeout):  # type: ignore[no-untyped-def]
+    def _exchange(self, cmd: str, form: Any, timeout: float | None) -> str:
         if cmd.split(" ", 1)[0].upper() in ("SEL", "RUN"):
             self._known = None  # until the change is confirmed
         return super()._exchange(cmd, form, timeout)

@@ -85,7 +85,7 @@ def _is_g(token: str) -> bool:
 def general(what: str, lo: float, hi: float) -> Field:
     """A number printed with ``f"{v:g}"`` (six significant digits, no trailing zeros, an
     exponent beyond 1e-5..1e6): the regex admits the shapes, the round trip the exact text."""
-    mant = r"(?:0|[1-9][0-9]{0,5})(?:\.[0-9]{0,5}[1-9])?"
+    mant = r"(?:0|[1-9][0-9]{0,5})(?:\.[0-9]{0,9}[1-9])?"  # 0.000123457: 3 zeros, 6 digits
     pattern = rf"-?(?:{mant}|[1-9](?:\.[0-9]{{0,4}}[1-9])?e[-+][0-9]{{2,3}})"
     return Field(what, pattern, "%g", float, lo, hi, canonical=_is_g)
 
@@ -95,8 +95,9 @@ def _is_e1(token: str) -> bool:
 
 
 def scientific(what: str, lo: float, hi: float) -> Field:
-    """A positive number printed with ``f"{v:.1E}"``: ``d.dE[+-]dd``."""
-    return Field(what, r"[0-9]\.[0-9]E[-+][0-9]{2,3}", "d.dE+dd", float, lo, hi,
+    """A number printed with ``f"{v:.1E}"``: ``[-]d.dE[+-]dd`` (the sign is the range's
+    business)."""
+    return Field(what, r"-?[0-9]\.[0-9]E[-+][0-9]{2,3}", "d.dE+dd", float, lo, hi,
                  canonical=_is_e1)
 
 

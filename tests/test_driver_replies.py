@@ -12,11 +12,13 @@ import inspect
 import random
 
 import pytest
+import serial
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from reply_specs import (
     IDENT,
     SPECS,
+    ScriptedPort,
     _call,
     _outcome,
     on_script,
@@ -311,6 +313,34 @@ def test_an_over_long_line_is_dropped_whole():
     tb.port.answer("POS? 2", b"4" * 3000 + b"5.0000000\n" + b"45.0000000\n")
     assert tb.position(2) == 45.0
     assert tb.unexpected_lines[-1].endswith("... (over-long line)")
+
+
+class BrokenPort(ScriptedPort):
+    """A link that fails the way a closed pty does: even setting its timeout raises."""
+
+    broken = False
+
+    @property
+    def timeout(self):
+        return 5.0
+
+    @timeout.setter
+    def timeout(self, value):
+        if self.broken:
+            raise serial.SerialException("Could not configure port: (5, 'Input/output error')")
+
+
+def test_a_link_that_fails_mid_exchange_is_a_driver_error_naming_it(step):
+    tb = scripted(TableDriver, clock=None)
+    tb.port = BrokenPort(IDENT[TableDriver])
+    tb.port.answer("POS? 2", b"45.0000000\n")
+    assert tb.position(2) == 45.0
+    tb.port.broken = True
+    with pytest.raises(DriverError) as e:
+        tb.position(2)
+    assert type(e.value) is DriverError and e.value.command == "POS? 2"
+    assert str(e.value).startswith("table (loop://) during Chart III-2 step 4: link failed "
+                                   "during 'POS? 2': Could not configure port")
 
 
 def test_identity_must_be_the_drivers_model():

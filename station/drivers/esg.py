@@ -173,10 +173,10 @@ class ProcessorDriver(SerialDriver):
         out: list[DataLine | BadLine] = []
         checker = LineChecker(selected, run)
         port = self.port
-        port.timeout = self.link_seconds(LINE_S * 1.5 + self.timeout)
         try:
             while len(out) < k:
                 try:
+                    port.timeout = self.link_seconds(LINE_S * 1.5 + self.timeout)
                     raw = port.read_until(b"\n", MAX_REPLY + 2)
                 except (serial.SerialException, OSError) as e:
                     raise DriverError(self.name, self.url, f"link failed during 'GO {k}': {e}") \
@@ -190,7 +190,7 @@ class ProcessorDriver(SerialDriver):
                     break
                 out.append(checker.check(raw))
         finally:
-            port.timeout = self.link_seconds(self.timeout)
+            self._set_timeout(self.timeout)
         if len(out) < k:
             n = len(out)
             out.extend(BadLine("", f"line lost: stream ended after {n} of {k} lines")

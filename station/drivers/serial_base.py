@@ -197,7 +197,7 @@ class SerialDriver:
                               cmd) from None
         finally:
             self._resync = False
-            port.timeout = self.link_seconds(self.timeout)
+            self._set_timeout(self.timeout)
 
     def _reply(self, cmd: str, form: Any, waited: float) -> str:
         """Lines until the reply of ``form`` (or an ERR) to ``cmd``, within ``waited``."""
@@ -207,7 +207,7 @@ class SerialDriver:
         overlong = False
         for _ in range(MAX_LINES):
             left = waited if t_end is None or clock is None else max(0.0, t_end - clock.now())
-            self.port.timeout = self.link_seconds(left)
+            self.port.timeout = self.link_seconds(left)  # a failing link raises here: reported
             raw = self.port.read_until(b"\n", MAX_REPLY + 2)
             if not raw.endswith(b"\n"):
                 if len(raw) < MAX_REPLY + 2:
@@ -262,6 +262,14 @@ class SerialDriver:
                 f"no reply of that form within {waited:g} s{got}", cmd, tuple(dropped))
         raise LinkTimeout(self.name, self.url, f"no reply to '{cmd}' within {waited:g} s{got}",
                           cmd)
+
+    def _set_timeout(self, seconds: float) -> None:
+        """Put the link's own timeout back; a link that has failed is left as it is (its
+        failure is what the exchange reports, or the next one will)."""
+        try:
+            self.port.timeout = self.link_seconds(seconds)
+        except (serial.SerialException, OSError):
+            pass
 
     def lose_step(self) -> None:
         """Drop the input; the next exchange resynchronises first (a reply to an earlier

@@ -3,27 +3,40 @@
 from __future__ import annotations
 
 from station.clock import Clock
+from station.drivers.replies import Form, OneOf, fixed, general, integer, literal, word
 from station.drivers.serial_base import SerialDriver
 from station.errors import DriverError, LinkTimeout
 
+NULLS = Form([integer("vertical null, deg", 0, 359), integer("horizontal null, deg", 0, 359)])
+FIXTURE_STATUS = Form([word("fixture state", "HOLD", "MOVING", "FAULT")])
+# The DVM's range: no torquer current of the gyro (S_T = 1 deg/hr per mA: Earth rate and
+# drift make a few tens of mA at most) comes near 100 mA (docs/protocols.md, CIGTF).
+DVM_RANGE_MA = 100.0
+CURRENT = Form([fixed("torquer current, mA", 7, -DVM_RANGE_MA, DVM_RANGE_MA)])
+APERTURE = Form([general("averaging time, s", 0.001, 3600.0)])
+POWER = OneOf(Form([literal("OFF")]),
+              Form([literal("ON"), fixed("seconds since turn-on", 1, 0.0, 1e9)]))
+
 
 class FixtureDriver(SerialDriver):
+    model = ("CIGTF", "GOERZ-2AX-PROGRAMMER")
+
     def __init__(self, url: str, clock: Clock, name: str = "fixture", timeout: float = 5.0):
         super().__init__(name, url, timeout)
         self.clock = clock
 
     def move(self, axis: str, deg: int) -> None:
-        self.command(f"MOVE {axis} {int(deg)}")
+        self.command(f"MOVE {axis} {self.whole(deg, 'null angle', 0, 359)}")
 
     def turn(self, axis: str, deg: int) -> None:
-        self.command(f"TURN {axis} {int(deg)}")
+        self.command(f"TURN {axis} {self.whole(deg, 'turn angle', -360, 360)}")
 
     def position(self) -> tuple[int, int]:
-        v, h = self.numbers("POS?", 2)
-        return int(v), int(h)
+        v, h = self.ask("POS?", NULLS)
+        return v, h
 
     def status(self) -> str:
-        return self.query("STAT?")
+        return self.ask("STAT?", FIXTURE_STATUS)[0]
 
     def wait_hold(self, timeout: float = 120.0, poll: float = 1.0) -> None:
         """Wait until both axes hold on their nulls; a drive fault raises at once."""
@@ -40,22 +53,22 @@ class FixtureDriver(SerialDriver):
 
 
 class DvmDriver(SerialDriver):
+    model = ("CIGTF", "DVM-AVERAGER")
+
     def __init__(self, url: str, name: str = "dvm", timeout: float = 5.0):
         super().__init__(name, url, timeout)
 
     def aperture(self) -> float:
-        return float(self.query("APER?"))
+        return self.ask("APER?", APERTURE)[0]
 
     def average(self, aperture_s: float = 10.0) -> float:
         """One averaged torquer current, mA (the reply comes after the averaging time)."""
-        reply = self.query("AVG?", timeout=aperture_s + self.timeout)
-        try:
-            return float(reply)
-        except ValueError:
-            raise DriverError(self.name, self.url, f"bad reading {reply!r}") from None
+        return self.ask("AVG?", CURRENT, timeout=aperture_s + self.timeout)[0]
 
 
 class GyroPowerDriver(SerialDriver):
+    model = ("CIGTF", "GYRO-POWER")
+
     def __init__(self, url: str, name: str = "gyro_power", timeout: float = 5.0):
         super().__init__(name, url, timeout)
 
@@ -67,7 +80,5 @@ class GyroPowerDriver(SerialDriver):
 
     def status(self) -> tuple[bool, float]:
         """(on, seconds since turn-on)."""
-        r = self.query("PWR?").split()
-        if r[0] == "OFF":
-            return False, 0.0
-        return True, float(r[1])
+        which, values = self.ask("PWR?", POWER)
+        return (False, 0.0) if which == 0 else (True, values[0])

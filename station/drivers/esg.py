@@ -12,21 +12,38 @@ from __future__ import annotations
 
 import re
 from dataclasses import dataclass
+from typing import Any
 
 import serial
 
 from station.clock import Clock
-from station.drivers.serial_base import SerialDriver
-from station.errors import DriverError, InstrumentRefused, LinkTimeout
+from station.drivers.replies import (
+    Form,
+    fixed,
+    flag,
+    general,
+    integer,
+    literal,
+    scientific,
+    word,
+)
+from station.drivers.serial_base import MAX_REPLY, SerialDriver, strip_eol
+from station.errors import DriverError, LinkTimeout
 
 LINE_S = 0.72  # one data line every 0.0002 h
 LINE_UNITS = 20  # 0.0002 h in the 1e-5 h units of the time field
 WRAP = 10**7
+REVOLUTIONS = (1, 2, 4, 8, 10)
+MAX_LINES = 1_000_000  # GO k accepts k up to this
+SETTINGS = Form([
+    integer("pickoff a", 1, 3), integer("pickoff b", 1, 3), integer("revolutions", 1, 10),
+    integer("run number", 0, WRAP - 1), general("threshold, V", 0.1, 5.0),
+    general("discriminator, us", 2.0, 24.0), general("logic delay, us", 20.0, 2000.0),
+])
 FIELD_NAMES = ("time", "C1 of pickoff 1", "C1 of pickoff 2", "C1 of pickoff 3", "run number",
                "period sum")
 # anything shaped like a data line (six 7-character fields), garbled or not
-_DATA_SHAPE = re.compile(rb"^[^ \r\n]{7}( [^ \r\n]{7}){5}\r?\n$")
-_MAX_SKIPPED = 10_000
+_DATA_SHAPE = re.compile(rb"[^ \r\n]{7}(?: [^ \r\n]{7}){5}")
 
 
 @dataclass(frozen=True)
@@ -61,7 +78,7 @@ class BadLine:
 
 
 def _decode(raw: bytes) -> str:
-    return raw.rstrip(b"\r\n").decode("ascii", errors="backslashreplace")
+    return strip_eol(raw).decode("ascii", errors="backslashreplace")
 
 
 def _show(b: bytes) -> str:
@@ -69,79 +86,22 @@ def _show(b: bytes) -> str:
 
 
 class ProcessorDriver(SerialDriver):
+    model = ("ESG-LAB", "DATA-PROCESSOR")
+
     def __init__(self, url: str, name: str = "processor", timeout: float = 5.0) -> None:
         super().__init__(name, url, timeout)
         # selection and run number as last set or read (the driver is the processor's only
         # host); None until known: lines() then asks SET? first
         self._known: tuple[tuple[int, int], int] | None = None
-        self._stale = False  # a reply may still be on its way: resynchronise first
 
-    # ----- exchanges: a stray data line or a late reply is never taken for a reply -----
-    def query(self, cmd: str, timeout: float | None = None) -> str:
-        """One command, one reply. Data lines still arriving from a stream are skipped, and
-        after a timeout the link is first resynchronised (see :meth:`_sync`)."""
+    # ----- exchanges: a data line still arriving from a stream is never taken for a reply
+    def _background(self, body: bytes) -> bool:
+        return _DATA_SHAPE.fullmatch(body) is not None
+
+    def _exchange(self, cmd: str, form: Any, timeout: float | None) -> str:
         if cmd.split(" ", 1)[0].upper() in ("SEL", "RUN"):
             self._known = None  # until the change is confirmed
-        if self._stale:
-            self._sync()
-        waited = self.timeout if timeout is None else timeout
-        raw = self._exchange(cmd, waited)
-        if not raw.endswith(b"\n"):
-            self._stale = True
-            got = f" (partial reply {raw[:40]!r})" if raw else ""
-            raise LinkTimeout(self.name, self.url, f"no reply to '{cmd}' within {waited:g} s{got}")
-        try:
-            text = raw.decode("ascii").strip()
-        except UnicodeDecodeError:
-            raise DriverError(
-                self.name, self.url, f"garbled reply to '{cmd}': {raw[:40]!r}"
-            ) from None
-        if text.startswith("ERR"):
-            parts = text.split(" ", 2)
-            try:
-                code = int(parts[1])
-            except (IndexError, ValueError):
-                raise DriverError(self.name, self.url, f"malformed error reply {text!r}") from None
-            raise InstrumentRefused(self.name, self.url, code, parts[2] if len(parts) > 2 else "")
-        return text
-
-    def _exchange(self, cmd: str, timeout: float) -> bytes:
-        """Write ``cmd``; the next line that is not a data line (partial on a timeout)."""
-        port = self.port
-        try:
-            port.timeout = self.link_seconds(timeout)
-            port.write((cmd + "\n").encode("ascii"))
-            for _ in range(_MAX_SKIPPED):
-                raw = port.read_until(b"\n")
-                if not _DATA_SHAPE.match(raw):
-                    return raw
-            raise DriverError(self.name, self.url, f"no reply to '{cmd}' among data lines")
-        except (serial.SerialException, OSError) as e:
-            raise DriverError(self.name, self.url, f"link failed during '{cmd}': {e}") from None
-        finally:
-            port.timeout = self.link_seconds(self.timeout)
-
-    def _sync(self) -> None:
-        """After a timeout the late reply may still come: drop the input, ask ``*IDN?`` and
-        skip everything before its answer (the one reply with commas that is no ERR)."""
-        port = self.port
-        try:
-            port.reset_input_buffer()
-            port.write(b"*IDN?\n")
-            for _ in range(_MAX_SKIPPED):
-                raw = port.read_until(b"\n")
-                if not raw.endswith(b"\n"):
-                    raise LinkTimeout(self.name, self.url, f"no reply to '*IDN?' within "
-                                      f"{self.timeout:g} s (resynchronising after a timeout)")
-                if b"," in raw and not raw.startswith(b"ERR"):
-                    break
-        except (serial.SerialException, OSError) as e:
-            raise DriverError(self.name, self.url, f"link failed during '*IDN?': {e}") from None
-        self._stale = False
-
-    def clear(self) -> None:
-        self._stale = True  # *CLS then waits for the link to be in step again
-        super().clear()
+        return super()._exchange(cmd, form, timeout)
 
     # ----- settings -----
     def select(self, a: int, b: int) -> None:
@@ -179,20 +139,14 @@ class ProcessorDriver(SerialDriver):
     def settings(self) -> dict:
         """``{"pickoffs": (a, b), "revolutions", "run", "threshold_v", "min_width_us",
         "logic_delay_us"}`` as the processor reports them."""
-        reply = self.query("SET?")
-        try:
-            a, b, rev, run, thr, disc, delay = reply.split()
-            self._known = ((int(a), int(b)), int(run))
-            return {
-                "pickoffs": (int(a), int(b)),
-                "revolutions": int(rev),
-                "run": int(run),
-                "threshold_v": float(thr),
-                "min_width_us": float(disc),
-                "logic_delay_us": float(delay),
-            }
-        except ValueError:
-            raise DriverError(self.name, self.url, f"bad settings reply {reply!r}") from None
+        a, b, rev, run, thr, disc, delay = self.ask("SET?", SETTINGS)
+        if a == b:
+            raise self.refuse("SET?", f"pickoffs must be distinct, got {a} {b}")
+        if rev not in REVOLUTIONS:
+            raise self.refuse("SET?", f"revolutions {rev} not one of {REVOLUTIONS}")
+        self._known = ((a, b), run)
+        return {"pickoffs": (a, b), "revolutions": rev, "run": run, "threshold_v": thr,
+                "min_width_us": disc, "logic_delay_us": delay}
 
     # ----- data -----
     def lines(self, k: int) -> list[DataLine | BadLine]:
@@ -202,9 +156,11 @@ class ProcessorDriver(SerialDriver):
         stream stops early, the missing lines are ``BadLine("", "line lost: ...")`` and the
         driver halts the processor and empties its input, so the next command works.
         """
-        if int(k) != k or k < 1:
-            raise DriverError(self.name, self.url, f"lines(k) needs a whole k >= 1, got {k!r}")
-        k = int(k)
+        try:
+            k = self.whole(k, "k", 1, MAX_LINES)
+        except DriverError:
+            raise DriverError(self.name, self.url, f"lines(k) needs a whole k >= 1 (at most "
+                              f"{MAX_LINES}), got {k!r}") from None
         if self._known is None:
             self.settings()
         (a, b), run = self._known  # type: ignore[misc]
@@ -217,21 +173,24 @@ class ProcessorDriver(SerialDriver):
         out: list[DataLine | BadLine] = []
         checker = LineChecker(selected, run)
         port = self.port
-        port.timeout = self.link_seconds(LINE_S * 1.5 + self.timeout)
         try:
             while len(out) < k:
                 try:
-                    raw = port.read_until(b"\n")
+                    port.timeout = self.link_seconds(LINE_S * 1.5 + self.timeout)
+                    raw = port.read_until(b"\n", MAX_REPLY + 2)
                 except (serial.SerialException, OSError) as e:
                     raise DriverError(self.name, self.url, f"link failed during 'GO {k}': {e}") \
                         from None
                 if not raw.endswith(b"\n"):
-                    if raw:
+                    if len(raw) >= MAX_REPLY + 2:
+                        out.append(BadLine(_decode(raw[:80]) + "...", "line too long: no end "
+                                           f"of line within {MAX_REPLY} bytes"))
+                    elif raw:
                         out.append(BadLine(_decode(raw), "line cut off: no end of line"))
                     break
                 out.append(checker.check(raw))
         finally:
-            port.timeout = self.link_seconds(self.timeout)
+            self._set_timeout(self.timeout)
         if len(out) < k:
             n = len(out)
             out.extend(BadLine("", f"line lost: stream ended after {n} of {k} lines")
@@ -244,10 +203,9 @@ class ProcessorDriver(SerialDriver):
         the link first, so a HALT reply (or a line) still on its way is never misread."""
         try:
             self.port.write(b"HALT\n")
-            self.port.reset_input_buffer()
+            self.lose_step()
         except (serial.SerialException, OSError):
-            pass
-        self._stale = True
+            self.out_of_step = True
 
 
 class LineChecker:
@@ -263,7 +221,7 @@ class LineChecker:
         i = self.index
         self.index += 1
         text = _decode(raw)
-        reason, time_units = self._reason(raw.rstrip(b"\r\n"), i)
+        reason, time_units = self._reason(strip_eol(raw), i)
         if reason is not None:
             return BadLine(text, reason)
         fields = [int(f) for f in text.split(" ")]
@@ -312,15 +270,34 @@ class LineChecker:
 # --------------------------------------------------------------------------- positioners
 
 
+# ranges (docs/protocols.md, ESG laboratory): scales wrap to [0, 360) (rounding may print
+# 360); the tilt stops at +/-90 deg; the theodolite's field is +/-30 arcmin (a choice: the
+# mirror normal stays within arcseconds of the spindle); the rotor runs at 200-500 rps
+# (esg.spin_rps); the pressure reads up to one atmosphere.
+TILT_LIMIT_DEG = 90.0
+THEODOLITE_FIELD_ARCSEC = 1800.0
+MAX_SPIN_RPS = 500.0
+HEAD_READING = Form([fixed("spindle reading, deg", 5, 0.0, 360.0)])
+AZIMUTH = Form([fixed("azimuth reading, deg", 4, 0.0, 360.0)])
+TILT = Form([fixed("tilt reading, deg", 4, -TILT_LIMIT_DEG, TILT_LIMIT_DEG)])
+MIRROR = Form([fixed("x, arcsec", 2, -THEODOLITE_FIELD_ARCSEC, THEODOLITE_FIELD_ARCSEC),
+               fixed("y, arcsec", 2, -THEODOLITE_FIELD_ARCSEC, THEODOLITE_FIELD_ARCSEC)])
+SPEED = Form([fixed("spin speed, rps", 2, 0.0, MAX_SPIN_RPS)])
+CONSOLE = Form([literal("SUSP"), flag("suspended"), literal("SPIN"),
+                fixed("spin speed, rps", 2, 0.0, MAX_SPIN_RPS), literal("DAMP"),
+                flag("damping"), literal("VAC"), scientific("pressure, torr", 1e-12, 760.0)])
+
+
 class _Positioner(SerialDriver):
     holding: tuple[str, ...] = ("HOLD",)
+    status_form = Form([word("state", "HOLD", "MOVING")])
 
     def __init__(self, name: str, url: str, clock: Clock, timeout: float) -> None:
         super().__init__(name, url, timeout)
         self.clock = clock
 
     def status(self) -> str:
-        return self.query("STAT?")
+        return self.ask("STAT?", self.status_form)[0]
 
     def wait_hold(self, timeout: float = 120.0, poll: float = 0.5) -> None:
         """Poll ``STAT?`` on the station clock until the instrument holds still."""
@@ -337,6 +314,8 @@ class _Positioner(SerialDriver):
 class HeadDriver(_Positioner):
     """Dividing head: absolute scale angle of the spindle, 1e-5 deg."""
 
+    model = ("ESG-LAB", "DIVIDING-HEAD")
+
     def __init__(self, url: str, clock: Clock, name: str = "head", timeout: float = 5.0):
         super().__init__(name, url, clock, timeout)
 
@@ -349,13 +328,15 @@ class HeadDriver(_Positioner):
         self.command(f"STEP {float(deg):.5f}")
 
     def reading(self) -> float:
-        return self.numbers("SPIN?", 1)[0]
+        return self.ask("SPIN?", HEAD_READING)[0]
 
 
 class TurntableDriver(_Positioner):
     """Turntable azimuth and tilt, 1e-4 deg; the azimuth lock."""
 
+    model = ("ESG-LAB", "TURNTABLE-TILT")
     holding = ("HOLD", "LOCKED")
+    status_form = Form([word("state", "HOLD", "MOVING", "LOCKED")])
 
     def __init__(self, url: str, clock: Clock, name: str = "turntable", timeout: float = 5.0):
         super().__init__(name, url, clock, timeout)
@@ -369,7 +350,7 @@ class TurntableDriver(_Positioner):
 
     def readings(self) -> tuple[float, float]:
         """(azimuth, tilt) readings, deg."""
-        return self.numbers("AZ?", 1)[0], self.numbers("TILT?", 1)[0]
+        return self.ask("AZ?", AZIMUTH)[0], self.ask("TILT?", TILT)[0]
 
     def lock(self) -> None:
         self.command("LOCK")
@@ -379,16 +360,20 @@ class TurntableDriver(_Positioner):
 
 
 class TheodoliteDriver(SerialDriver):
+    model = ("ESG-LAB", "THEODOLITE")
+
     def __init__(self, url: str, name: str = "theodolite", timeout: float = 5.0):
         super().__init__(name, url, timeout)
 
     def read(self) -> tuple[float, float]:
         """Mirror-1 normal against the spindle, two axes, arcsec."""
-        x, y = self.numbers("READ?", 2)
+        x, y = self.ask("READ?", MIRROR)
         return x, y
 
 
 class ConsoleDriver(SerialDriver):
+    model = ("ESG-LAB", "GYRO-CONSOLE")
+
     def __init__(self, url: str, name: str = "console", timeout: float = 5.0):
         super().__init__(name, url, timeout)
 
@@ -403,15 +388,8 @@ class ConsoleDriver(SerialDriver):
 
     def status(self) -> dict:
         """``{"suspended": bool, "spin_rps": float, "damping": bool, "pressure_torr": float}``."""
-        reply = self.query("STAT?")
-        f = reply.split()
-        try:
-            if f[0::2] != ["SUSP", "SPIN", "DAMP", "VAC"] or len(f) != 8:
-                raise ValueError
-            return {"suspended": f[1] == "1", "spin_rps": float(f[3]), "damping": f[5] == "1",
-                    "pressure_torr": float(f[7])}
-        except ValueError:
-            raise DriverError(self.name, self.url, f"bad status reply {reply!r}") from None
+        susp, rps, damp, torr = self.ask("STAT?", CONSOLE)
+        return {"suspended": susp, "spin_rps": rps, "damping": damp, "pressure_torr": torr}
 
     def speed(self) -> float:
-        return self.numbers("SPEED?", 1)[0]
+        return self.ask("SPEED?", SPEED)[0]

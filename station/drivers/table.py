@@ -3,11 +3,33 @@
 from __future__ import annotations
 
 from station.clock import Clock
+from station.drivers.replies import Form, fixed, word
 from station.drivers.serial_base import SerialDriver
 from station.errors import LinkTimeout
 
+AXES = (1, 2, 3, 4)
+# table.trunnion_range_deg of the default configuration (docs/protocols.md): axis 1 cannot
+# leave it; its resolver may read a little beyond at a limit (overshoot 2 arcsec, resolver
+# error 1 arcsec, setting scatter): 0.01 deg of slack
+TRUNNION_RANGE_DEG = (-5.0, 95.0)
+READING_SLACK_DEG = 0.01
+MAX_RATE_DEG_S = 20.0  # table.max_rate_deg_s: RATE and RAMP refuse more
+STATES = ("HOLD", "MOVING", "SETTLING", "ACCEL", "ROTATING")
+
+POSITION = {
+    1: Form([fixed("axis 1 reading, deg", 7, TRUNNION_RANGE_DEG[0] - READING_SLACK_DEG,
+                   TRUNNION_RANGE_DEG[1] + READING_SLACK_DEG)]),
+    # axes 2-4 wrap to [0, 360); 7 decimals may round up to 360.0000000
+    **{a: Form([fixed(f"axis {a} reading, deg", 7, 0.0, 360.0)]) for a in (2, 3, 4)},
+}
+RATE = Form([fixed("rate, deg/s", 7, -MAX_RATE_DEG_S, MAX_RATE_DEG_S)])
+STATUS = Form([word(f"axis {a} state", *STATES) for a in AXES], sep=",")
+INTERLOCK = Form([word("interlock", "CLOSED", "OPEN")])
+
 
 class TableDriver(SerialDriver):
+    model = ("ISU-LAB", "TT-4AX")
+
     def __init__(self, url: str, clock: Clock, name: str = "table", timeout: float = 5.0):
         super().__init__(name, url, timeout)
         self.clock = clock
@@ -28,19 +50,22 @@ class TableDriver(SerialDriver):
         self.command("HOME")
 
     def position(self, axis: int) -> float:
-        return float(self.query(f"POS? {axis}"))
+        """Resolver reading of ``axis``, deg (axes 2-4 in [0, 360])."""
+        a = self.whole(axis, "axis", 1, 4)
+        return self.ask(f"POS? {a}", POSITION[a])[0]
 
     def positions(self) -> tuple[float, float, float, float]:
-        return tuple(self.position(a) for a in (1, 2, 3, 4))  # type: ignore[return-value]
+        return tuple(self.position(a) for a in AXES)  # type: ignore[return-value]
 
     def rate(self, axis: int) -> float:
-        return float(self.query(f"RATE? {axis}"))
+        a = self.whole(axis, "axis", 1, 4)
+        return self.ask(f"RATE? {a}", RATE)[0]
 
     def status(self) -> list[str]:
-        return self.query("STAT?").split(",")
+        return list(self.ask("STAT?", STATUS))
 
     def interlock(self) -> str:
-        return self.query("ILCK?")
+        return self.ask("ILCK?", INTERLOCK)[0]
 
     def set_pulses_per_rev(self, n: int) -> None:
         self.command(f"PPR {n}")

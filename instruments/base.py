@@ -160,12 +160,12 @@ class ByteInstrument:
             self._handle_raw(raw)
 
     def _handle_raw(self, raw: bytes) -> None:
-        if not raw.strip():
+        if not raw.strip(b" "):  # a blank line: no reply
             return
         if self.output_full():
-            words = raw.split()
-            if words[0].upper().decode("latin-1") not in CLEARS:
-                self._overflow(words[0][:20].decode("latin-1"))
+            head = raw.strip(b" ").split(b" ")[0].decode("latin-1")
+            if head.upper() not in CLEARS:
+                self._overflow(head)
                 return
         reply = self.reply_to(raw)
         if reply is not None:
@@ -177,7 +177,7 @@ class ByteInstrument:
         The reply is text, a :class:`Deferred` for a query that answers later, or None for
         a blank line. Refusals are ``ERR <code> <text>`` texts, also put on the error queue.
         """
-        if not raw.strip():
+        if not raw.strip(b" "):
             return None
         try:
             line = raw.decode("ascii")
@@ -224,6 +224,10 @@ class ByteInstrument:
         return self.errors.popleft()[4:] if self.errors else "0 no error"
 
     # --- the output queue ---
+    def pending(self) -> tuple[str | Deferred, ...]:
+        """The replies waiting to leave, oldest first (for tests and benches)."""
+        return tuple(self._replies)
+
     def output_full(self) -> bool:
         return len(self._replies) >= MAX_REPLIES
 
@@ -280,6 +284,7 @@ class ByteInstrument:
                 continue
             item = self._replies[0]
             gen = self._generation
+            text: str
             if isinstance(item, Deferred):
                 if not item.cancelled:
                     yield item.event | item.cancel_event
@@ -289,7 +294,7 @@ class ByteInstrument:
                 if item.cancelled:
                     self._done(1)
                     continue
-                text = item.event.value
+                text = str(item.event.value)
             else:
                 self._replies.popleft()
                 text = item

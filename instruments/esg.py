@@ -76,7 +76,7 @@ class DataProcessor(ByteInstrument):
         self.revolutions = 10
         self.run = 0
         self.settings = ProcessorSettings()
-        self.t_zero = self.env.now  # ticks; the processor clock reads hours since then
+        self.t_zero = int(self.env.now)  # ticks; the processor clock reads hours since then
         self.corrupt_every = 0  # fault injection: every n-th line gets one character wrong
         self.lines_emitted = 0
         self.lines_corrupted = 0
@@ -113,7 +113,7 @@ class DataProcessor(ByteInstrument):
 
     def clock_hours(self) -> float:
         """The processor clock, hours since TZERO."""
-        return seconds(self.env.now - self.t_zero) / 3600.0
+        return seconds(int(self.env.now) - self.t_zero) / 3600.0
 
     def _sel(self, args: list[str]) -> str:
         a = as_int(args[0], "pickoff a", 1, 3)
@@ -148,7 +148,7 @@ class DataProcessor(ByteInstrument):
 
     def _tzero(self, _: list[str]) -> str:
         self._settable("TZERO")
-        self.t_zero = self.env.now
+        self.t_zero = int(self.env.now)
         return "OK"
 
     def _go(self, args: list[str]) -> str:
@@ -176,7 +176,7 @@ class DataProcessor(ByteInstrument):
         the command (REV + 1 line-1 trailing edges: the period sum spans REV turns)."""
         rps = float(self.world.console_status()["spin_rps"])
         rps = rps if rps > 1.0 else float(self.world.p.spin_rps)  # a stopped rotor: nominal
-        earliest = self.env.now + ticks_ceil((self.revolutions + 1) / rps)
+        earliest = int(self.env.now) + ticks_ceil((self.revolutions + 1) / rps)
         return max(0, -((self.t_zero - earliest) // LINE_TICKS))  # ceiling division
 
     def _lines(self, k: int | None, ok_seq: int):

@@ -174,6 +174,20 @@ BAD_ARGUMENTS = [
     ("oscillator", "DIV? one", 11),
     ("oscillator", "DIV? nan", 11),
     ("oscillator", "DIV? 1 2", 11),
+    # extra arguments and lenient number forms: refused, no longer half-executed (issue 13)
+    ("table", "STOP 2 3 4", 11),
+    ("table", "STAT? 1 2", 11),
+    ("table", "PPR 1_000", 11),
+    ("table", "PPR +10", 11),
+    ("table", "POS 2 1e20", 12),
+    ("patch_panel", "CLR now", 11),
+    ("counter1", "PRESET 1_000", 11),
+    ("counter2", "PRESET +1000", 11),
+    ("counter3", "MODE X--Y", 11),
+    ("counter4", "STBY 1", 11),
+    ("autocollimator1", "AIM? 1", 11),
+    ("bubble_levels", "LEV? 1", 11),
+    ("oscillator", "DIV? +1", 11),
 ]
 
 

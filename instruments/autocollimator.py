@@ -83,7 +83,9 @@ class Autocollimator(ByteInstrument):
         d = Deferred(self.env)
 
         def integrate():
-            yield self.env.timeout(ticks(self.p.integration_s))
+            yield self.env.timeout(ticks(self.p.integration_s)) | d.cancel_event
+            if d.cancelled:  # a *CLS dropped the query: nothing to measure
+                return
             try:
                 m = self.measure()
             except Exception as e:  # noqa: BLE001 - a fault of the simulation, named

@@ -92,7 +92,9 @@ class AveragingDvm(ByteInstrument):
 
     def _average(self, d: Deferred):
         t0 = self.world.now
-        yield self.env.timeout(ticks(self.world.p.average_s))
+        yield self.env.timeout(ticks(self.world.p.average_s)) | d.cancel_event
+        if d.cancelled:  # a *CLS dropped the query: the average is abandoned
+            return
         try:
             d.resolve(f"{self.world.average_current_ma(t0, self.world.now):.7f}")
         except Exception as e:  # noqa: BLE001 - a fault of the simulation, named

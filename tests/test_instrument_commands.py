@@ -465,3 +465,11 @@ def test_processor_stream_flows_after_cls_drops_the_go_ok():
         assert len(out) == 4
         assert all(re.fullmatch(r"[0-9]{7}( [0-9]{7}){5}", x) for x in out[1:])
 
+@pytest.mark.parametrize(("name", "query", "wait_s"), [("dvm", "AVG?", 15.0),
+                                                       ("autocollimator", "MEAS?", 1.0)])
+def test_cls_abandons_a_measurement_in_progress(name, query, wait_s):
+    with built(name) as inst:
+        inst.receive(f"{query}\n*CLS\n*IDN?\n".encode())
+        advance(inst, wait_s)
+        assert lines_out(inst) == ["OK", GRAMMARS[name].ident]
+        assert send(inst, query, wait_s) != []  # and the next one is measured

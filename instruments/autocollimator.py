@@ -4,7 +4,7 @@ Angles follow Chart III-3: zenith theta from up; azimuth alpha from east towards
 (E.M = cos(alpha) sin(theta), N.M = sin(alpha) sin(theta)).
 
 Protocol:
-  AIM <az_deg> <zen_deg>   point the optical axis                        -> OK
+  AIM <az_deg> <zen_deg>   point the optical axis (|az| <= 3600)          -> OK
   AIM?                     present pointing
   MEAS?                    "<az_deg> <zen_deg>" of the mirror normal, or ERR 30 NO RETURN
                            when no mirror is within the field of view
@@ -16,12 +16,14 @@ import math
 
 import numpy as np
 
-from instruments.base import ByteInstrument, Deferred, InstrumentError, as_float, need
+from instruments.base import ByteInstrument, Deferred, InstrumentError, as_float, as_real_in
 from instruments.params import AutocollimatorParams
 from sim import units
 from sim.rng import stream
 from sim.timebase import ticks
 from sim.world import World
+
+MAX_AZIMUTH_DEG = 3600.0  # largest |azimuth| of AIM, taken modulo 360 (ten turns)
 
 
 def direction(az: float, zen: float) -> np.ndarray:
@@ -48,6 +50,11 @@ class Autocollimator(ByteInstrument):
         az, zen = p.initial_aim_deg[index - 1]
         self.aim = (math.radians(az), math.radians(zen))
         self._n = 0
+        self.define("AIM <az_deg> <zen_deg>", self._aim)
+        self.define("AIM?", lambda _: f"{math.degrees(self.aim[0]):.6f} "
+                                      f"{math.degrees(self.aim[1]):.6f}")
+        self.define("MEAS?", self._meas)
+        self.define("TEST?", lambda _: "PASS")
 
     def measure(self) -> tuple[float, float] | None:
         """Noisy (az, zen) of the mirror normal in the field of view, or None."""
@@ -63,31 +70,31 @@ class Autocollimator(ByteInstrument):
         # Noise of s on each of two orthogonal directions across the line of sight.
         return az + rng.normal(0.0, s) / max(math.sin(zen), 1e-6), zen + rng.normal(0.0, s)
 
-    def command(self, cmd: str, args: list[str]):
-        if cmd == "AIM":
-            need(args, 2, "AIM <az_deg> <zen_deg>")
-            az = as_float(args[0], "azimuth") % 360.0
-            zen = as_float(args[1], "zenith")
-            lo, hi = self.p.zenith_range_deg
-            if not lo <= zen <= hi:
-                raise InstrumentError(13, f"zenith {zen} outside mount range [{lo}, {hi}] deg")
-            self.aim = (math.radians(az), math.radians(zen))
-            return "OK"
-        if cmd == "AIM?":
-            return f"{math.degrees(self.aim[0]):.6f} {math.degrees(self.aim[1]):.6f}"
-        if cmd == "MEAS?":
-            d = Deferred(self.env)
+    def _aim(self, args: list[str]) -> str:
+        az = as_real_in(args[0], "azimuth", -MAX_AZIMUTH_DEG, MAX_AZIMUTH_DEG) % 360.0
+        zen = as_float(args[1], "zenith")
+        lo, hi = self.p.zenith_range_deg
+        if not lo <= zen <= hi:
+            raise InstrumentError(13, f"zenith {zen:g} outside mount range [{lo}, {hi}] deg")
+        self.aim = (math.radians(az), math.radians(zen))
+        return "OK"
 
-            def integrate():
-                yield self.env.timeout(ticks(self.p.integration_s))
+    def _meas(self, _: list[str]) -> Deferred:
+        d = Deferred(self.env)
+
+        def integrate():
+            yield self.env.timeout(ticks(self.p.integration_s)) | d.cancel_event
+            if d.cancelled:  # a *CLS dropped the query: nothing to measure
+                return
+            try:
                 m = self.measure()
-                if m is None:
-                    d.resolve(self._error(30, "NO RETURN"))
-                else:
-                    d.resolve(f"{math.degrees(m[0]) % 360.0:.7f} {math.degrees(m[1]):.7f}")
+            except Exception as e:  # noqa: BLE001 - a fault of the simulation, named
+                d.resolve(self.internal_error("MEAS?", e))
+                return
+            if m is None:
+                d.resolve(self._error(30, "NO RETURN"))
+            else:
+                d.resolve(f"{math.degrees(m[0]) % 360.0:.7f} {math.degrees(m[1]):.7f}")
 
-            self.env.process(integrate())
-            return d
-        if cmd == "TEST?":
-            return "PASS"
-        return super().command(cmd, args)
+        self.env.process(integrate())
+        return d

@@ -28,6 +28,7 @@ class BubbleLevels(ByteInstrument):
         self.world = world
         self.p = p
         self._n = 0
+        self.define("LEV?", self._lev)
 
     def corrections(self) -> tuple[float, float]:
         """True (phi1, phi3) corrections in rad at the present time."""
@@ -36,14 +37,12 @@ class BubbleLevels(ByteInstrument):
         r1, r2 = t_re[0], t_re[1]
         return float(r1[2]), -float(r1[1]) * math.copysign(1.0, float(r2[2]))
 
-    def command(self, cmd: str, args: list[str]):
-        if cmd == "LEV?":
-            c1, c3 = (units.to_arcsec(c) for c in self.corrections())
-            if max(abs(c1), abs(c3)) > self.p.range_arcsec:
-                raise InstrumentError(40, "OUT OF RANGE")
-            rng = stream(self.world.seed, "bubble", self._n)
-            self._n += 1
-            q = self.p.resolution_arcsec
-            out = [round((c + rng.normal(0, self.p.noise_arcsec)) / q) * q for c in (c1, c3)]
-            return f"{out[0]:.2f} {out[1]:.2f}"
-        return super().command(cmd, args)
+    def _lev(self, _: list[str]) -> str:
+        c1, c3 = (units.to_arcsec(c) for c in self.corrections())
+        if max(abs(c1), abs(c3)) > self.p.range_arcsec:
+            raise InstrumentError(40, "OUT OF RANGE")
+        rng = stream(self.world.seed, "bubble", self._n)
+        self._n += 1
+        q = self.p.resolution_arcsec
+        out = [round((c + rng.normal(0, self.p.noise_arcsec)) / q) * q for c in (c1, c3)]
+        return f"{out[0]:.2f} {out[1]:.2f}"

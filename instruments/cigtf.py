@@ -17,7 +17,7 @@ Gyro power control:
 
 from __future__ import annotations
 
-from instruments.base import ByteInstrument, Deferred, InstrumentError, as_int, need
+from instruments.base import ByteInstrument, Deferred, InstrumentError, as_int
 from sim.cigtf_world import CigtfWorld
 from sim.timebase import ticks
 
@@ -37,6 +37,13 @@ class FixtureProgrammer(ByteInstrument):
         self.world = world
         self.fail_moves = False  # fault injection: the drive stops short, status FAULT
         self.fault = False
+        self.define("MOVE <V|H> <deg>", lambda a: self._move("MOVE", a))
+        self.define("TURN <V|H> <deg>", lambda a: self._move("TURN", a))
+        self.define("POS?", self._pos_q)
+        self.define("STAT?", self._stat)
+
+    def on_clear(self) -> None:
+        self.fault = False  # *CLS clears a latched drive fault
 
     def _go(self, v: int, h: int) -> str:
         if self.world.now < self.world.moving_until:
@@ -47,31 +54,26 @@ class FixtureProgrammer(ByteInstrument):
         self.fault = self.fail_moves
         return "OK"
 
-    def execute(self, line: str):
-        if line.strip().upper() in ("*CLS", "DCL"):
-            self.fault = False
-        return super().execute(line)
-
-    def command(self, cmd: str, args: list[str]):
+    def _move(self, cmd: str, args: list[str]) -> str:
         fx = self.world.fixture
-        if cmd in ("MOVE", "TURN"):
-            need(args, 2, f"{cmd} <V|H> <deg>")
-            ax = _axis(args[0])
-            lo, hi = (0, 359) if cmd == "MOVE" else (-360, 360)
-            deg = as_int(args[1], "angle (whole degrees)", lo, hi)
-            v, h = fx.vertical_deg, fx.horizontal_deg
-            if ax == "V":
-                v = deg if cmd == "MOVE" else v + deg
-            else:
-                h = deg if cmd == "MOVE" else h + deg
-            return self._go(v % 360, h % 360)
-        if cmd == "POS?":
-            return f"{fx.vertical_deg} {fx.horizontal_deg}"
-        if cmd == "STAT?":
-            if self.world.now < self.world.moving_until:
-                return "MOVING"
-            return "FAULT" if self.fault else "HOLD"
-        return super().command(cmd, args)
+        ax = _axis(args[0])
+        lo, hi = (0, 359) if cmd == "MOVE" else (-360, 360)
+        deg = as_int(args[1], "angle (whole degrees)", lo, hi)
+        v, h = fx.vertical_deg, fx.horizontal_deg
+        if ax == "V":
+            v = deg if cmd == "MOVE" else v + deg
+        else:
+            h = deg if cmd == "MOVE" else h + deg
+        return self._go(v % 360, h % 360)
+
+    def _pos_q(self, _: list[str]) -> str:
+        fx = self.world.fixture
+        return f"{fx.vertical_deg} {fx.horizontal_deg}"
+
+    def _stat(self, _: list[str]) -> str:
+        if self.world.now < self.world.moving_until:
+            return "MOVING"
+        return "FAULT" if self.fault else "HOLD"
 
 
 class AveragingDvm(ByteInstrument):
@@ -80,21 +82,23 @@ class AveragingDvm(ByteInstrument):
     def __init__(self, name: str, world: CigtfWorld, latency_s: float) -> None:
         super().__init__(name, world.env, latency_s)
         self.world = world
+        self.define("AVG?", self._avg)
+        self.define("APER?", lambda _: f"{world.p.average_s:g}")
 
-    def command(self, cmd: str, args: list[str]):
-        if cmd == "AVG?":
-            need(args, 0, "AVG?")
-            d = Deferred(self.env)
-            self.env.process(self._average(d))
-            return d
-        if cmd == "APER?":
-            return f"{self.world.p.average_s:g}"
-        return super().command(cmd, args)
+    def _avg(self, _: list[str]) -> Deferred:
+        d = Deferred(self.env)
+        self.env.process(self._average(d))
+        return d
 
     def _average(self, d: Deferred):
         t0 = self.world.now
-        yield self.env.timeout(ticks(self.world.p.average_s))
-        d.resolve(f"{self.world.average_current_ma(t0, self.world.now):.7f}")
+        yield self.env.timeout(ticks(self.world.p.average_s)) | d.cancel_event
+        if d.cancelled:  # a *CLS dropped the query: the average is abandoned
+            return
+        try:
+            d.resolve(f"{self.world.average_current_ma(t0, self.world.now):.7f}")
+        except Exception as e:  # noqa: BLE001 - a fault of the simulation, named
+            d.resolve(self.internal_error("AVG?", e))
 
 
 class GyroPower(ByteInstrument):
@@ -103,19 +107,19 @@ class GyroPower(ByteInstrument):
     def __init__(self, name: str, world: CigtfWorld, latency_s: float) -> None:
         super().__init__(name, world.env, latency_s)
         self.world = world
+        self.define("PWR ON|OFF", self._pwr)
+        self.define("PWR?", self._pwr_q)
 
-    def command(self, cmd: str, args: list[str]):
-        if cmd == "PWR":
-            need(args, 1, "PWR ON|OFF")
-            what = args[0].upper()
-            if what == "ON":
-                self.world.power_on()
-            elif what == "OFF":
-                self.world.power_off()
-            else:
-                raise InstrumentError(12, f"PWR takes ON or OFF, got '{args[0][:10]}'")
-            return "OK"
-        if cmd == "PWR?":
-            on = self.world.gyro.on_since
-            return "OFF" if on is None else f"ON {self.world.now - on:.1f}"
-        return super().command(cmd, args)
+    def _pwr(self, args: list[str]) -> str:
+        what = args[0].upper()
+        if what == "ON":
+            self.world.power_on()
+        elif what == "OFF":
+            self.world.power_off()
+        else:
+            raise InstrumentError(12, f"PWR takes ON or OFF, got '{args[0][:10]}'")
+        return "OK"
+
+    def _pwr_q(self, _: list[str]) -> str:
+        on = self.world.gyro.on_since
+        return "OFF" if on is None else f"ON {self.world.now - on:.1f}"

@@ -11,17 +11,26 @@ edge (print and continue) until STBY. Readings queue for the reader (READ? waits
 
 from __future__ import annotations
 
+import math
 from collections import deque
 
 import simpy
 
-from instruments.base import ByteInstrument, Deferred, InstrumentError, as_int, need
+from instruments.base import ByteInstrument, Deferred, InstrumentError, as_int
 from instruments.patch_panel import PatchPanel
 from sim.pulses import PulseLine
 from sim.timebase import ticks_ceil
 from sim.world import World
 
-MAX_QUEUE = 256
+MAX_QUEUE = 256  # readings kept for the host
+MAX_PRESET = 10**11
+MODES = {"Z": "Z", "XY": "XY", "X-Y": "XY"}
+# Time to print one reading. The report gives no figure; the digital recorders of the
+# period printed a few lines a second, so each gate must last at least this long: a gate
+# that closes sooner is refused at OPER, or stops the counter (print overrun) if the world
+# changes while it counts. It also bounds the work per simulated second (5 readings).
+PRINT_S = 0.2
+MIN_GATE_S = PRINT_S * (1 - 1e-6)  # the limit, blind to the oscillator's ppb offset
 
 
 class FrequencyCounter(ByteInstrument):
@@ -38,7 +47,8 @@ class FrequencyCounter(ByteInstrument):
         self.n_readings = 0
         self.gate_open: float | None = None
         self._waiters: deque[Deferred] = deque()
-        self._proc = None
+        self._proc: simpy.Process | None = None
+        self._define_protocol()
 
     # ----- wiring -----
     def _inputs(self) -> tuple[PulseLine | None, PulseLine | None, PulseLine | None]:
@@ -77,6 +87,12 @@ class FrequencyCounter(ByteInstrument):
             yield from self._gates()
         except simpy.Interrupt:
             return
+        except Exception as e:  # noqa: BLE001 - a fault of the simulation: stop, say what
+            reply = self.internal_error("counting (OPER)", e)
+            self._proc = None
+            self.operating = False
+            self.gate_open = None
+            self._refuse_waiters(reply)
 
     def _gates(self):
         world = self.world
@@ -84,7 +100,7 @@ class FrequencyCounter(ByteInstrument):
             try:
                 gate, read = self._gate_line_and_reader()
             except InstrumentError as e:
-                self.errors.append(f"ERR {e.code} {e.text}")
+                self.log_error(e.code, e.text)
                 yield world.change_event
                 continue
             t_open = gate.edge_after(world.now, 1) if self.gate_open is None else self.gate_open
@@ -113,6 +129,9 @@ class FrequencyCounter(ByteInstrument):
             if t_close is None:
                 yield world.change_event
                 continue
+            if t_close - t_open < MIN_GATE_S:
+                self._overrun(t_close - t_open)
+                return
             due = ticks_ceil(t_close)
             if due > world.env.now:
                 yield world.env.timeout(due - world.env.now) | world.change_event
@@ -125,6 +144,16 @@ class FrequencyCounter(ByteInstrument):
             self._record(read(t_open, t_close))
             self.gate_open = t_close
 
+    def _overrun(self, gate_s: float) -> None:
+        """A gate shorter than the print-out: the counter stops and says why."""
+        text = (f"print overrun: gate of {self.preset} pulses lasted {gate_s:.3g} s, shorter "
+                f"than the {PRINT_S:g} s print-out; counter in standby")
+        self.log_error(25, text)
+        self._proc = None
+        self.operating = False
+        self.gate_open = None
+        self._refuse_waiters(f"ERR 25 {text}")
+
     def _record(self, value: int) -> None:
         self.n_readings += 1
         while self._waiters and self._waiters[0].cancelled:
@@ -134,68 +163,96 @@ class FrequencyCounter(ByteInstrument):
             return
         if len(self.readings) >= MAX_QUEUE:
             self.readings.popleft()
-            self.errors.append("ERR 24 reading queue overflow")
+            self.log_error(24, "reading queue overflow")
         self.readings.append(value)
 
     # ----- protocol -----
-    def command(self, cmd: str, args: list[str]):
-        if cmd == "*RST":
-            self._standby()
-            self.mode, self.preset = "Z", 1000
-            self.readings.clear()
-            return "OK"
-        if cmd == "MODE":
-            need(args, 1, "MODE Z|XY")
-            m = args[0].upper().replace("-", "")
-            if m not in ("Z", "XY"):
-                raise InstrumentError(11, f"mode must be Z or XY, got '{args[0]}'")
-            if self.operating:
-                raise InstrumentError(23, "set STBY before changing mode")
-            self.mode = m
-            return "OK"
-        if cmd == "MODE?":
-            return self.mode
-        if cmd == "PRESET":
-            need(args, 1, "PRESET <count>")
-            if self.operating:
-                raise InstrumentError(23, "set STBY before changing the preset")
-            self.preset = as_int(args[0], "preset", 1, 10**11)
-            return "OK"
-        if cmd == "PRESET?":
-            return str(self.preset)
-        if cmd == "OPER":
-            self._gate_line_and_reader()  # refuse now if unwired
-            if not self.operating:
-                self.operating = True
-                self.gate_open = None
-                self._proc = self.env.process(self._run())
-            return "OK"
-        if cmd == "STBY":
-            self._standby()
-            return "OK"
-        if cmd == "STATE?":
-            return "OPER" if self.operating else "STBY"
-        if cmd == "READ?":
-            d = Deferred(self.env)
-            if self.readings:
-                d.resolve(str(self.readings.popleft()))
-            else:
-                self._waiters.append(d)
-            return d
-        if cmd == "FETC?":
-            return str(self.readings.popleft()) if self.readings else "NONE"
-        if cmd == "COUN?":
-            return str(len(self.readings))
-        if cmd == "CLR":
-            self.readings.clear()
-            return "OK"
-        if cmd == "TEST?":
-            return "PASS"
-        return super().command(cmd, args)
+    def _define_protocol(self) -> None:
+        for usage, action in (
+            ("*RST", self._reset),
+            ("MODE Z|XY", self._mode),
+            ("MODE?", lambda _: self.mode),
+            ("PRESET <count>", self._preset),
+            ("PRESET?", lambda _: str(self.preset)),
+            ("OPER", self._oper),
+            ("STBY", self._stby),
+            ("STATE?", lambda _: "OPER" if self.operating else "STBY"),
+            ("READ?", self._read),
+            ("FETC?", lambda _: str(self.readings.popleft()) if self.readings else "NONE"),
+            ("COUN?", lambda _: str(len(self.readings))),
+            ("CLR", self._clr),
+            ("TEST?", lambda _: "PASS"),
+        ):
+            self.define(usage, action)
 
-    def _standby(self) -> None:
+    def _reset(self, _: list[str]) -> str:
+        self._standby("*RST")
+        self.mode, self.preset = "Z", 1000
+        self.readings.clear()
+        return "OK"
+
+    def _mode(self, args: list[str]) -> str:
+        m = args[0].upper()
+        if m not in MODES:
+            raise InstrumentError(11, f"mode must be Z or XY, got '{args[0][:10]}'")
+        if self.operating:
+            raise InstrumentError(23, "set STBY before changing mode")
+        self.mode = MODES[m]
+        return "OK"
+
+    def _preset(self, args: list[str]) -> str:
+        n = as_int(args[0], "preset", 1, MAX_PRESET)
+        if self.operating:
+            raise InstrumentError(23, "set STBY before changing the preset")
+        self.preset = n
+        return "OK"
+
+    def _oper(self, _: list[str]) -> str:
+        if self.operating:
+            return "OK"  # no effect: already counting
+        gate, _read = self._gate_line_and_reader()  # refuse now if unwired
+        est = gate.estimate_edge(self.world.now, self.preset)
+        if est is not None and est - self.world.now < MIN_GATE_S:
+            dur = est - self.world.now
+            least = math.ceil(self.preset * MIN_GATE_S / max(dur, 1e-12))
+            raise InstrumentError(25, f"gate of {self.preset} pulses lasts {dur:.3g} s, shorter "
+                                      f"than the {PRINT_S:g} s print-out: preset at least {least}")
+        self.operating = True
+        self.gate_open = None
+        self._proc = self.env.process(self._run())
+        return "OK"
+
+    def _stby(self, _: list[str]) -> str:
+        self._standby("STBY")
+        return "OK"
+
+    def _read(self, _: list[str]) -> Deferred | str:
+        if self.readings:
+            d = Deferred(self.env)
+            d.resolve(str(self.readings.popleft()))
+            return d
+        if not self.operating:
+            raise InstrumentError(26, "no reading: counter in standby")
+        self._waiters = deque(w for w in self._waiters if not w.cancelled)
+        d = Deferred(self.env)
+        self._waiters.append(d)
+        return d
+
+    def _clr(self, _: list[str]) -> str:
+        self.readings.clear()
+        return "OK"
+
+    def _refuse_waiters(self, reply: str) -> None:
+        """Answer every waiting READ? with an error reply: no reading will come."""
+        while self._waiters:
+            self._waiters.popleft().resolve(reply)
+
+    def _standby(self, why: str) -> None:
+        was = self.operating
         self.operating = False
         self.gate_open = None
         if self._proc is not None and self._proc.is_alive:
             self._proc.interrupt("standby")
         self._proc = None
+        if was:
+            self._refuse_waiters(f"ERR 26 no reading: counter set to standby by {why}")

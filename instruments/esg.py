@@ -30,7 +30,8 @@ import dataclasses
 
 import simpy
 
-from instruments.base import ByteInstrument, InstrumentError, as_float, as_int, need
+from instruments.base import ByteInstrument, InstrumentError, as_int
+from instruments.base import as_real_in as _in_range
 from sim.esg.processor import ProcessorSettings
 from sim.esg.world import EsgWorld
 from sim.rng import stream
@@ -53,16 +54,7 @@ def _busy(what: str) -> InstrumentError:
     return InstrumentError(BUSY, f"busy: {what}")
 
 
-def _in_range(x: str, what: str, lo: float, hi: float, hi_open: bool = False) -> float:
-    v = as_float(x, what)
-    if v < lo or v > hi or (hi_open and v >= hi):
-        right = ")" if hi_open else "]"
-        raise InstrumentError(12, f"{what} {v:g} outside [{lo:g}, {hi:g}{right}")
-    return v
-
-
 def _on_off(args: list[str], cmd: str, words: tuple[str, str]) -> bool:
-    need(args, 1, f"{cmd} {words[0]}|{words[1]}")
     w = args[0].upper()
     if w not in words:
         raise InstrumentError(12, f"{cmd} takes {words[0]} or {words[1]}, got '{args[0][:10]}'")
@@ -84,27 +76,28 @@ class DataProcessor(ByteInstrument):
         self.revolutions = 10
         self.run = 0
         self.settings = ProcessorSettings()
-        self.t_zero = self.env.now  # ticks; the processor clock reads hours since then
+        self.t_zero = int(self.env.now)  # ticks; the processor clock reads hours since then
         self.corrupt_every = 0  # fault injection: every n-th line gets one character wrong
         self.lines_emitted = 0
         self.lines_corrupted = 0
         self._rng = stream(world.seed, "esg", "corrupt")
         self._stream: simpy.Process | None = None
-        # replies queued and emitted so far: a stream's first line waits for its GO's OK
-        self._queued = 0
-        self._sent = 0
-        self._sent_event = self.env.event()
-
-    # ----- reply bookkeeping -----
-    def _queue(self, reply) -> None:
-        self._queued += 1
-        super()._queue(reply)
-
-    def _emit(self, data: bytes) -> None:  # replies only; data lines use _emit_line
-        self._sent += 1
-        ev, self._sent_event = self._sent_event, self.env.event()
-        ev.succeed()
-        super()._emit(data)
+        for usage, action in (
+            ("SEL <a> <b>", self._sel),
+            ("REV <n>", self._rev),
+            ("RUN <n>", self._run_number),
+            ("THR <volts>", lambda a: self._setting("THR", "threshold_v", a[0], "threshold",
+                                                    0.1, 5.0)),
+            ("DISC <us>", lambda a: self._setting("DISC", "min_width_us", a[0],
+                                                  "discriminator width", 2.0, 24.0)),
+            ("DELAY <us>", lambda a: self._setting("DELAY", "logic_delay_us", a[0],
+                                                   "logic delay", 20.0, 2000.0)),
+            ("TZERO", self._tzero),
+            ("GO [<k>]", self._go),
+            ("HALT", self._halt),
+            ("SET?", self._set_q),
+        ):
+            self.define(usage, action)
 
     def _emit_line(self, data: bytes) -> None:
         ByteInstrument._emit(self, data)
@@ -120,78 +113,62 @@ class DataProcessor(ByteInstrument):
 
     def clock_hours(self) -> float:
         """The processor clock, hours since TZERO."""
-        return seconds(self.env.now - self.t_zero) / 3600.0
+        return seconds(int(self.env.now) - self.t_zero) / 3600.0
 
-    def command(self, cmd: str, args: list[str]):
+    def _sel(self, args: list[str]) -> str:
+        a = as_int(args[0], "pickoff a", 1, 3)
+        b = as_int(args[1], "pickoff b", 1, 3)
+        if a == b:
+            raise InstrumentError(12, f"pickoffs must be distinct, got {a} {b}")
+        self._settable("SEL")
+        self.pickoffs = (a, b)
+        return "OK"
+
+    def _rev(self, args: list[str]) -> str:
+        n = as_int(args[0], "revolutions", 1, 10)
+        if n not in REVOLUTIONS:
+            raise InstrumentError(
+                12, f"revolutions must be one of {', '.join(map(str, REVOLUTIONS))}, got {n}"
+            )
+        self._settable("REV")
+        self.revolutions = n
+        return "OK"
+
+    def _run_number(self, args: list[str]) -> str:
+        n = as_int(args[0], "run number", 0, WRAP - 1)
+        self._settable("RUN")
+        self.run = n
+        return "OK"
+
+    def _setting(self, cmd: str, field: str, x: str, what: str, lo: float, hi: float) -> str:
+        v = _in_range(x, what, lo, hi)
+        self._settable(cmd)
+        self.settings = dataclasses.replace(self.settings, **{field: v})
+        return "OK"
+
+    def _tzero(self, _: list[str]) -> str:
+        self._settable("TZERO")
+        self.t_zero = int(self.env.now)
+        return "OK"
+
+    def _go(self, args: list[str]) -> str:
+        k = as_int(args[0], "line count", 1, MAX_LINES) if args else None
+        if self.streaming:
+            raise _busy("data stream already running")
+        self._stream = self.env.process(self._lines(k, self.replies_queued + 1))
+        return "OK"
+
+    def _halt(self, _: list[str]) -> str:
+        if self._stream is not None and self._stream.is_alive:
+            self._stream.interrupt("HALT")
+        self._stream = None
+        return "OK"
+
+    def _set_q(self, _: list[str]) -> str:
+        a, b = self.pickoffs
         s = self.settings
-        if cmd == "SEL":
-            need(args, 2, "SEL <a> <b>")
-            a = as_int(args[0], "pickoff a", 1, 3)
-            b = as_int(args[1], "pickoff b", 1, 3)
-            if a == b:
-                raise InstrumentError(12, f"pickoffs must be distinct, got {a} {b}")
-            self._settable(cmd)
-            self.pickoffs = (a, b)
-            return "OK"
-        if cmd == "REV":
-            need(args, 1, "REV <n>")
-            n = as_int(args[0], "revolutions", 1, 10)
-            if n not in REVOLUTIONS:
-                raise InstrumentError(
-                    12, f"revolutions must be one of {', '.join(map(str, REVOLUTIONS))}, got {n}"
-                )
-            self._settable(cmd)
-            self.revolutions = n
-            return "OK"
-        if cmd == "RUN":
-            need(args, 1, "RUN <n>")
-            n = as_int(args[0], "run number", 0, WRAP - 1)
-            self._settable(cmd)
-            self.run = n
-            return "OK"
-        if cmd == "THR":
-            need(args, 1, "THR <volts>")
-            v = _in_range(args[0], "threshold", 0.1, 5.0)
-            self._settable(cmd)
-            self.settings = dataclasses.replace(s, threshold_v=v)
-            return "OK"
-        if cmd == "DISC":
-            need(args, 1, "DISC <us>")
-            v = _in_range(args[0], "discriminator width", 2.0, 24.0)
-            self._settable(cmd)
-            self.settings = dataclasses.replace(s, min_width_us=v)
-            return "OK"
-        if cmd == "DELAY":
-            need(args, 1, "DELAY <us>")
-            v = _in_range(args[0], "logic delay", 20.0, 2000.0)
-            self._settable(cmd)
-            self.settings = dataclasses.replace(s, logic_delay_us=v)
-            return "OK"
-        if cmd == "TZERO":
-            need(args, 0, "TZERO")
-            self._settable(cmd)
-            self.t_zero = self.env.now
-            return "OK"
-        if cmd == "GO":
-            if len(args) > 1:
-                raise InstrumentError(11, "usage: GO [<k>]")
-            k = as_int(args[0], "line count", 1, MAX_LINES) if args else None
-            if self.streaming:
-                raise _busy("data stream already running")
-            self._stream = self.env.process(self._lines(k, self._queued + 1))
-            return "OK"
-        if cmd == "HALT":
-            need(args, 0, "HALT")
-            if self.streaming:
-                self._stream.interrupt("HALT")
-            self._stream = None
-            return "OK"
-        if cmd == "SET?":
-            need(args, 0, "SET?")
-            a, b = self.pickoffs
-            return (f"{a} {b} {self.revolutions} {self.run} {s.threshold_v:g} "
-                    f"{s.min_width_us:g} {s.logic_delay_us:g}")
-        return super().command(cmd, args)
+        return (f"{a} {b} {self.revolutions} {self.run} {s.threshold_v:g} "
+                f"{s.min_width_us:g} {s.logic_delay_us:g}")
 
     # ----- the stream -----
     def _first_index(self) -> int:
@@ -199,7 +176,7 @@ class DataProcessor(ByteInstrument):
         the command (REV + 1 line-1 trailing edges: the period sum spans REV turns)."""
         rps = float(self.world.console_status()["spin_rps"])
         rps = rps if rps > 1.0 else float(self.world.p.spin_rps)  # a stopped rotor: nominal
-        earliest = self.env.now + ticks_ceil((self.revolutions + 1) / rps)
+        earliest = int(self.env.now) + ticks_ceil((self.revolutions + 1) / rps)
         return max(0, -((self.t_zero - earliest) // LINE_TICKS))  # ceiling division
 
     def _lines(self, k: int | None, ok_seq: int):
@@ -213,8 +190,8 @@ class DataProcessor(ByteInstrument):
                 yield self.env.timeout(t - self.env.now)
                 counts = self.world.data_line(seconds(t), a, b, rev, settings)
                 line = self.format_line(n, counts.c1, run, counts.period_sum)
-                while self._sent < ok_seq:  # the GO's OK leaves first
-                    yield self._sent_event
+                while self.replies_done < ok_seq:  # the GO's OK leaves (or is cleared) first
+                    yield self._done_event
                 self.lines_emitted += 1
                 if self.corrupt_every > 0 and self.lines_emitted % self.corrupt_every == 0:
                     line = self._corrupt(line, (a, b))
@@ -223,6 +200,8 @@ class DataProcessor(ByteInstrument):
                 done += 1
         except simpy.Interrupt:
             pass
+        except Exception as e:  # noqa: BLE001 - a fault of the simulation: the stream ends
+            self.internal_error("data stream (GO)", e)  # on the error queue
 
     @staticmethod
     def format_line(n: int, c1: dict[int, int], run: int, period_sum: int) -> bytes:
@@ -281,6 +260,11 @@ class DividingHead(ByteInstrument):
     def __init__(self, name: str, world: EsgWorld, latency_s: float) -> None:
         super().__init__(name, world.env, latency_s)
         self.world = world
+        self.define("SPIN <deg>", lambda a: self._move(
+            _in_range(a[0], "spindle angle", 0.0, 360.0, hi_open=True)))
+        self.define("STEP <deg>", self._step)
+        self.define("SPIN?", lambda _: f"{world.head_reading_deg() % 360.0:.5f}")
+        self.define("STAT?", lambda _: "MOVING" if world.head_moving() else "HOLD")
 
     def _move(self, deg: float) -> str:
         if self.world.head_moving():
@@ -288,22 +272,9 @@ class DividingHead(ByteInstrument):
         self.world.head_move(round(deg, 5) % 360.0)
         return "OK"
 
-    def command(self, cmd: str, args: list[str]):
-        if cmd == "SPIN":
-            need(args, 1, "SPIN <deg>")
-            deg = _in_range(args[0], "spindle angle", 0.0, 360.0, hi_open=True)
-            return self._move(deg)
-        if cmd == "STEP":
-            need(args, 1, "STEP <deg>")
-            step = _in_range(args[0], "spindle step", -360.0, 360.0)
-            return self._move((self.world.head_reading_deg() + step) % 360.0)
-        if cmd == "SPIN?":
-            need(args, 0, "SPIN?")
-            return f"{self.world.head_reading_deg() % 360.0:.5f}"
-        if cmd == "STAT?":
-            need(args, 0, "STAT?")
-            return "MOVING" if self.world.head_moving() else "HOLD"
-        return super().command(cmd, args)
+    def _step(self, args: list[str]) -> str:
+        step = _in_range(args[0], "spindle step", -360.0, 360.0)
+        return self._move((self.world.head_reading_deg() + step) % 360.0)
 
 
 # --------------------------------------------------------------------------- turntable
@@ -316,46 +287,48 @@ class Turntable(ByteInstrument):
         super().__init__(name, world.env, latency_s)
         self.world = world
         self.locked = False
+        for usage, action in (
+            ("AZ <deg>", self._az),
+            ("TILT <deg>", self._tilt),
+            ("AZ?", lambda _: f"{world.table_reading_deg()[0] % 360.0:.4f}"),
+            ("TILT?", lambda _: f"{world.table_reading_deg()[1]:.4f}"),
+            ("LOCK", self._lock),
+            ("UNLOCK", self._unlock),
+            ("STAT?", self._stat),
+        ):
+            self.define(usage, action)
 
-    def command(self, cmd: str, args: list[str]):
-        w = self.world
-        if cmd == "AZ":
-            need(args, 1, "AZ <deg>")
-            deg = _in_range(args[0], "azimuth", 0.0, 360.0, hi_open=True)
-            if w.table_moving():
-                raise _busy("table still moving")
-            if self.locked:
-                raise InstrumentError(18, "azimuth locked: UNLOCK first")
-            w.table_move(azimuth_deg=round(deg, 4) % 360.0)
-            return "OK"
-        if cmd == "TILT":
-            need(args, 1, "TILT <deg>")
-            lim = float(w.p.mount.tilt_limit_deg)
-            deg = _in_range(args[0], "tilt", -lim, lim)
-            if w.table_moving():
-                raise _busy("table still moving")
-            w.table_move(tilt_deg=round(deg, 4))
-            return "OK"
-        if cmd in ("AZ?", "TILT?"):
-            need(args, 0, cmd)
-            az, tilt = w.table_reading_deg()
-            return f"{az % 360.0:.4f}" if cmd == "AZ?" else f"{tilt:.4f}"
-        if cmd == "LOCK":
-            need(args, 0, "LOCK")
-            if w.table_moving():
-                raise _busy("table still moving")
-            self.locked = True
-            return "OK"
-        if cmd == "UNLOCK":
-            need(args, 0, "UNLOCK")
-            self.locked = False
-            return "OK"
-        if cmd == "STAT?":
-            need(args, 0, "STAT?")
-            if w.table_moving():
-                return "MOVING"
-            return "LOCKED" if self.locked else "HOLD"
-        return super().command(cmd, args)
+    def _az(self, args: list[str]) -> str:
+        deg = _in_range(args[0], "azimuth", 0.0, 360.0, hi_open=True)
+        if self.world.table_moving():
+            raise _busy("table still moving")
+        if self.locked:
+            raise InstrumentError(18, "azimuth locked: UNLOCK first")
+        self.world.table_move(azimuth_deg=round(deg, 4) % 360.0)
+        return "OK"
+
+    def _tilt(self, args: list[str]) -> str:
+        lim = float(self.world.p.mount.tilt_limit_deg)
+        deg = _in_range(args[0], "tilt", -lim, lim)
+        if self.world.table_moving():
+            raise _busy("table still moving")
+        self.world.table_move(tilt_deg=round(deg, 4))
+        return "OK"
+
+    def _lock(self, _: list[str]) -> str:
+        if self.world.table_moving():
+            raise _busy("table still moving")
+        self.locked = True
+        return "OK"
+
+    def _unlock(self, _: list[str]) -> str:
+        self.locked = False
+        return "OK"
+
+    def _stat(self, _: list[str]) -> str:
+        if self.world.table_moving():
+            return "MOVING"
+        return "LOCKED" if self.locked else "HOLD"
 
 
 # --------------------------------------------------------------------------- theodolite
@@ -367,13 +340,11 @@ class Theodolite(ByteInstrument):
     def __init__(self, name: str, world: EsgWorld, latency_s: float) -> None:
         super().__init__(name, world.env, latency_s)
         self.world = world
+        self.define("READ?", self._read)
 
-    def command(self, cmd: str, args: list[str]):
-        if cmd == "READ?":
-            need(args, 0, "READ?")
-            x, y = self.world.theodolite_arcsec()
-            return f"{x:.2f} {y:.2f}"
-        return super().command(cmd, args)
+    def _read(self, _: list[str]) -> str:
+        x, y = self.world.theodolite_arcsec()
+        return f"{x:.2f} {y:.2f}"
 
 
 # --------------------------------------------------------------------------- console
@@ -385,27 +356,26 @@ class GyroConsole(ByteInstrument):
     def __init__(self, name: str, world: EsgWorld, latency_s: float) -> None:
         super().__init__(name, world.env, latency_s)
         self.world = world
+        self.define("SPIN UP|OFF", self._spin)
+        self.define("DAMP ON|OFF", self._damp)
+        self.define("STAT?", self._stat)
+        self.define("SPEED?", lambda _: f"{world.console_status()['spin_rps']:.2f}")
 
-    def command(self, cmd: str, args: list[str]):
-        w = self.world
-        if cmd == "SPIN":
-            if _on_off(args, "SPIN", ("UP", "OFF")):
-                w.spin_up()
-            else:
-                w.spin_off()
-            return "OK"
-        if cmd == "DAMP":
-            w.set_damping(_on_off(args, "DAMP", ("ON", "OFF")))
-            return "OK"
-        if cmd == "STAT?":
-            need(args, 0, "STAT?")
-            s = w.console_status()
-            return (f"SUSP {int(bool(s['suspended']))} SPIN {s['spin_rps']:.2f} "
-                    f"DAMP {int(bool(s['damping']))} VAC {s['pressure_torr']:.1E}")
-        if cmd == "SPEED?":
-            need(args, 0, "SPEED?")
-            return f"{w.console_status()['spin_rps']:.2f}"
-        return super().command(cmd, args)
+    def _spin(self, args: list[str]) -> str:
+        if _on_off(args, "SPIN", ("UP", "OFF")):
+            self.world.spin_up()
+        else:
+            self.world.spin_off()
+        return "OK"
+
+    def _damp(self, args: list[str]) -> str:
+        self.world.set_damping(_on_off(args, "DAMP", ("ON", "OFF")))
+        return "OK"
+
+    def _stat(self, _: list[str]) -> str:
+        s = self.world.console_status()
+        return (f"SUSP {int(bool(s['suspended']))} SPIN {s['spin_rps']:.2f} "
+                f"DAMP {int(bool(s['damping']))} VAC {s['pressure_torr']:.1E}")
 
 
 __all__ = ["DataProcessor", "DividingHead", "GyroConsole", "Theodolite", "Turntable"]

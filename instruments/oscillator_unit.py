@@ -6,7 +6,7 @@ TEST? (PASS).
 
 from __future__ import annotations
 
-from instruments.base import ByteInstrument, as_int, need
+from instruments.base import ByteInstrument, as_int
 from sim.world import World
 
 
@@ -16,16 +16,11 @@ class OscillatorUnit(ByteInstrument):
     def __init__(self, name: str, world: World, latency_s: float) -> None:
         super().__init__(name, world.env, latency_s)
         self.osc = world.oscillator
+        self.define("FREQ?", lambda _: f"{self.osc.p.nominal_hz:.1f}")
+        self.define("DIV? <1|2>", self._div)
+        self.define("STAT?", lambda _: "LOCKED")
+        self.define("TEST?", lambda _: "PASS")
 
-    def command(self, cmd: str, args: list[str]):
-        if cmd == "FREQ?":
-            return f"{self.osc.p.nominal_hz:.1f}"
-        if cmd == "DIV?":
-            need(args, 1, "DIV? <1|2>")
-            k = as_int(args[0], "output", 1, 2)
-            return str(self.osc.p.s1_divider if k == 1 else self.osc.p.s2_divider)
-        if cmd == "STAT?":
-            return "LOCKED"
-        if cmd == "TEST?":
-            return "PASS"
-        return super().command(cmd, args)
+    def _div(self, args: list[str]) -> str:
+        k = as_int(args[0], "output", 1, 2)
+        return str(self.osc.p.s1_divider if k == 1 else self.osc.p.s2_divider)

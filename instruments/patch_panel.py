@@ -10,7 +10,7 @@ Protocol (line based, one reply per command):
 
 from __future__ import annotations
 
-from instruments.base import ByteInstrument, InstrumentError, need
+from instruments.base import ByteInstrument, InstrumentError
 from sim.pulses import PulseLine
 from sim.world import World
 
@@ -25,6 +25,12 @@ class PatchPanel(ByteInstrument):
         self.world = world
         self.counters = tuple(f"C{i}" for i in range(1, n_counters + 1))
         self.conn: dict[tuple[str, str], str] = {}
+        self.define("CONN <line> <counter> <input>", self._conn)
+        self.define("DISC <counter> <input>", self._disc)
+        self.define("CONN? <counter> <input>",
+                    lambda a: self.conn.get(self._jack(a[0], a[1]), "NONE"))
+        self.define("CLR", self._clr)
+        self.define("LINES?", lambda _: ",".join(sorted(self.world.lines)))
 
     def source(self, counter: str, inp: str) -> PulseLine | None:
         """The pulse line patched to a counter input (used by the counters)."""
@@ -34,32 +40,26 @@ class PatchPanel(ByteInstrument):
     def _jack(self, counter: str, inp: str) -> tuple[str, str]:
         c, i = counter.upper(), inp.upper()
         if c not in self.counters:
-            raise InstrumentError(12, f"no counter '{counter}' (have {', '.join(self.counters)})")
+            raise InstrumentError(
+                12, f"no counter '{counter[:20]}' (have {', '.join(self.counters)})")
         if i not in INPUTS:
-            raise InstrumentError(12, f"no input '{inp}' (inputs X, Y, Z)")
+            raise InstrumentError(12, f"no input '{inp[:20]}' (inputs X, Y, Z)")
         return c, i
 
-    def command(self, cmd: str, args: list[str]):
-        if cmd == "CONN":
-            need(args, 3, "CONN <line> <counter> <input>")
-            line = args[0].upper()
-            if line not in self.world.lines:
-                raise InstrumentError(12, f"no line '{args[0]}'")
-            self.conn[self._jack(args[1], args[2])] = line
-            self.world.notify()
-            return "OK"
-        if cmd == "DISC":
-            need(args, 2, "DISC <counter> <input>")
-            self.conn.pop(self._jack(*args), None)
-            self.world.notify()
-            return "OK"
-        if cmd == "CONN?":
-            need(args, 2, "CONN? <counter> <input>")
-            return self.conn.get(self._jack(*args), "NONE")
-        if cmd == "CLR":
-            self.conn.clear()
-            self.world.notify()
-            return "OK"
-        if cmd == "LINES?":
-            return ",".join(sorted(self.world.lines))
-        return super().command(cmd, args)
+    def _conn(self, args: list[str]) -> str:
+        line = args[0].upper()
+        if line not in self.world.lines:
+            raise InstrumentError(12, f"no line '{args[0][:20]}'")
+        self.conn[self._jack(args[1], args[2])] = line
+        self.world.notify()
+        return "OK"
+
+    def _disc(self, args: list[str]) -> str:
+        self.conn.pop(self._jack(args[0], args[1]), None)
+        self.world.notify()
+        return "OK"
+
+    def _clr(self, _: list[str]) -> str:
+        self.conn.clear()
+        self.world.notify()
+        return "OK"

@@ -1,7 +1,7 @@
 """Test-table controller (serial): positions the four axes, turns the rotary axis, reads resolvers.
 
 Protocol (one reply line per command; angles in degrees, rates in deg/s):
-  POS <axis> <deg>          slew axis 1..4 to a resolver reading           -> OK
+  POS <axis> <deg>          slew axis 1..4 to a resolver reading, |deg| <= 3600 -> OK
   RATE <axis> <deg/s>       turn axis 2, 3 or 4 at a rate (max acceleration) -> OK
   RAMP <axis> <deg/s^2> <deg/s>  change the rate at a commanded acceleration -> OK
   STOP [<axis>]             decelerate to rest                               -> OK
@@ -17,13 +17,14 @@ from __future__ import annotations
 
 import math
 
-from instruments.base import ByteInstrument, InstrumentError, as_float, as_int, need
+from instruments.base import ByteInstrument, InstrumentError, as_float, as_int, as_real_in
 from sim.table import AXES, CONTINUOUS, TableError
 from sim.world import World
 
 # A seized axis commanded to a reading within this of where it stands has nothing to do
 # (the servo's in-position band: resolver error and setting scatter are a few arcsec).
 IN_POSITION_ARCSEC = 10.0
+MAX_ANGLE_DEG = 3600.0  # largest |POS| angle: ten turns (the modulo still keeps 1e-8 arcsec)
 
 
 class TableController(ByteInstrument):
@@ -38,6 +39,7 @@ class TableController(ByteInstrument):
         # the status each reports while a command it cannot carry out is pending
         self.stalled: set[int] = set()
         self._stuck: dict[int, str] = {}
+        self._define_protocol()
 
     def stall(self, axis: int) -> None:
         """Seize ``axis``'s drive now: it comes to rest and no longer follows commands."""
@@ -82,6 +84,10 @@ class TableController(ByteInstrument):
     def _axis(self, x: str) -> int:
         return as_int(x, "axis", 1, 4)
 
+    def _angle(self, x: str) -> float:
+        # a resolver reading: beyond ten turns the modulo would lose the arcsec
+        return as_real_in(x, "angle", -MAX_ANGLE_DEG, MAX_ANGLE_DEG)
+
     def _apply(self, fn, *a) -> str:
         if not self.interlock_closed:
             raise InstrumentError(15, "interlock open: motion inhibited")
@@ -92,73 +98,89 @@ class TableController(ByteInstrument):
         self.world.changed()
         return "OK"
 
-    def command(self, cmd: str, args: list[str]):
+    def _define_protocol(self) -> None:
+        for usage, action in (
+            ("POS <axis> <deg>", self._pos),
+            ("RATE <axis> <deg/s>", self._rate),
+            ("RAMP <axis> <deg/s^2> <deg/s>", self._ramp),
+            ("STOP [<axis>]", self._stop),
+            ("HOME", self._home),
+            ("POS? <axis>", self._pos_q),
+            ("RATE? <axis>", self._rate_q),
+            ("STAT? [<axis>]", self._stat_q),
+            ("ILCK?", lambda _: "CLOSED" if self.interlock_closed else "OPEN"),
+            ("PPR <pulses per revolution>", self._ppr),
+            ("PPR?", lambda _: str(self.table.pulses_per_rev)),
+        ):
+            self.define(usage, action)
+
+    def _pos(self, args: list[str]) -> str:
+        ax = self._axis(args[0])
+        deg = self._angle(args[1])
+        if ax in CONTINUOUS:
+            deg %= 360.0
+        if ax in self.stalled:
+            return self._stalled_command(ax, deg)
+        return self._apply(self.table.move, ax, math.radians(deg))
+
+    def _continuous(self, x: str) -> int:
+        ax = self._axis(x)
+        if ax not in CONTINUOUS:
+            raise InstrumentError(12, f"axis {ax} cannot rotate continuously")
+        return ax
+
+    def _rate(self, args: list[str]) -> str:
+        ax = self._continuous(args[0])
+        rate = math.radians(as_float(args[1], "rate"))
+        if ax in self.stalled:
+            return self._stalled_command(ax, None, rate)
+        return self._apply(self.table.rotate, ax, rate)
+
+    def _ramp(self, args: list[str]) -> str:
+        ax = self._continuous(args[0])
+        acc = math.radians(as_float(args[1], "acceleration"))
+        rate = math.radians(as_float(args[2], "rate"))
+        if ax in self.stalled:
+            return self._stalled_command(ax, None, rate, acc)
         tb = self.table
-        if cmd == "POS":
-            need(args, 2, "POS <axis> <deg>")
-            ax = self._axis(args[0])
-            deg = as_float(args[1], "angle")
-            if ax in CONTINUOUS:
-                deg %= 360.0
+        return self._apply(lambda a, r, c, t: tb.rotate(a, r, t, accel=c), ax, rate, acc)
+
+    def _stop(self, args: list[str]) -> str:
+        axes = [self._axis(args[0])] if args else list(AXES)
+        for ax in axes:
             if ax in self.stalled:
-                return self._stalled_command(ax, deg)
-            return self._apply(tb.move, ax, math.radians(deg))
-        if cmd == "RATE":
-            need(args, 2, "RATE <axis> <deg/s>")
-            ax = self._axis(args[0])
-            if ax not in CONTINUOUS:
-                raise InstrumentError(12, f"axis {ax} cannot rotate continuously")
-            rate = math.radians(as_float(args[1], "rate"))
+                self._stuck.pop(ax, None)  # nothing to stop: the drive is not turning
+            else:
+                self.table.stop(ax, self.world.now)
+        self.world.changed()
+        return "OK"
+
+    def _home(self, _: list[str]) -> str:
+        if not self.interlock_closed:
+            raise InstrumentError(15, "interlock open: motion inhibited")
+        for ax in AXES:
             if ax in self.stalled:
-                return self._stalled_command(ax, None, rate)
-            return self._apply(tb.rotate, ax, rate)
-        if cmd == "RAMP":
-            need(args, 3, "RAMP <axis> <deg/s^2> <deg/s>")
-            ax = self._axis(args[0])
-            if ax not in CONTINUOUS:
-                raise InstrumentError(12, f"axis {ax} cannot rotate continuously")
-            acc = math.radians(as_float(args[1], "acceleration"))
-            rate = math.radians(as_float(args[2], "rate"))
-            if ax in self.stalled:
-                return self._stalled_command(ax, None, rate, acc)
-            return self._apply(lambda a, r, c, t: tb.rotate(a, r, t, accel=c), ax, rate, acc)
-        if cmd == "STOP":
-            axes = [self._axis(args[0])] if args else list(AXES)
-            for ax in axes:
-                if ax in self.stalled:
-                    self._stuck.pop(ax, None)  # nothing to stop: the drive is not turning
-                else:
-                    tb.stop(ax, self.world.now)
-            self.world.changed()
-            return "OK"
-        if cmd == "HOME":
-            for ax in AXES:
-                if ax in self.stalled:
-                    self._stalled_command(ax, 0.0)
-                else:
-                    self._apply(tb.move, ax, 0.0)
-            return "OK"
-        if cmd == "POS?":
-            need(args, 1, "POS? <axis>")
-            ax = self._axis(args[0])
-            deg = math.degrees(tb.resolver(ax, self.world.now))
-            if ax in CONTINUOUS:
-                deg %= 360.0
-            return f"{deg:.7f}"
-        if cmd == "RATE?":
-            need(args, 1, "RATE? <axis>")
-            _, v, _ = tb.axes[self._axis(args[0])].state(self.world.now)
-            return f"{math.degrees(v):.7f}"
-        if cmd == "STAT?":
-            axes = [self._axis(args[0])] if args else list(AXES)
-            return ",".join(self._status(ax) for ax in axes)
-        if cmd == "ILCK?":
-            return "CLOSED" if self.interlock_closed else "OPEN"
-        if cmd == "PPR":
-            need(args, 1, "PPR <pulses per revolution>")
-            tb.pulses_per_rev = as_int(args[0], "pulses per revolution", 1, 3600)
-            self.world.changed()
-            return "OK"
-        if cmd == "PPR?":
-            return str(tb.pulses_per_rev)
-        return super().command(cmd, args)
+                self._stalled_command(ax, 0.0)
+            else:
+                self._apply(self.table.move, ax, 0.0)
+        return "OK"
+
+    def _pos_q(self, args: list[str]) -> str:
+        ax = self._axis(args[0])
+        deg = math.degrees(self.table.resolver(ax, self.world.now))
+        if ax in CONTINUOUS:
+            deg %= 360.0
+        return f"{deg:.7f}"
+
+    def _rate_q(self, args: list[str]) -> str:
+        _, v, _ = self.table.axes[self._axis(args[0])].state(self.world.now)
+        return f"{math.degrees(v):.7f}"
+
+    def _stat_q(self, args: list[str]) -> str:
+        axes = [self._axis(args[0])] if args else list(AXES)
+        return ",".join(self._status(ax) for ax in axes)
+
+    def _ppr(self, args: list[str]) -> str:
+        self.table.pulses_per_rev = as_int(args[0], "pulses per revolution", 1, 3600)
+        self.world.changed()
+        return "OK"

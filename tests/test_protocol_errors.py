@@ -76,14 +76,14 @@ def assert_works(st, rack, name: str) -> None:
         assert d.connection(4, "X") is None
     elif name.startswith("counter"):
         n = int(name.removeprefix("counter"))
-        # measure Z: 1 MHz clock ticks (S1^T) in 100 pulses of S2^T
+        # measure Z: 1 MHz clock ticks (S1^T) in 2000 pulses of S2^T (0.2 s, one print-out)
         st.patch_panel.connect("OSC1", n, "X")
         st.patch_panel.connect("OSC2", n, "Z")
         d.set_mode("measure Z")
-        d.set_preset(100)
+        d.set_preset(2000)
         d.operate()
         ratio = st.oscillator.divider(2) // st.oscillator.divider(1)
-        assert d.read(timeout=1.0) == 100 * ratio
+        assert d.read(timeout=1.0) == 2000 * ratio
         d.standby()
     elif name.startswith("autocollimator"):
         true = angles(rack.world.mirror_normals(rack.world.now)[1])  # mirror 2, horizontal
@@ -174,6 +174,20 @@ BAD_ARGUMENTS = [
     ("oscillator", "DIV? one", 11),
     ("oscillator", "DIV? nan", 11),
     ("oscillator", "DIV? 1 2", 11),
+    # extra arguments and lenient number forms: refused, no longer half-executed (issue 13)
+    ("table", "STOP 2 3 4", 11),
+    ("table", "STAT? 1 2", 11),
+    ("table", "PPR 1_000", 11),
+    ("table", "PPR +10", 11),
+    ("table", "POS 2 1e20", 12),
+    ("patch_panel", "CLR now", 11),
+    ("counter1", "PRESET 1_000", 11),
+    ("counter2", "PRESET +1000", 11),
+    ("counter3", "MODE X--Y", 11),
+    ("counter4", "STBY 1", 11),
+    ("autocollimator1", "AIM? 1", 11),
+    ("bubble_levels", "LEV? 1", 11),
+    ("oscillator", "DIV? +1", 11),
 ]
 
 

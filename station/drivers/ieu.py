@@ -51,6 +51,7 @@ PATIENCE_FRAMES = (HELD + 2) * len(PARTS)
 # before the RESEND reached the IEU) before its frames: only then is it taken as lost
 RESEND_SLACK = 2
 MAX_PERIOD = 2**32 - 1
+STATUS_FIELDS = ("State", "PeriodTicks", "Seq", "ErrorCode")  # what status() reports
 DRAIN_LIMIT = 100_000  # frames discarded before a command, at most
 
 
@@ -311,7 +312,7 @@ class IeuDriver:
                 if f.name == "IEU_STATUS":
                     bad = _not_echoed(command, period, f.sig)
                     if not bad:
-                        return f.sig
+                        return {k: f.sig[k] for k in STATUS_FIELDS}
                     self.discarded += 1  # stale, or altered: wait for the right one
                     why, lost, wrong = f"IEU_STATUS does not echo it ({bad})", False, True
                     continue

@@ -304,7 +304,7 @@ def sample_frames(db: cantools.database.can.Database, seq: int, g: Sequence[int]
                   a: Sequence[int], timer: int) -> list[tuple[int, bytes]]:
     """The five frames (identifier, data) of sample ``seq``: counts clipped to their
     registers (``Flags`` bit 0 set if any was), then IEU_CHECK over the four count frames."""
-    overflow = any(abs(x) > 32767 for x in g) or any(x > 65535 for x in a)
+    overflow = any(not -32768 <= x <= 32767 for x in g) or any(not 0 <= x <= 65535 for x in a)
     sigs = (
         {"Seq": seq, "Gyro1": _clip(g[0]), "Gyro2": _clip(g[1]), "Gyro3": _clip(g[2])},
         {"Seq": seq, "A1S1": _uclip(a[0]), "A1S2": _uclip(a[1]), "A2S1": _uclip(a[2])},

@@ -388,6 +388,7 @@ class IeuDriver:
                 for x in older:
                     del groups[x]
                 groups.setdefault(seq, _Group()).add(f)
+                self._last_seq = s  # reported here, not again as a gap in the sequence
                 raise self._error(f"lost frame(s) of sample {s}: received only {have}")
             g = groups.setdefault(seq, _Group())
             g.add(f)
@@ -395,10 +396,10 @@ class IeuDriver:
                 continue
             del groups[seq]
             sample = g.verified(seq)
+            last, self._last_seq = self._last_seq, seq
             if sample is None:
                 self.failed_checks += 1
                 raise self._error(f"sample {seq} failed its CRC-32C check")
-            last, self._last_seq = self._last_seq, seq
             if last is not None and seq != (last + 1) % SEQ_MOD:
                 lost = (seq - last - 1) % SEQ_MOD
                 raise self._error(f"lost {lost} sample(s) before sequence {seq}")

@@ -4,7 +4,10 @@
 socketcand link of the rack served under DIR as a second client (next to whatever
 procedure is running), decodes every frame with config/ieu.dbc and writes one JSON line
 per frame (``t``, ``id``, ``name``, ``signals``; ``error`` for a frame the DBC cannot
-decode). It uses no station driver on purpose: it is what any laboratory tool would see.
+decode). Frames that carry an end-to-end check get ``check``: ``ok`` or ``failed`` (the
+CRC-8 of IEU_STATUS and IEU_ERROR; IEU_CHECK's CRC-32C over the sample's four count frames
+seen before it, ``incomplete`` if some were not seen). It uses no station driver on
+purpose: it is what any laboratory tool would see with the DBC and its comments.
 """
 
 from __future__ import annotations
@@ -19,19 +22,57 @@ from pathlib import Path
 
 import can
 import cantools
+from crccheck.crc import Crc8Autosar, Crc32C  # type: ignore[import-untyped]
 
 import config
 from station.hil.profile import served
 
+COUNT_FRAMES = ("IEU_GYRO", "IEU_ACCEL_A", "IEU_ACCEL_B", "IEU_TIMER")
+KEEP = 64  # sequence numbers whose count frames are kept for their IEU_CHECK
 
-def decode(db: cantools.database.Database, m: can.Message) -> dict:
-    rec = {"t": m.timestamp, "id": m.arbitration_id, "data": bytes(m.data).hex()}
+
+class Checker:
+    """Verifies the IEU's end-to-end checks on the frames seen, in bus order."""
+
+    def __init__(self) -> None:
+        self.counts: dict[int, dict[str, bytes]] = {}
+
+    def check(self, name: str, frame_id: int, data: bytes, sig: dict) -> str | None:
+        if name in COUNT_FRAMES:
+            self.counts.setdefault(int(sig["Seq"]), {})[name] = data
+            while len(self.counts) > KEEP:
+                del self.counts[next(iter(self.counts))]
+            return None
+        if name == "IEU_CHECK":
+            got = self.counts.pop(int(sig["Seq"]), {})
+            if len(got) < len(COUNT_FRAMES):
+                return "incomplete"
+            crc = Crc32C.calc(b"".join(got[n] for n in COUNT_FRAMES))
+            return "ok" if crc == int(sig["Crc"]) else "failed"
+        if "Crc" in sig:  # IEU_STATUS, IEU_ERROR: CRC-8 of the identifier and other bytes
+            at = len(data) - 1
+            crc = Crc8Autosar.calc(frame_id.to_bytes(2, "little") + data[:at])
+            return "ok" if crc == data[at] else "failed"
+        return None
+
+
+def decode(db: cantools.database.can.Database, m: can.Message,
+           checker: Checker | None = None) -> dict:
+    data = bytes(m.data)
+    rec = {"t": m.timestamp, "id": m.arbitration_id, "data": data.hex()}
     try:
         spec = db.get_message_by_frame_id(m.arbitration_id)
         rec["name"] = spec.name
-        rec["signals"] = spec.decode(bytes(m.data), decode_choices=False)
+        if len(data) != spec.length:
+            raise ValueError(f"{len(data)} bytes, {spec.name} has {spec.length}")
+        rec["signals"] = sig = spec.decode(data, decode_choices=False)
     except (KeyError, ValueError, cantools.database.errors.DecodeError) as e:
         rec["error"] = str(e)
+        return rec
+    if checker is not None:
+        verdict = checker.check(spec.name, m.arbitration_id, data, dict(sig))
+        if verdict is not None:
+            rec["check"] = verdict
     return rec
 
 
@@ -39,6 +80,8 @@ def sniff(links_dir: Path, out, seconds: float | None, stop: threading.Event) ->
     """Decode frames until ``stop`` is set or ``seconds`` pass; returns the frame count."""
     cfg = served(links_dir).can["ieu"]
     db = cantools.database.load_file(str(config.path(config.IEU_DBC)))
+    assert isinstance(db, cantools.database.can.Database)
+    checker = Checker()
     n = 0
     end = None if seconds is None else time.monotonic() + seconds
     with can.Bus(**cfg) as bus:
@@ -46,7 +89,7 @@ def sniff(links_dir: Path, out, seconds: float | None, stop: threading.Event) ->
             m = bus.recv(0.2)
             if m is None:
                 continue
-            out.write(json.dumps(decode(db, m)) + "\n")
+            out.write(json.dumps(decode(db, m, checker)) + "\n")
             out.flush()
             n += 1
     return n

@@ -8,10 +8,11 @@ pty path; :func:`can_config` turns either into the python-can settings IeuDriver
 from __future__ import annotations
 
 import json
-import os
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from urllib.parse import urlparse
+
+from station.hil.links_dir import DirHandle
 
 FILENAME = "links.json"
 
@@ -23,13 +24,16 @@ class LinkEntry:
     address: str
 
 
-def write(links_dir: Path, entries: list[LinkEntry]) -> Path:
-    """Write the map atomically, so that a reader never sees half of it."""
-    path = links_dir / FILENAME
-    tmp = links_dir / f".{FILENAME}.tmp"
-    tmp.write_text(json.dumps([asdict(e) for e in entries], indent=2) + "\n")
-    os.replace(tmp, path)
-    return path
+def write(links_dir: DirHandle | Path, entries: list[LinkEntry]) -> Path:
+    """Write the map atomically (a reader never sees half of it), following no symlink."""
+    text = json.dumps([asdict(e) for e in entries], indent=2) + "\n"
+    if isinstance(links_dir, DirHandle):
+        return links_dir.write_text(FILENAME, text)
+    d = DirHandle(Path(links_dir))
+    try:
+        return d.write_text(FILENAME, text)
+    finally:
+        d.close()
 
 
 def read(path: Path) -> list[LinkEntry]:

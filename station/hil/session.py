@@ -12,12 +12,13 @@ from __future__ import annotations
 
 import hashlib
 import json
-import os
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
 
 from pydantic import BaseModel, ConfigDict, TypeAdapter
+
+from station.hil.links_dir import DirHandle
 
 FILENAME = "session.json"
 
@@ -40,13 +41,16 @@ def config_digest(cfg: BaseModel) -> str:
     return hashlib.sha256(json.dumps(data, sort_keys=True).encode()).hexdigest()[:16]
 
 
-def write(links_dir: Path, s: Session) -> Path:
-    """Write atomically (a reader never sees half of it)."""
-    path = Path(links_dir) / FILENAME
-    tmp = Path(links_dir) / f".{FILENAME}.tmp"
-    tmp.write_text(json.dumps(asdict(s), indent=2) + "\n")
-    os.replace(tmp, path)
-    return path
+def write(links_dir: DirHandle | Path, s: Session) -> Path:
+    """Write atomically (a reader never sees half of it), following no symlink."""
+    text = json.dumps(asdict(s), indent=2) + "\n"
+    if isinstance(links_dir, DirHandle):
+        return links_dir.write_text(FILENAME, text)
+    d = DirHandle(Path(links_dir))
+    try:
+        return d.write_text(FILENAME, text)
+    finally:
+        d.close()
 
 
 def read(links_dir: Path) -> Session | None:

@@ -97,6 +97,8 @@ class PtyPort:
         self.stalled = False  # the pty is full: output waits for the client to read
         self._pending = bytearray()
         self._cond = threading.Condition()
+        self._flushed = select.poll()  # write(), lock held: a client flush not yet acted on
+        self._flushed.register(self.master, select.POLLPRI)
         self._closed = False
         self._wake_r, self._wake_w = os.pipe()
         self._reader = threading.Thread(target=self._read_loop, name=f"pty-rd-{name}", daemon=True)
@@ -113,7 +115,9 @@ class PtyPort:
 
     # ----- output (any thread) -----
     def write(self, data: bytes) -> None:
-        """Queue bytes for the client; never blocks (bytes beyond ``max_pending`` are dropped)."""
+        """Send bytes to the client: straight to the pty if nothing is queued and it has
+        room, else queued for the writer thread. Never blocks; bytes beyond ``max_pending``
+        are dropped."""
         with self._cond:
             if self._closed:
                 return
@@ -123,6 +127,13 @@ class PtyPort:
                     log.warning("%s: client not reading, dropping output", self.name)
                 self.dropped += len(data) - max(room, 0)
                 data = data[: max(room, 0)]
+            if data and not self._pending and not self._flushed.poll(0):
+                # nothing queued: hand it to the pty now, without waking the writer thread
+                try:
+                    n = os.write(self.master, data[:CHUNK])
+                except OSError:  # full (or failing: the writer thread reports that)
+                    n = 0
+                data = data[n:]
             if data:
                 self._pending.extend(data)
                 self._cond.notify()

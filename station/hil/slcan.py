@@ -142,7 +142,10 @@ class SlcanProtocol:
                 return ERROR
             if m is None or len(m.group(3)) != 2 * int(m.group(2)):
                 return ERROR
-            self.on_frame(int(m.group(1), 16), bytes.fromhex(m.group(3)))
+            ident = int(m.group(1), 16)
+            if ident > 0x7FF:  # three hex digits, but a standard identifier has 11 bits
+                return ERROR
+            self.on_frame(ident, bytes.fromhex(m.group(3)))
             self.frames_sent += 1
             return b"z\r"
         # T/r/R/d/D/b/B: extended, remote and FD frames do not exist on the IEU bus

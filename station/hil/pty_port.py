@@ -209,7 +209,7 @@ class PtyPort:
         while True:
             n, wait = self._allowance()
             if n == 0:  # the line is busy: leave the host's bytes in the pty meanwhile
-                if wake_only.poll(max(1, round(wait * 1000))):
+                if wake_only.poll(max(1, round(min(wait, 1.0) * 1000))):
                     return
                 continue
             events = data_or_wake.poll()

@@ -48,7 +48,7 @@ class RealtimeEnv(simpy.Environment):
     # ----- wall <-> tick mapping (simulation thread only) -----
     def tick_at(self, wall: float) -> int:
         """Simulated tick that corresponds to a monotonic wall time."""
-        return self._tick0 + math.floor((wall - self._wall0) * self._ticks_per_wall_s)
+        return int(self._tick0) + math.floor((wall - self._wall0) * self._ticks_per_wall_s)
 
     def wall_at(self, tick: int | float) -> float:
         """Monotonic wall time at which a simulated tick is due."""
@@ -79,7 +79,7 @@ class RealtimeEnv(simpy.Environment):
     @property
     def now_s(self) -> float:
         """Simulated seconds (a float, for display)."""
-        return seconds(self.now)
+        return seconds(int(self.now))
 
     # ----- simulation thread -----
     def run_realtime(self) -> None:

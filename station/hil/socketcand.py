@@ -36,6 +36,7 @@ GRACE_S = 0.2  # wall seconds a new raw-mode client may take to read its "< ok >
 MAX_QUEUED = 65_536  # messages (~4 MB) queued for a client that does not read: then dropped
 MAX_MESSAGE = 1024  # characters between "<" and ">"; a longer message is refused whole
 MAX_BACKLOG = 256  # host frames posted to the simulation thread and not yet applied
+MAX_CLIENTS = 16  # connections served at once (a procedure, sniffers, a spare)
 HOLD = object()  # in a reply list: hold frames back until the client speaks (see module doc)
 _HEX = frozenset("0123456789abcdefABCDEF")
 
@@ -369,6 +370,17 @@ class SocketcandServer:
             except OSError:
                 return  # listener closed
             sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+            with self._lock:
+                full = len(self._clients) >= MAX_CLIENTS
+            if full:  # each client costs two threads: refuse, as a busy socketcand would
+                log.warning("socketcand: %d clients already, refusing %s:%s", MAX_CLIENTS,
+                            *addr[:2])
+                try:
+                    sock.sendall(b"< error too many clients >")
+                except OSError:
+                    pass
+                sock.close()
+                continue
             client = SocketcandClient(self, sock, f"{addr[0]}:{addr[1]}")
             with self._lock:
                 if self._closing:

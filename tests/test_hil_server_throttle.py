@@ -153,3 +153,42 @@ def test_inputs_apply_in_arrival_order_after_a_slip():
 
 def test_realtime_env_is_a_simpy_environment():
     assert issubclass(RealtimeEnv, simpy.Environment)
+
+
+class FakeHub:
+    """What a SocketcandServer needs of the CAN hub."""
+
+    class env:  # noqa: N801 - stands in for the environment's attribute
+        speed = 1.0
+
+    def attach(self, adapter) -> None:
+        pass
+
+    def detach(self, adapter) -> None:
+        pass
+
+
+def test_socketcand_serves_a_bounded_number_of_clients():
+    import socket
+
+    from station.hil.socketcand import MAX_CLIENTS, SocketcandServer
+
+    server = SocketcandServer(FakeHub(), "ieu")  # type: ignore[arg-type]
+    server.start()
+    socks = []
+    try:
+        for _ in range(MAX_CLIENTS):
+            s = socket.create_connection((server.host, server.port), timeout=10.0)
+            socks.append(s)
+            assert s.recv(64) == b"< hi >"
+        extra = socket.create_connection((server.host, server.port), timeout=10.0)
+        socks.append(extra)
+        got = b""
+        while chunk := extra.recv(64):
+            got += chunk
+        assert got == b"< error too many clients >"
+        assert server.clients == MAX_CLIENTS
+    finally:
+        for s in socks:
+            s.close()
+        server.close()

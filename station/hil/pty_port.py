@@ -94,6 +94,7 @@ class PtyPort:
                 self._dir.close()
             raise
         self.dropped = 0  # bytes dropped because nobody read them
+        self.held = 0  # times the reader left input in the pty (line busy, consumer behind)
         self.stalled = False  # the pty is full: output waits for the client to read
         self._pending = bytearray()
         self._cond = threading.Condition()
@@ -209,6 +210,7 @@ class PtyPort:
         while True:
             n, wait = self._allowance()
             if n == 0:  # the line is busy: leave the host's bytes in the pty meanwhile
+                self.held += 1
                 if wake_only.poll(max(1, round(min(wait, 1.0) * 1000))):
                     return
                 continue

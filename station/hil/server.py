@@ -358,6 +358,9 @@ def _serve_until_stopped(server: HilServer, live: bool = False) -> None:
             signal.signal(sig, h)
     env = server.env
     t = env.now_s if server.error is not None else status.simulated_now(server)
+    held = status.held_line(server)
+    if held:
+        print(held, flush=True)
     print(
         f"stopped at t = {t:.3f} s simulated; "
         f"{env.inputs_applied} inputs applied; "

@@ -194,6 +194,7 @@ class SocketcandClient:
         self._slice = throttle.SOCKETCAND_BYTES.slice
         self.posted = 0  # host frames handed to the simulation thread (reader thread)
         self.applied = 0  # of those, frames on the bus (simulation thread)
+        self.held = 0  # times the reader waited (bus busy, simulation behind)
         self.refusals = throttle.LogLimiter(log)  # reader thread
         self._out: queue.Queue = queue.Queue(MAX_QUEUED)
         self._spoke = threading.Event()  # the client sent something after entering raw mode
@@ -280,6 +281,7 @@ class SocketcandClient:
                            self._frames.wait_s(1, now))
             if wait <= 0:
                 return min(self._slice, int(self._bytes.available(now)))
+            self.held += 1
             self._closed.wait(wait)
         return 0
 
@@ -352,6 +354,7 @@ class SocketcandServer:
         self.host, self.port = self._listener.getsockname()[:2]
         self._clients: set[SocketcandClient] = set()
         self._retired = LinkCounters()  # totals of the clients gone (under the lock)
+        self._retired_held = 0
         self._lock = threading.Lock()
         self._closing = False
         self._thread = threading.Thread(target=self._accept_loop, name="scd-accept", daemon=True)
@@ -394,6 +397,7 @@ class SocketcandServer:
             if client in self._clients:
                 self._clients.discard(client)
                 self._retired.add(client.counters)
+                self._retired_held += client.held
 
     def snapshot(self) -> tuple[int, LinkCounters]:
         """(clients connected, counters summed over every client past and present)."""
@@ -403,6 +407,12 @@ class SocketcandServer:
             for c in self._clients:
                 total.add(c.counters)
             return len(self._clients), total
+
+    @property
+    def held(self) -> int:
+        """Times any client's input waited for the bus or the simulation (display)."""
+        with self._lock:
+            return self._retired_held + sum(c.held for c in self._clients)
 
     @property
     def clients(self) -> int:

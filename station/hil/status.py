@@ -136,3 +136,15 @@ def status_line(server: HilServer) -> str:
         parts.append(f"{who}{extra} in {c.rx_msgs} out {c.tx_msgs} "
                      f"({c.rx_bytes}/{c.tx_bytes} B)")
     return "status: " + "; ".join(parts)
+
+
+def held_line(server: HilServer) -> str | None:
+    """Which links had their host's input held back by the line rate or a busy simulation
+    (how often), or None if none did: a flood, or a rehearsal too fast for its links."""
+    held = {n: s.port.held for n, s in server.serial.items()}
+    if server.slcan is not None:
+        held["ieu-slcan"] = server.slcan.port.held
+    if server.socketcand is not None:
+        held["ieu-socketcand"] = server.socketcand.held
+    busy = [f"{n} {k}" for n, k in held.items() if k]
+    return f"input held back (times): {', '.join(busy)}" if busy else None

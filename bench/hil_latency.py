@@ -52,6 +52,7 @@ FLOODS = {
     "slcan": "the slcan pty sent frames, junk and over-long lines as fast as it takes them",
 }
 FLOOD_START_S = 1.0  # wall seconds the floods run before the quiet link is measured
+TRIES = (1, 2, 5, 10, 20, 50, 100, 200, 500, 1000, 2000, 5000, 10_000, 100_000)
 
 
 def _percentile(xs: list[float], q: float) -> float:
@@ -151,12 +152,15 @@ def _smallest_accepted(port: serial.Serial, cmd: str, values: list[int]) -> int:
 
 
 def _pump(port: serial.Serial, chunks: list[bytes], stop: threading.Event) -> int:
-    """Write ``chunks`` round and round until ``stop``; bytes written."""
+    """Write ``chunks`` round and round, 256 bytes at a time, until ``stop``; bytes written
+    (a piece cut short by the write timeout is not counted)."""
+    data = b"".join(chunks)
+    pieces = [data[i:i + 256] for i in range(0, len(data), 256)]
     sent = 0
     i = 0
     while not stop.is_set():
         try:
-            sent += port.write(chunks[i % len(chunks)])
+            sent += port.write(pieces[i % len(pieces)]) or 0
         except serial.SerialTimeoutException:
             continue
         except (serial.SerialException, OSError):
@@ -192,11 +196,10 @@ def _garbage(rng: random.Random) -> list[bytes]:
     return [b"".join(out)]
 
 
-def flooder(kind: str, links: Path, seconds: float) -> None:
-    """Flood one link of the rack under ``links`` with ``kind`` traffic for ``seconds``."""
+def flooder(kind: str, links: Path, stop: threading.Event, least: int) -> None:
+    """Flood one link of the rack under ``links`` with ``kind`` traffic until ``stop``;
+    ``least``: the smallest PRESET or PeriodTicks to try (preset, ieu)."""
     link = served(links)
-    stop = threading.Event()
-    threading.Timer(seconds, stop.set).start()
     rng = random.Random(kind)
     if kind == "preset":
         panel = serial.serial_for_url(link.serial["patch_panel"], timeout=2.0)
@@ -206,8 +209,7 @@ def flooder(kind: str, links: Path, seconds: float) -> None:
         c1 = serial.serial_for_url(link.serial["counter1"], timeout=2.0, write_timeout=0.5)
         _ask(c1, "*RST")
         _ask(c1, "MODE Z")
-        preset = _smallest_accepted(c1, "PRESET", [1, 2, 5, 10, 20, 50, 100, 200, 500, 1000,
-                                                   10_000, 100_000])
+        preset = _smallest_accepted(c1, "PRESET", [p for p in TRIES if p >= least])
         oper = _ask(c1, "OPER")
         c1.close()
         what = _serial_flood(link.serial["counter1"], [b"READ?\n" * 64], stop)
@@ -215,7 +217,7 @@ def flooder(kind: str, links: Path, seconds: float) -> None:
     elif kind == "ieu":
         ieu = IeuDriver(link.can["ieu"], timeout=2.0)
         accepted = None
-        for period in (1, 2, 5, 10, 20, 50, 100, 1000):
+        for period in (p for p in TRIES if p >= least):
             try:
                 ieu.start(period)
             except Exception:  # noqa: BLE001 - refused: try a longer period
@@ -256,9 +258,12 @@ def flooder(kind: str, links: Path, seconds: float) -> None:
                     return
         threading.Thread(target=drain, daemon=True).start()
         sent = 0
+        sock.settimeout(0.5)
         while not stop.is_set():
             try:
                 sock.sendall(junk * 16)
+            except TimeoutError:
+                continue  # the server takes it at the bus's pace
             except OSError:
                 break
             sent += len(junk) * 16
@@ -299,21 +304,22 @@ def _stop_server(server: subprocess.Popen, out: Path) -> None:
     server.send_signal(signal.SIGTERM)
     server.wait(30)
     lines = out.read_text().strip().splitlines()
+    for line in lines[-2:-1]:
+        if line.startswith("input held back"):
+            print("server:", line)
     print("server:", lines[-1] if lines else "(no output)", flush=True)
 
 
-def flood_case(kinds: list[str], n: int) -> None:
+def flood_case(kinds: list[str], n: int, least: int = 1) -> None:
     latency_s = load_config().instruments.serial.latency_s
     with tempfile.TemporaryDirectory() as d:
         links, server, out = _start_server(Path(d), None)
         procs: list[subprocess.Popen] = []
         try:
             link = served(links)
-            # long enough for the measurement: the floods are stopped when it ends
-            seconds = FLOOD_START_S + n * 0.05 + 60.0
-            for k in kinds:
+            for k in kinds:  # each runs until told to stop (SIGTERM), then reports
                 procs.append(subprocess.Popen(
-                    [sys.executable, __file__, "--flooder", k, str(links), str(seconds)]))
+                    [sys.executable, __file__, "--flooder", k, str(links), str(least)]))
             time.sleep(FLOOD_START_S)
             print(f"speed 1, reply latency {latency_s * 1e3:g} ms configured; floods: "
                   f"{', '.join(kinds) or 'none'}; load average {_loadavg()} before", flush=True)
@@ -325,22 +331,26 @@ def flood_case(kinds: list[str], n: int) -> None:
                 p.send_signal(signal.SIGTERM)
             for p in procs:
                 try:
-                    p.wait(10)
+                    p.wait(30)
                 except subprocess.TimeoutExpired:
                     p.kill()
+                    p.wait()
             _stop_server(server, out)
 
 
 def main(argv: list[str]) -> None:
     if argv[:1] == ["--flooder"]:
-        signal.signal(signal.SIGTERM, lambda *_: os._exit(0))
-        flooder(argv[1], Path(argv[2]), float(argv[3]))
-        return
+        stop = threading.Event()
+        signal.signal(signal.SIGTERM, lambda *_: stop.set())
+        flooder(argv[1], Path(argv[2]), stop, int(argv[3]))
+        os._exit(0)  # daemon readers may still be blocked in a read
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("queries", nargs="?", type=int, default=2000)
     p.add_argument("seconds", nargs="?", type=float, default=10.0)
     p.add_argument("period", nargs="?", type=int, default=100, help="S2^T pulses: 10 ms")
     p.add_argument("--flood", help=f"comma-separated: {', '.join(FLOODS)}, all or none")
+    p.add_argument("--least", type=int, default=1, help="smallest counter PRESET and IEU "
+                   "PeriodTicks the floods try (default 1: whatever the instruments accept)")
     a = p.parse_args(argv)
     if a.flood is not None:
         kinds = list(FLOODS) if a.flood == "all" else \
@@ -348,7 +358,7 @@ def main(argv: list[str]) -> None:
         for k in kinds:
             if k not in FLOODS:
                 p.error(f"unknown flood {k!r}: {', '.join(FLOODS)}")
-        flood_case(kinds, a.queries)
+        flood_case(kinds, a.queries, a.least)
         return
     latency_s = load_config().instruments.serial.latency_s
     with tempfile.TemporaryDirectory() as d:

@@ -84,7 +84,7 @@ def test_pty_admits_no_more_than_the_line_allows(tmp_path):
     more than 100 bytes get in (whole reads of 32: a read waits for that much line time),
     in order; the rest waits in the pty."""
     sink = Sink()
-    bucket = TokenBucket(rate=1e-6, burst=100.0, now=time.monotonic())
+    bucket = TokenBucket(rate=1e-6, burst=100.0, now=0.0)  # starts full; never refills
     port = PtyPort("slow", sink, tmp_path / "slow", admit=bucket, slice_bytes=32)
     port.start()
     try:

@@ -196,7 +196,7 @@ class SocketcandClient:
         self.applied = 0  # of those, frames on the bus (simulation thread)
         self.held = 0  # times the reader waited (bus busy, simulation behind)
         self.refusals = throttle.LogLimiter(log)  # reader thread
-        self._out: queue.Queue = queue.Queue(MAX_QUEUED)
+        self._out: queue.SimpleQueue = queue.SimpleQueue()  # bounded by _say (cheap put)
         self._spoke = threading.Event()  # the client sent something after entering raw mode
         self._closed = threading.Event()
         self._reader = threading.Thread(target=self._read_loop, name=f"scd-rd-{peer}", daemon=True)
@@ -213,9 +213,11 @@ class SocketcandClient:
 
     # ----- output -----
     def _say(self, msg: str | object) -> None:
-        try:
-            self._out.put_nowait(msg)
-        except queue.Full:
+        if self._closed.is_set():
+            return
+        if self._out.qsize() < MAX_QUEUED:
+            self._out.put(msg)
+        else:
             log.warning("socketcand %s: client not reading, disconnecting it", self.peer)
             self.server.hub.detach(self)
             self._closed.set()
@@ -330,10 +332,7 @@ class SocketcandClient:
             self.sock.shutdown(socket.SHUT_RDWR)
         except OSError:
             pass
-        try:
-            self._out.put_nowait(None)
-        except queue.Full:
-            pass
+        self._out.put(None)  # the writer's end, past any bound
         if self._writer.is_alive() and threading.current_thread() is not self._writer:
             self._writer.join(2.0)
         self.sock.close()

@@ -52,7 +52,7 @@ FLOODS = {
     "slcan": "the slcan pty sent frames, junk and over-long lines as fast as it takes them",
 }
 FLOOD_START_S = 1.0  # wall seconds the floods run before the quiet link is measured
-TRIES = (1, 2, 5, 10, 20, 50, 100, 200, 500, 1000, 2000, 5000, 10_000, 100_000)
+TRIES = (1, 2, 5, 10, 15, 20, 50, 100, 200, 500, 1000, 2000, 5000, 10_000, 100_000)
 
 
 def _percentile(xs: list[float], q: float) -> float:
@@ -285,14 +285,23 @@ def _loadavg() -> str:
         return "?"
 
 
-def _start_server(d: Path, only: str | None) -> tuple[Path, subprocess.Popen, Path]:
+def _nice(pid: int) -> str:
+    try:
+        return str(os.getpriority(os.PRIO_PROCESS, pid))
+    except OSError:
+        return "?"
+
+
+def _start_server(d: Path, only: str | None, nice: int = 0) -> tuple[Path, subprocess.Popen,
+                                                                     Path]:
     links = d / "links"
     out = d / "server.out"
     cmd = [sys.executable, "-m", "station.hil.server", "--speed", "1", "--links", str(links)]
     if only:
         cmd += ["--only", only]
     with open(out, "w") as log:
-        server = subprocess.Popen(cmd, stdout=log, stderr=subprocess.STDOUT)
+        server = subprocess.Popen(cmd, stdout=log, stderr=subprocess.STDOUT,
+                                  preexec_fn=(lambda: os.nice(nice)) if nice else None)
     while not (links / link_map.FILENAME).exists():
         if server.poll() is not None:
             raise SystemExit(f"server exited: {out.read_text()}")
@@ -310,19 +319,25 @@ def _stop_server(server: subprocess.Popen, out: Path) -> None:
     print("server:", lines[-1] if lines else "(no output)", flush=True)
 
 
-def flood_case(kinds: list[str], n: int, least: int = 1) -> None:
+def flood_case(kinds: list[str], n: int, least: dict[str, int] | None = None,
+               nice: int = 0) -> None:
     latency_s = load_config().instruments.serial.latency_s
     with tempfile.TemporaryDirectory() as d:
-        links, server, out = _start_server(Path(d), None)
+        links, server, out = _start_server(Path(d), None, nice)
+        if nice:
+            os.nice(nice)  # this (measuring) process too; the floods keep the default
         procs: list[subprocess.Popen] = []
         try:
             link = served(links)
             for k in kinds:  # each runs until told to stop (SIGTERM), then reports
                 procs.append(subprocess.Popen(
-                    [sys.executable, __file__, "--flooder", k, str(links), str(least)]))
+                    [sys.executable, __file__, "--flooder", k, str(links),
+                     str((least or {}).get(k, 1))],
+                    preexec_fn=(lambda: os.nice(-nice)) if nice else None))
             time.sleep(FLOOD_START_S)
             print(f"speed 1, reply latency {latency_s * 1e3:g} ms configured; floods: "
-                  f"{', '.join(kinds) or 'none'}; load average {_loadavg()} before", flush=True)
+                  f"{', '.join(kinds) or 'none'}; load average {_loadavg()} before; server "
+                  f"nice {_nice(server.pid)}", flush=True)
             late = quiet_replies([link.serial["oscillator"], link.serial["table"]], n, latency_s)
             _report("quiet link (*IDN?/STAT?)", late)
             print(f"load average {_loadavg()} after", flush=True)
@@ -349,8 +364,13 @@ def main(argv: list[str]) -> None:
     p.add_argument("seconds", nargs="?", type=float, default=10.0)
     p.add_argument("period", nargs="?", type=int, default=100, help="S2^T pulses: 10 ms")
     p.add_argument("--flood", help=f"comma-separated: {', '.join(FLOODS)}, all or none")
-    p.add_argument("--least", type=int, default=1, help="smallest counter PRESET and IEU "
-                   "PeriodTicks the floods try (default 1: whatever the instruments accept)")
+    p.add_argument("--nice", type=int, default=0, help="niceness increment of the server and "
+                   "of the measuring process (negative: ahead of other work on a busy machine; "
+                   "needs the privilege)")
+    p.add_argument("--least-preset", type=int, default=1, help="smallest counter PRESET "
+                   "the preset flood tries (default 1: whatever the counter accepts)")
+    p.add_argument("--least-period", type=int, default=1, help="smallest IEU PeriodTicks "
+                   "the ieu flood tries (default 1: whatever the IEU accepts)")
     a = p.parse_args(argv)
     if a.flood is not None:
         kinds = list(FLOODS) if a.flood == "all" else \
@@ -358,7 +378,8 @@ def main(argv: list[str]) -> None:
         for k in kinds:
             if k not in FLOODS:
                 p.error(f"unknown flood {k!r}: {', '.join(FLOODS)}")
-        flood_case(kinds, a.queries, a.least)
+        flood_case(kinds, a.queries, {"preset": a.least_preset, "ieu": a.least_period},
+                   a.nice)
         return
     latency_s = load_config().instruments.serial.latency_s
     with tempfile.TemporaryDirectory() as d:

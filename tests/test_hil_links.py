@@ -165,3 +165,65 @@ def test_pty_port_is_transparent_and_drops_stale_output(tmp_path):
     finally:
         port.close()
     assert not (tmp_path / "raw").exists()
+
+
+def test_slcan_over_long_line_is_refused_whole(served):
+    """65 bytes then V, one line: one BEL and nothing executed; then N answers."""
+    links, _, _ = served
+    with serial.serial_for_url(str(links / "ieu-slcan"), timeout=10.0) as port:
+        port.write(b"x" * 65 + b"V\r")
+        port.write(b"N\r")
+        got = port.read_until(b"NSIM1\r")
+    assert got == b"\aNSIM1\r"
+
+
+def _scd_read_until(sock, buf: bytearray, pred) -> str:
+    """Read socketcand messages into ``buf`` until ``pred(message)``; return that message."""
+    while True:
+        text = buf.decode("ascii")
+        end = text.find(">")
+        if end >= 0:
+            msg = text[: end + 1].strip()
+            del buf[: end + 1]
+            if pred(msg):
+                return msg
+            continue
+        chunk = sock.recv(4096)
+        assert chunk, "socketcand server closed the connection"
+        buf.extend(chunk)
+
+
+def test_socketcand_repeated_rawmode_delivers_each_frame_once(served):
+    """rawmode sent three times: acknowledged each time; every IEU reply arrives once."""
+    import socket
+
+    import cantools
+
+    import config
+
+    _, entries, _ = served
+    cfg = link_map.can_config(_address(entries, "ieu", "can", "socketcand"))
+    cmd = cantools.database.load_file(str(config.path(config.IEU_DBC))) \
+        .get_message_by_name("IEU_COMMAND")
+
+    def send(command: int, period: int = 1) -> bytes:
+        data = cmd.encode({"Command": command, "PeriodTicks": period, "Seq": 0})
+        return f"< send {cmd.frame_id:03X} {len(data)} {' '.join(f'{b:X}' for b in data)} >" \
+            .encode()
+
+    buf = bytearray()
+    with socket.create_connection((cfg["host"], cfg["port"]), timeout=10.0) as sock:
+        assert _scd_read_until(sock, buf, lambda m: True) == "< hi >"
+        sock.sendall(b"< open ieu >")
+        assert _scd_read_until(sock, buf, lambda m: True) == "< ok >"
+        sock.sendall(b"< rawmode >< rawmode >< rawmode >")
+        for _ in range(3):
+            assert _scd_read_until(sock, buf, lambda m: True) == "< ok >"
+        sock.sendall(send(3))  # STATUS: the IEU answers with one IEU_STATUS frame, idle
+        sock.sendall(send(1, 10_000))  # START: answered with IEU_STATUS, running
+        statuses = []
+        while not statuses or not statuses[-1].endswith(" >") or \
+                statuses[-1].split()[4][:2] != "01":
+            statuses.append(_scd_read_until(sock, buf, lambda m: m.startswith("< frame 081")))
+        sock.sendall(send(0))  # STOP
+    assert [s.split()[4][:2] for s in statuses] == ["00", "01"]  # State: idle, then running

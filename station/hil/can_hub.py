@@ -9,6 +9,7 @@ are handed frames in the simulation thread and must only queue them.
 from __future__ import annotations
 
 import threading
+from collections.abc import Callable
 from typing import Protocol
 
 from instruments.ieu import Ieu
@@ -38,9 +39,18 @@ class CanHub:
         with self._lock:
             self._adapters = tuple(a for a in self._adapters if a is not adapter)
 
-    def send(self, sender: CanAdapter, arbitration_id: int, data: bytes) -> None:
-        """A host frame (any thread): onto the bus at the simulated time of its arrival."""
-        self.env.post(lambda: self.on_bus(sender, arbitration_id, bytes(data)))
+    def send(self, sender: CanAdapter, arbitration_id: int, data: bytes,
+             applied: Callable[[], None] | None = None) -> None:
+        """A host frame (any thread): onto the bus at the simulated time of its arrival;
+        ``applied()`` is called in the simulation thread once it is on the bus."""
+        frame = bytes(data)
+
+        def apply() -> None:
+            if applied is not None:
+                applied()
+            self.on_bus(sender, arbitration_id, frame)
+
+        self.env.post(apply)
 
     def on_bus(self, sender: CanAdapter, arbitration_id: int, data: bytes) -> None:
         """A host frame, in the simulation thread: to the other adapters and to the IEU."""

@@ -8,10 +8,11 @@ pty path; :func:`can_config` turns either into the python-can settings IeuDriver
 from __future__ import annotations
 
 import json
-import os
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from urllib.parse import urlparse
+
+from station.hil.links_dir import DirHandle
 
 FILENAME = "links.json"
 
@@ -23,26 +24,69 @@ class LinkEntry:
     address: str
 
 
-def write(links_dir: Path, entries: list[LinkEntry]) -> Path:
-    """Write the map atomically, so that a reader never sees half of it."""
-    path = links_dir / FILENAME
-    tmp = links_dir / f".{FILENAME}.tmp"
-    tmp.write_text(json.dumps([asdict(e) for e in entries], indent=2) + "\n")
-    os.replace(tmp, path)
-    return path
+def write(links_dir: DirHandle | Path, entries: list[LinkEntry]) -> Path:
+    """Write the map atomically (a reader never sees half of it), following no symlink."""
+    text = json.dumps([asdict(e) for e in entries], indent=2) + "\n"
+    if isinstance(links_dir, DirHandle):
+        return links_dir.write_text(FILENAME, text)
+    d = DirHandle(Path(links_dir))
+    try:
+        return d.write_text(FILENAME, text)
+    finally:
+        d.close()
+
+
+class BadLinkMap(ValueError):
+    """``links.json`` is not what a server writes (names the file and the entry)."""
+
+
+KINDS = ("serial", "can")
+
+
+def parse(text: str, where: str = FILENAME) -> list[LinkEntry]:
+    """The entries of a map from its text; BadLinkMap if anything is off."""
+    try:
+        data = json.loads(text)
+    except ValueError as e:
+        raise BadLinkMap(f"{where}: not JSON ({e})") from None
+    if not isinstance(data, list):
+        raise BadLinkMap(f"{where}: not a JSON list")
+    out = []
+    for i, entry in enumerate(data, start=1):
+        if not isinstance(entry, dict) or sorted(entry) != ["address", "instrument", "kind"]:
+            raise BadLinkMap(f"{where}: entry {i} is not {{instrument, kind, address}}")
+        if not all(isinstance(v, str) and v and v.isprintable() for v in entry.values()):
+            raise BadLinkMap(f"{where}: entry {i}: every field must be a non-empty string")
+        if entry["kind"] not in KINDS:
+            raise BadLinkMap(f"{where}: entry {i}: kind must be serial or can, got "
+                             f"{entry['kind']!r:.40}")
+        out.append(LinkEntry(entry["instrument"], entry["kind"], entry["address"]))
+    return out
 
 
 def read(path: Path) -> list[LinkEntry]:
-    """Entries of a ``links.json`` file (or of ``DIR/links.json`` given the directory)."""
+    """Entries of a ``links.json`` file (or of ``DIR/links.json`` given the directory);
+    BadLinkMap if it is not a server's map."""
     if path.is_dir():
         path = path / FILENAME
-    return [LinkEntry(**e) for e in json.loads(path.read_text())]
+    try:
+        text = path.read_text()
+    except UnicodeDecodeError as e:
+        raise BadLinkMap(f"{path}: cannot read: {e}") from None
+    return parse(text, str(path))
 
 
 def can_config(address: str) -> dict:
-    """python-can settings for a CAN address from the map."""
+    """python-can settings for a CAN address from the map; BadLinkMap if a socketcand
+    address has no host or port."""
     if address.startswith("socketcand://"):
         u = urlparse(address)
+        try:
+            port = u.port
+        except ValueError:
+            port = None
+        if not u.hostname or port is None:
+            raise BadLinkMap(f"socketcand address {address!r:.60} needs a host and a port")
         return {
             "interface": "socketcand",
             "host": u.hostname,

@@ -34,19 +34,26 @@ class ServedLinks:
 def served(links_dir: Path, can_kind: str = "socketcand") -> ServedLinks:
     """Links of the rack served under ``links_dir``; ``can_kind``: "socketcand" | "slcan"."""
     links_dir = Path(links_dir)
-    s = session.read(links_dir)
-    if s is None or not (links_dir / link_map.FILENAME).exists():
-        raise NoServedRack(f"no served rack under {links_dir} (is `station serve` running "
-                           f"with --links {links_dir}?)")
-    serial: dict[str, str] = {}
-    can: dict[str, dict] = {}
-    for e in link_map.read(links_dir):
-        if e.kind == "serial":
-            serial[e.instrument] = e.address
-        elif e.kind == "can":
-            is_scd = e.address.startswith("socketcand://")
-            if is_scd == (can_kind == "socketcand"):
-                can[e.instrument] = link_map.can_config(e.address)
+    try:
+        s = session.read(links_dir)
+        if s is None or not (links_dir / link_map.FILENAME).exists():
+            raise NoServedRack(f"no served rack under {links_dir} (is `station serve` "
+                               f"running with --links {links_dir}?)")
+        serial: dict[str, str] = {}
+        can: dict[str, dict] = {}
+        for e in link_map.read(links_dir):
+            if e.kind == "serial":
+                serial[e.instrument] = e.address
+            elif e.kind == "can":
+                is_scd = e.address.startswith("socketcand://")
+                if is_scd == (can_kind == "socketcand"):
+                    can[e.instrument] = link_map.can_config(e.address)
+    except (session.BadSession, link_map.BadLinkMap) as e:
+        raise NoServedRack(f"no served rack under {links_dir}: {e}") from None
+    except OSError as e:
+        if isinstance(e, NoServedRack):
+            raise
+        raise NoServedRack(f"no served rack under {links_dir}: {e}") from None
     return ServedLinks(serial, can, s)
 
 

@@ -43,11 +43,12 @@ class RealtimeEnv(simpy.Environment):
         self.slipped_s = 0.0  # wall seconds the mapping slipped because the physics lagged
         self.inputs_applied = 0
         self.running = False
+        self._last_input_tick = initial_time  # inputs apply in the order they arrived
 
     # ----- wall <-> tick mapping (simulation thread only) -----
     def tick_at(self, wall: float) -> int:
         """Simulated tick that corresponds to a monotonic wall time."""
-        return self._tick0 + math.floor((wall - self._wall0) * self._ticks_per_wall_s)
+        return int(self._tick0) + math.floor((wall - self._wall0) * self._ticks_per_wall_s)
 
     def wall_at(self, tick: int | float) -> float:
         """Monotonic wall time at which a simulated tick is due."""
@@ -78,7 +79,7 @@ class RealtimeEnv(simpy.Environment):
     @property
     def now_s(self) -> float:
         """Simulated seconds (a float, for display)."""
-        return seconds(self.now)
+        return seconds(int(self.now))
 
     # ----- simulation thread -----
     def run_realtime(self) -> None:
@@ -128,10 +129,13 @@ class RealtimeEnv(simpy.Environment):
         That is the tick its wall arrival maps to; but if the physics lags and events before
         that tick are still unprocessed, it is the simulation's frontier (the next event):
         the host cannot have seen anything later, and the reply is not held up by the lag.
+        Never before an input that arrived earlier (the mapping moves back when it slips),
+        so the bytes of one link reach its instrument in the order they were sent.
         """
         wall, fn, fut = item
-        tick = min(self.tick_at(wall), self.peek())
-        delay = max(0, int(tick) - self.now)
+        tick = max(min(self.tick_at(wall), self.peek()), self._last_input_tick, self.now)
+        self._last_input_tick = int(tick)
+        delay = int(tick) - self.now
 
         def apply(_ev: simpy.Event) -> None:
             self.inputs_applied += 1

@@ -34,6 +34,7 @@ from station.config import ConfigError, StationConfig, load_config
 from station.hil import link_map, session, status
 from station.hil.can_hub import CanHub
 from station.hil.link_map import LinkEntry
+from station.hil.links_dir import LinksDir
 from station.hil.realtime import RealtimeEnv
 from station.hil.serial_link import SerialPtyLink
 from station.hil.slcan import SlcanAdapter
@@ -119,19 +120,23 @@ class HilServer:
         can_port: int = 0,
         max_lag_s: float = 0.05,
     ) -> None:
-        self.links_dir = Path(links_dir).resolve()
-        self.links_dir.mkdir(parents=True, exist_ok=True)
-        for stale in (link_map.FILENAME, session.FILENAME):  # a dead server's files
-            (self.links_dir / stale).unlink(missing_ok=True)
+        # first of all: a second server on this directory is refused before touching it
+        self.directory = LinksDir(Path(links_dir))
+        self.links_dir = self.directory.path
         spec = target if isinstance(target, ServedStation) else isu_station(target)
         self.station = spec.station
         self.seed = spec.seed
         self.config_digest = spec.config_digest
-        self.env = RealtimeEnv(speed, max_lag_s)
-        self.session_id = uuid.uuid4().hex[:12]
-        self.rack = spec.build(self.env)
+        try:
+            self.env = RealtimeEnv(speed, max_lag_s)
+            self.session_id = uuid.uuid4().hex[:12]
+            self.rack = spec.build(self.env)
+        except BaseException:
+            self.directory.close()
+            raise
         if self.rack.env is not self.env:
             self.rack.close()
+            self.directory.close()
             raise ValueError(f"the {self.station} rack was not built on the server's environment")
         self.can_instrument = CAN_INSTRUMENT if getattr(self.rack, "ieu", None) is not None \
             else None
@@ -149,13 +154,15 @@ class HilServer:
             for n in names:
                 if n != self.can_instrument:
                     link = self.links_dir / n
-                    self.serial[n] = SerialPtyLink(self.env, self.rack.serial[n], link)
+                    self.serial[n] = SerialPtyLink(self.env, self.rack.serial[n], link,
+                                                   self.directory)
             if self.can_instrument is not None and self.can_instrument in names:
                 # count each sample a little ahead so its frames leave at the latch instant
                 self.rack.ieu.lookahead_s = IEU_LOOKAHEAD_WALL_S * speed
                 self.hub = CanHub(self.env, self.rack.ieu)
                 self.socketcand = SocketcandServer(self.hub, CAN_INSTRUMENT, can_host, can_port)
-                self.slcan = SlcanAdapter(self.hub, SLCAN_LINK, self.links_dir / SLCAN_LINK)
+                self.slcan = SlcanAdapter(self.hub, SLCAN_LINK, self.links_dir / SLCAN_LINK,
+                                          self.directory)
         except BaseException:
             self.close()
             raise
@@ -200,7 +207,7 @@ class HilServer:
         while not self.env.running and not self.done.is_set():
             time.sleep(0.001)  # the simulation thread anchors its time base first
         self.publish_session()
-        self._map_path = link_map.write(self.links_dir, self.entries())
+        self._map_path = link_map.write(self.directory, self.entries())
         return self._map_path
 
     def session(self) -> session.Session:
@@ -212,7 +219,7 @@ class HilServer:
 
     def publish_session(self) -> None:
         """(Re)write session.json: the time base moves when the physics slips behind."""
-        self._session_path = session.write(self.links_dir, self.session())
+        self._session_path = session.write(self.directory, self.session())
 
     def _run(self) -> None:
         try:
@@ -228,14 +235,15 @@ class HilServer:
         self.env.stop()
 
     def close(self) -> None:
-        """Stop everything and remove what the server published (symlinks, links.json)."""
+        """Stop everything, remove what the server published (symlinks, links.json,
+        session.json) and let go of the links directory."""
         self.env.stop()
         if self._thread.is_alive():
             self._thread.join(10.0)
         for attr in ("_map_path", "_session_path"):
             path = getattr(self, attr)
             if path is not None:
-                path.unlink(missing_ok=True)
+                self.directory.unlink(path.name)
                 setattr(self, attr, None)
         if self.socketcand is not None:
             self.socketcand.close()
@@ -244,6 +252,7 @@ class HilServer:
         for s in self.serial.values():
             s.close()
         self.rack.close()
+        self.directory.close()
 
     def __enter__(self) -> HilServer:
         return self
@@ -349,6 +358,9 @@ def _serve_until_stopped(server: HilServer, live: bool = False) -> None:
             signal.signal(sig, h)
     env = server.env
     t = env.now_s if server.error is not None else status.simulated_now(server)
+    held = status.held_line(server)
+    if held:
+        print(held, flush=True)
     print(
         f"stopped at t = {t:.3f} s simulated; "
         f"{env.inputs_applied} inputs applied; "

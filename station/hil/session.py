@@ -12,12 +12,14 @@ from __future__ import annotations
 
 import hashlib
 import json
-import os
+import math
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
 
 from pydantic import BaseModel, ConfigDict, TypeAdapter
+
+from station.hil.links_dir import DirHandle
 
 FILENAME = "session.json"
 
@@ -40,21 +42,63 @@ def config_digest(cfg: BaseModel) -> str:
     return hashlib.sha256(json.dumps(data, sort_keys=True).encode()).hexdigest()[:16]
 
 
-def write(links_dir: Path, s: Session) -> Path:
-    """Write atomically (a reader never sees half of it)."""
-    path = Path(links_dir) / FILENAME
-    tmp = Path(links_dir) / f".{FILENAME}.tmp"
-    tmp.write_text(json.dumps(asdict(s), indent=2) + "\n")
-    os.replace(tmp, path)
-    return path
+def write(links_dir: DirHandle | Path, s: Session) -> Path:
+    """Write atomically (a reader never sees half of it), following no symlink."""
+    text = json.dumps(asdict(s), indent=2) + "\n"
+    if isinstance(links_dir, DirHandle):
+        return links_dir.write_text(FILENAME, text)
+    d = DirHandle(Path(links_dir))
+    try:
+        return d.write_text(FILENAME, text)
+    finally:
+        d.close()
+
+
+class BadSession(ValueError):
+    """``session.json`` is not what a server writes (names the file and the field)."""
+
+
+_FIELDS = {"session": str, "station": str, "seed": int, "speed": float,
+           "config_digest": str, "t0_monotonic": float, "pid": int}
+
+
+def parse(text: str, where: str = FILENAME) -> Session:
+    """A session from the text of ``session.json``; BadSession if anything is off."""
+    try:
+        data = json.loads(text)
+    except ValueError as e:
+        raise BadSession(f"{where}: not JSON ({e})") from None
+    if not isinstance(data, dict):
+        raise BadSession(f"{where}: not a JSON object")
+    missing = [k for k in _FIELDS if k not in data]
+    extra = [k for k in data if k not in _FIELDS]
+    if missing or extra:
+        raise BadSession(f"{where}: fields {', '.join(missing)} missing" if missing else
+                         f"{where}: unknown fields {', '.join(extra)}")
+    out: dict[str, Any] = {}
+    for key, kind in _FIELDS.items():
+        v = data[key]
+        ok = (isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+              if kind is float else isinstance(v, kind) and not isinstance(v, bool))
+        if not ok:
+            raise BadSession(f"{where}: {key} must be {kind.__name__}, got {v!r:.40}")
+        out[key] = float(v) if kind is float else v
+    if not out["speed"] > 0 or out["pid"] <= 0:
+        raise BadSession(f"{where}: speed and pid must be positive")
+    return Session(**out)
 
 
 def read(links_dir: Path) -> Session | None:
-    """The session of the rack served under ``links_dir``, or None if there is none."""
+    """The session of the rack served under ``links_dir``, or None if there is none;
+    BadSession if the file is not a server's."""
     path = Path(links_dir) / FILENAME
-    if not path.exists():
+    try:
+        text = path.read_text()
+    except FileNotFoundError:
         return None
-    return Session(**json.loads(path.read_text()))
+    except (OSError, UnicodeDecodeError) as e:
+        raise BadSession(f"{path}: cannot read: {e}") from None
+    return parse(text, str(path))
 
 
 class StationParams(BaseModel):

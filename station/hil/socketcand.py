@@ -10,6 +10,11 @@ to a procedure). Frames for a client that has just entered raw mode are held bac
 speaks or a short grace period passes, so they never share a read with its ``< ok >``.
 Each client counts (display only) the frames it sent and was sent and the bytes both ways;
 ``SocketcandServer.snapshot()`` sums them, with the totals of clients gone.
+
+:class:`SocketcandMessages` (bytes -> messages) and :class:`SocketcandProtocol` (state and
+replies) are free of threads and I/O, so they are tested and fuzzed on their own. A second
+``< rawmode >`` is acknowledged and changes nothing (the client is on the bus once). A
+refused message is logged at most once a second per client, with a count of the rest.
 """
 
 from __future__ import annotations
@@ -18,15 +23,22 @@ import logging
 import queue
 import socket
 import threading
+import time
+from collections.abc import Callable
 
+from station.hil import throttle
 from station.hil.can_hub import CanHub
 from station.hil.status import LinkCounters, short
 
 log = logging.getLogger(__name__)
 
 GRACE_S = 0.2  # wall seconds a new raw-mode client may take to read its "< ok >"
-MAX_QUEUED = 500_000  # messages (~30 MB) queued for a client that does not read: then dropped
-_HOLD = object()
+MAX_QUEUED = 65_536  # messages (~4 MB) queued for a client that does not read: then dropped
+MAX_MESSAGE = 1024  # characters between "<" and ">"; a longer message is refused whole
+MAX_BACKLOG = 256  # host frames posted to the simulation thread and not yet applied
+MAX_CLIENTS = 16  # connections served at once (a procedure, sniffers, a spare)
+HOLD = object()  # in a reply list: hold frames back until the client speaks (see module doc)
+_HEX = frozenset("0123456789abcdefABCDEF")
 
 
 def format_frame(t: float, arbitration_id: int, data: bytes) -> str:
@@ -34,34 +46,165 @@ def format_frame(t: float, arbitration_id: int, data: bytes) -> str:
     return f"< frame {arbitration_id & 0x7FF:03X} {max(t, 0.0):.6f} {data.hex().upper()} >"
 
 
+def _hex_token(tok: str, width: int) -> int:
+    if not 1 <= len(tok) <= width or not set(tok) <= _HEX:
+        raise ValueError(f"'{tok[:12]}' is not {width} hex digits")
+    return int(tok, 16)
+
+
 def parse_send(tokens: list[str]) -> tuple[int, bytes]:
-    """``send III L B0 ...`` tokens -> (identifier, data); ValueError if malformed or not ours."""
-    if len(tokens) < 3:
+    """``send III L B0 ...`` tokens -> (identifier, data); ValueError if malformed or not ours.
+
+    The identifier is three hex digits up to 7FF (an eight-digit one is an extended frame,
+    which the IEU bus does not carry), the length one hex digit 0..8, then that many data
+    bytes of one or two hex digits (python-can writes them unpadded)."""
+    if len(tokens) < 3 or tokens[0] != "send":
         raise ValueError("send needs an identifier and a length")
-    ident, dlc = tokens[1], int(tokens[2], 16)
-    if len(ident) != 3:
+    ident_tok, dlc_tok, data_toks = tokens[1], tokens[2], tokens[3:]
+    if len(ident_tok) != 3:
         raise ValueError("extended frames do not exist on the IEU bus")
-    data = bytes(int(b, 16) for b in tokens[3:])
+    ident = _hex_token(ident_tok, 3)
+    if ident > 0x7FF:
+        raise ValueError(f"identifier {ident_tok} is beyond 7FF")
+    dlc = _hex_token(dlc_tok, 1)
+    data = bytes(_hex_token(b, 2) for b in data_toks)
     if dlc != len(data) or dlc > 8:
-        raise ValueError(f"length {dlc} does not match {len(data)} data bytes")
-    return int(ident, 16), data
+        raise ValueError(f"length {dlc_tok} does not match {len(data)} data bytes")
+    return ident, data
+
+
+class SocketcandMessages:
+    """Host bytes -> the token lists of its ``< ... >`` messages. Text outside a message is
+    dropped; a message longer than ``MAX_MESSAGE`` characters is refused whole (nothing up
+    to its ``>`` is taken), however its bytes arrive; non-ASCII bytes never form a token."""
+
+    def __init__(self) -> None:
+        self._msg: list[str] | None = None  # inside a message: its characters so far
+        self._size = 0
+        self._discarding = False
+        self.refused = 0  # over-long messages
+
+    def feed(self, data: bytes) -> list[list[str]]:
+        out: list[list[str]] = []
+        text = data.decode("ascii", "replace")
+        i, n = 0, len(text)
+        while i < n:
+            if self._msg is None and not self._discarding:
+                j = text.find("<", i)
+                if j < 0:
+                    break
+                self._msg, self._size, i = [], 0, j + 1
+                continue
+            j = text.find(">", i)
+            piece = text[i:] if j < 0 else text[i:j]
+            if not self._discarding:
+                assert self._msg is not None
+                self._size += len(piece)
+                if self._size > MAX_MESSAGE:
+                    self._msg, self._discarding = None, True
+                    self.refused += 1
+                else:
+                    self._msg.append(piece)
+            if j < 0:
+                break
+            if not self._discarding and self._msg is not None:
+                out.append("".join(self._msg).split())
+            self._msg, self._discarding, i = None, False, j + 1
+        return out
+
+
+class SocketcandProtocol:
+    """One client's protocol state and the replies to its messages (free of I/O).
+
+    ``attach()``/``detach()`` put the client on the bus or take it off, ``send(id, data)``
+    puts a host frame on the bus. ``handle`` returns the messages to queue for the client
+    (``HOLD``: hold frames back until it speaks)."""
+
+    def __init__(self, channel: str, attach: Callable[[], None], detach: Callable[[], None],
+                 send: Callable[[int, bytes], None]) -> None:
+        self.channel = channel
+        self._attach, self._detach, self._send = attach, detach, send
+        self.opened = False
+        self.raw = False
+        self.frames_sent = 0
+        self.refused: list[str] = []  # why the last message was refused (for the log)
+
+    def handle(self, tokens: list[str]) -> list[str | object]:
+        self.refused.clear()
+        if not tokens:
+            return []
+        cmd = tokens[0]
+        if cmd == "echo":
+            return ["< echo >"] if len(tokens) == 1 else self._refuse("echo takes nothing")
+        if not self.opened:
+            if cmd == "open" and len(tokens) == 2 and tokens[1] == self.channel:
+                self.opened = True
+                return ["< ok >"]
+            return ["< error could not open bus >"]
+        if cmd == "rawmode" and len(tokens) == 1:
+            if self.raw:  # already on the bus: acknowledge, never attach twice
+                return ["< ok >"]
+            self.raw = True
+            self._attach()
+            return ["< ok >", HOLD]
+        if cmd == "bcmmode" and len(tokens) == 1:
+            if self.raw:
+                self._detach()
+                self.raw = False
+            return ["< ok >"]
+        if cmd == "send":
+            try:
+                ident, data = parse_send(tokens)
+            except ValueError as e:
+                return self._refuse(str(e))
+            self._send(ident, data)
+            self.frames_sent += 1
+            return []
+        if not self.raw:
+            return ["< error unsupported command >"]
+        # an error message in raw mode would break python-can's frame parser
+        return self._refuse("not a raw-mode command")
+
+    def _refuse(self, why: str) -> list[str | object]:
+        self.refused.append(why)
+        return [] if self.raw else ["< error " + why.replace(">", ")").replace("<", "(") + " >"]
 
 
 class SocketcandClient:
-    """One TCP connection: protocol state, a reader thread and a writer thread."""
+    """One TCP connection: protocol state, a reader thread and a writer thread.
+
+    The reader takes the host's bytes at the CAN bus's pace (``throttle.SOCKETCAND_BYTES``
+    and ``SOCKETCAND_FRAMES``: a socketcand box cannot put more on a 1 Mbit/s bus) and
+    stops reading while ``MAX_BACKLOG`` frames wait for the simulation thread; the host's
+    excess stays in the TCP buffers."""
 
     def __init__(self, server: SocketcandServer, sock: socket.socket, peer: str) -> None:
         self.server = server
         self.sock = sock
         self.peer = peer
-        self.raw = False
-        self.opened = False
+        self.protocol = SocketcandProtocol(
+            server.channel, lambda: server.hub.attach(self), lambda: server.hub.detach(self),
+            lambda i, d: self._post(i, d))
+        self.messages = SocketcandMessages()
         self.counters = LinkCounters()  # rx: reader thread; frames out: sim; bytes out: writer
-        self._out: queue.Queue = queue.Queue(MAX_QUEUED)
+        speed = server.hub.env.speed
+        now = time.monotonic()
+        self._bytes = throttle.TokenBucket.of(throttle.SOCKETCAND_BYTES, speed, now)
+        self._frames = throttle.TokenBucket.of(throttle.SOCKETCAND_FRAMES, speed, now)
+        self._slice = throttle.SOCKETCAND_BYTES.slice
+        self.posted = 0  # host frames handed to the simulation thread (reader thread)
+        self.applied = 0  # of those, frames on the bus (simulation thread)
+        self.held = 0  # times the reader waited (bus busy, simulation behind)
+        self.refusals = throttle.LogLimiter(log)  # reader thread
+        self._out: queue.SimpleQueue = queue.SimpleQueue()  # bounded by _say (cheap put)
         self._spoke = threading.Event()  # the client sent something after entering raw mode
         self._closed = threading.Event()
         self._reader = threading.Thread(target=self._read_loop, name=f"scd-rd-{peer}", daemon=True)
         self._writer = threading.Thread(target=self._write_loop, name=f"scd-wr-{peer}", daemon=True)
+
+    @property
+    def raw(self) -> bool:
+        return self.protocol.raw
 
     def start(self) -> None:
         self._writer.start()
@@ -70,9 +213,11 @@ class SocketcandClient:
 
     # ----- output -----
     def _say(self, msg: str | object) -> None:
-        try:
-            self._out.put_nowait(msg)
-        except queue.Full:
+        if self._closed.is_set():
+            return
+        if self._out.qsize() < MAX_QUEUED:
+            self._out.put(msg)
+        else:
             log.warning("socketcand %s: client not reading, disconnecting it", self.peer)
             self.server.hub.detach(self)
             self._closed.set()
@@ -94,7 +239,7 @@ class SocketcandClient:
             while True:
                 if item is None:
                     break
-                if item is _HOLD:
+                if item is HOLD:
                     hold = True
                     break
                 batch.append(item)
@@ -119,69 +264,64 @@ class SocketcandClient:
                 self._spoke.wait(GRACE_S)
 
     # ----- input -----
+    def _post(self, ident: int, data: bytes) -> None:
+        """Reader thread: a host frame onto the bus (at its arrival's simulated time)."""
+        self.posted += 1
+        self.server.hub.send(self, ident, data, self._applied)
+
+    def _applied(self) -> None:
+        self.applied += 1
+
+    def _admitted(self) -> int:
+        """Reader thread: bytes the link takes now (waits while the bus is busy)."""
+        while not self._closed.is_set():
+            now = time.monotonic()
+            if self.posted - self.applied >= MAX_BACKLOG:
+                wait = 0.002
+            else:
+                wait = max(self._bytes.wait_s(min(64, self._slice), now),
+                           self._frames.wait_s(1, now))
+            if wait <= 0:
+                return min(self._slice, int(self._bytes.available(now)))
+            self.held += 1
+            self._closed.wait(wait)
+        return 0
+
     def _read_loop(self) -> None:
-        buf = ""
         try:
             while not self._closed.is_set():
+                n = self._admitted()
+                if n <= 0:
+                    break
                 try:
-                    chunk = self.sock.recv(4096)
+                    chunk = self.sock.recv(n)
                 except OSError:
                     break
                 if not chunk:
                     break
-                if self.raw:
+                now = time.monotonic()
+                self._bytes.take(len(chunk), now)
+                if self.protocol.raw:
                     self._spoke.set()
                 self.counters.rx_bytes += len(chunk)
                 self.counters.touch()
-                buf += chunk.decode("ascii", "replace")
-                while True:
-                    start = buf.find("<")
-                    end = buf.find(">", start + 1) if start >= 0 else -1
-                    if start < 0:
-                        buf = ""
-                        break
-                    if end < 0:
-                        buf = buf[start:] if len(buf) - start < 1024 else ""
-                        break
-                    self._message(buf[start + 1 : end].split())
-                    buf = buf[end + 1 :]
+                for tokens in self.messages.feed(chunk):
+                    self._frames.take(1, now)
+                    self._message(tokens)
         finally:
             self.close()
 
     def _message(self, tokens: list[str]) -> None:
         if not tokens:
             return
-        cmd = tokens[0]
         self.counters.last_msg = short(" ".join(tokens))
-        if cmd == "echo":
-            self._say("< echo >")
-        elif not self.opened:
-            if cmd == "open" and len(tokens) == 2 and tokens[1] == self.server.channel:
-                self.opened = True
-                self._say("< ok >")
-            else:
-                self._say("< error could not open bus >")
-        elif cmd == "rawmode":
-            self._say("< ok >")
-            self._say(_HOLD)
-            self.raw = True
-            self.server.hub.attach(self)
-        elif cmd == "bcmmode":
-            self.server.hub.detach(self)
-            self.raw = False
-            self._say("< ok >")
-        elif cmd == "send":
-            try:
-                ident, data = parse_send(tokens)
-            except ValueError as e:
-                log.info("socketcand %s: ignored %s: %s", self.peer, " ".join(tokens)[:40], e)
-                return
-            self.server.hub.send(self, ident, data)
-            self.counters.rx_msgs += 1
-        elif not self.raw:
-            self._say("< error unsupported command >")
-        else:  # an error message in raw mode would break python-can's frame parser
-            log.info("socketcand %s: ignored %r in raw mode", self.peer, " ".join(tokens)[:40])
+        sent = self.protocol.frames_sent
+        for reply in self.protocol.handle(tokens):
+            self._say(reply)
+        self.counters.rx_msgs += self.protocol.frames_sent - sent
+        if self.protocol.refused:
+            self.refusals.info(time.monotonic(), "socketcand %s: ignored %s: %s", self.peer,
+                               " ".join(tokens)[:40], self.protocol.refused[0])
 
     # ----- teardown -----
     def close(self) -> None:
@@ -192,10 +332,7 @@ class SocketcandClient:
             self.sock.shutdown(socket.SHUT_RDWR)
         except OSError:
             pass
-        try:
-            self._out.put_nowait(None)
-        except queue.Full:
-            pass
+        self._out.put(None)  # the writer's end, past any bound
         if self._writer.is_alive() and threading.current_thread() is not self._writer:
             self._writer.join(2.0)
         self.sock.close()
@@ -216,6 +353,7 @@ class SocketcandServer:
         self.host, self.port = self._listener.getsockname()[:2]
         self._clients: set[SocketcandClient] = set()
         self._retired = LinkCounters()  # totals of the clients gone (under the lock)
+        self._retired_held = 0
         self._lock = threading.Lock()
         self._closing = False
         self._thread = threading.Thread(target=self._accept_loop, name="scd-accept", daemon=True)
@@ -234,6 +372,17 @@ class SocketcandServer:
             except OSError:
                 return  # listener closed
             sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+            with self._lock:
+                full = len(self._clients) >= MAX_CLIENTS
+            if full:  # each client costs two threads: refuse, as a busy socketcand would
+                log.warning("socketcand: %d clients already, refusing %s:%s", MAX_CLIENTS,
+                            *addr[:2])
+                try:
+                    sock.sendall(b"< error too many clients >")
+                except OSError:
+                    pass
+                sock.close()
+                continue
             client = SocketcandClient(self, sock, f"{addr[0]}:{addr[1]}")
             with self._lock:
                 if self._closing:
@@ -247,6 +396,7 @@ class SocketcandServer:
             if client in self._clients:
                 self._clients.discard(client)
                 self._retired.add(client.counters)
+                self._retired_held += client.held
 
     def snapshot(self) -> tuple[int, LinkCounters]:
         """(clients connected, counters summed over every client past and present)."""
@@ -256,6 +406,12 @@ class SocketcandServer:
             for c in self._clients:
                 total.add(c.counters)
             return len(self._clients), total
+
+    @property
+    def held(self) -> int:
+        """Times any client's input waited for the bus or the simulation (display)."""
+        with self._lock:
+            return self._retired_held + sum(c.held for c in self._clients)
 
     @property
     def clients(self) -> int:

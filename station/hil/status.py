@@ -74,13 +74,14 @@ def rows(server: HilServer) -> list[LinkRow]:
     """One row per link of the server, from a consistent-enough read of its counters."""
     out = [LinkRow(n, "serial", s.address, s.port.device, None, s.counters)
            for n, s in server.serial.items()]
+    can = server.can_instrument or "ieu"
     if server.socketcand is not None:
         clients, counters = server.socketcand.snapshot()
-        out.append(LinkRow(server.can_instrument, "socketcand", server.socketcand.address,
-                           None, clients, counters))
+        out.append(LinkRow(can, "socketcand", server.socketcand.address, None, clients,
+                           counters))
     if server.slcan is not None:
-        out.append(LinkRow(server.can_instrument, "slcan", server.slcan.address,
-                           server.slcan.port.device, None, server.slcan.counters))
+        out.append(LinkRow(can, "slcan", server.slcan.address, server.slcan.port.device, None,
+                           server.slcan.counters))
     return out
 
 
@@ -91,7 +92,7 @@ def _idle(c: LinkCounters, now: float) -> str:
 def simulated_now(server: HilServer) -> float:
     """The rack's time now, s: the wall mapping (simpy's ``now`` moves only at events)."""
     env = server.env
-    return seconds(max(env.now, env.tick_at(time.monotonic())))
+    return seconds(max(int(env.now), env.tick_at(time.monotonic())))
 
 
 def header(server: HilServer) -> str:
@@ -110,11 +111,11 @@ def render(server: HilServer):
 
     now = time.monotonic()
     t = Table(box=box.SIMPLE_HEAD, expand=False)
-    for c, justify in (("instrument", "left"), ("kind", "left"), ("address", "left"),
-                       ("clients", "right"), ("in", "right"), ("out", "right"),
-                       ("bytes in", "right"), ("bytes out", "right"), ("last command", "left"),
-                       ("idle s", "right")):
-        t.add_column(c, justify=justify, no_wrap=c != "address")
+    right = ("clients", "in", "out", "bytes in", "bytes out", "idle s")
+    for name in ("instrument", "kind", "address", "clients", "in", "out", "bytes in",
+                 "bytes out", "last command", "idle s"):
+        t.add_column(name, justify="right" if name in right else "left",
+                     no_wrap=name != "address")
     for r in rows(server):
         c = r.counters
         addr = r.address if r.device is None else f"{r.address} -> {r.device}"
@@ -135,3 +136,15 @@ def status_line(server: HilServer) -> str:
         parts.append(f"{who}{extra} in {c.rx_msgs} out {c.tx_msgs} "
                      f"({c.rx_bytes}/{c.tx_bytes} B)")
     return "status: " + "; ".join(parts)
+
+
+def held_line(server: HilServer) -> str | None:
+    """Which links had their host's input held back by the line rate or a busy simulation
+    (how often), or None if none did: a flood, or a rehearsal too fast for its links."""
+    held = {n: s.port.held for n, s in server.serial.items()}
+    if server.slcan is not None:
+        held["ieu-slcan"] = server.slcan.port.held
+    if server.socketcand is not None:
+        held["ieu-socketcand"] = server.socketcand.held
+    busy = [f"{n} {k}" for n, k in held.items() if k]
+    return f"input held back (times): {', '.join(busy)}" if busy else None

@@ -21,12 +21,16 @@ from scipy.integrate import quad
 
 from procedures.common import patch, set_modes, set_position
 from procedures.plan import DayPlan
+from procedures.plausibility import Implausible, source_of
 from procedures.runner import Run
 from procedures.settings import GYRO_STATIC, wiring
 from procedures.sheets import ResolverSettings
 
 TITLE = "J term experiment (designed: commanded table acceleration, positions 7 and 11)"
 GYROS_OF_POSITION = {7: (2, 3), 11: (1,)}
+# the table's rotary angle after a gate against the commanded ramp: a few arcsec of
+# resolver error and servo lag on a good day; a stalled axis or a garbled reading is far off
+PROFILE_TOLERANCE_DEG = 0.01
 DEG = math.pi / 180.0
 
 
@@ -78,7 +82,7 @@ def j_experiment(st, run: Run, settings: ResolverSettings, plan: DayPlan, s1: fl
             with sheet.step("3" + tag, f"Set position {m} with level correction; table at "
                             "rest") as s:
                 ps = set_position(st, 0.0, 90.0, p.phi3, p.phi4, level=True)
-                s.reading = {"level_arcsec": ps.level_arcsec}
+                s.reading = ps.reading()
             counters = {k + 1: n_ticks for k in gyros}
             recs = []
             for i in range(pairs):
@@ -107,13 +111,20 @@ def j_experiment(st, run: Run, settings: ResolverSettings, plan: DayPlan, s1: fl
                         t_read = st.clock.now() - t_pos
                         phi_read = st.table.position(2)
                         prof = profile(phi_start, w_start, w_end, acc, t_cmd)
+                        off = (prof(t_read) - phi_read + 180.0) % 360.0 - 180.0
+                        if abs(off) > PROFILE_TOLERANCE_DEG:
+                            raise Implausible(
+                                source_of(st.table),
+                                f"axis 2 did not follow the commanded ramp: it reads "
+                                f"{phi_read:.4f} deg where the ramp from {phi_start:.4f} deg "
+                                f"puts it at {prof(t_read) % 360.0:.4f} deg (RATE? "
+                                f"{st.table.rate(2):g} deg/s, commanded {w_end:g})")
                         rec = {"direction": direction, "phi_start": phi_start,
                                "w_start": w_start, "w_end": w_end, "t_cmd": t_cmd,
                                "gate_s": n_ticks * s1,
                                "t_oper": {str(c): v for c, v in t_oper.items()},
                                "counts": {str(c): v for c, v in readings.items()},
-                               "phi_check_deg": ((prof(t_read) - phi_read + 180.0) % 360.0)
-                               - 180.0}
+                               "phi_check_deg": off}
                         recs.append(rec)
                         s.reading = rec
             with sheet.step("5" + tag, "Stop the table"):

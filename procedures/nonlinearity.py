@@ -13,7 +13,14 @@ import math
 
 import numpy as np
 
-from procedures.common import patch, run_counters, set_modes, set_position
+from procedures.common import (
+    axis_rate,
+    patch,
+    rotary_axis_turning,
+    run_counters,
+    set_modes,
+    set_position,
+)
 from procedures.gyro_rotating import wait_clear_of_pulse
 from procedures.plan import DayPlan
 from procedures.runner import Run
@@ -39,10 +46,11 @@ def speed_series(st, sheet, tag: str, k: int, plan: DayPlan, s1: float,
         with sheet.step("7" + rtag, f"Run the table at {rate:+g} deg/s") as s:
             st.table.rotate(2, rate)
             st.table.wait_still()
-            s.reading = {"rate_deg_s": st.table.rate(2)}
+            s.reading = {"rate_deg_s": axis_rate(st, 2, rate)}
         with sheet.step("8" + rtag, "Switch counters to operate between rotary pulses"):
             wait_clear_of_pulse(st, rate, ppr)
-            gate = run_counters(st, {1: n_pulses, k + 1: n_pulses}, timeout)
+            gate = run_counters(st, {1: n_pulses, k + 1: n_pulses},
+                                   timeout, rotary_axis_turning(st, rate))
         with sheet.step("10" + rtag, "Record the outputs") as s:
             ticks, counts = gate.readings[1], gate.readings[k + 1]
             t = ticks * s1

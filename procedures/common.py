@@ -155,6 +155,13 @@ def level_check_sigma_arcsec(noise: NoiseSpec, dt: float) -> float:
                      + 2.0 * noise.table_setting_arcsec**2 + max(tilt, 0.0))
 
 
+def level_check_z(check: tuple[float, float], applied: tuple[float, float],
+                  sigma: float) -> float:
+    """Largest deviation (in sigma) of a confirming level reading from what the correction
+    leaves: level 1 nulled, level 2 unchanged."""
+    return max(abs(check[0]), abs(check[1] - applied[1])) / sigma
+
+
 def set_position(st, phi1: float, phi2: float | None, phi3: float, phi4: float,
                  level: bool, noise: NoiseSpec | None = None) -> PositionSet:
     """Move to (phi1, phi2, phi3, phi4); with ``level``, read the bubbles and correct phi1, phi3.
@@ -185,9 +192,9 @@ def set_position(st, phi1: float, phi2: float | None, phi3: float, phi4: float,
         st.table.move(3, phi3)
         st.table.wait_still()
         v1, v3 = read_levels(st)
-        tol = K_READING * level_check_sigma_arcsec(noise, st.clock.now() - t_level)
-        off = (v1, v3 - c3)  # expected: level 1 nulled, level 2 unchanged
-        if max(abs(x) for x in off) <= tol:
+        sigma = level_check_sigma_arcsec(noise, st.clock.now() - t_level)
+        tol = K_READING * sigma
+        if level_check_z((v1, v3), (c1, c3), sigma) <= K_READING:
             break
         if len(relevelled) >= MAX_REREADS:
             raise Implausible(
@@ -214,13 +221,15 @@ def patch(st, wiring: dict[int, tuple[str | None, str | None, str]]) -> None:
         st.patch_panel.connect(z, c, "Z")
 
 
-def panel_connection(st, counter: int, inp: str, lines: set[str]) -> str | None:
+def panel_connection(st, counter: int, inp: str, lines: set[str],
+                     first: str | None = None) -> str | None:
     """What the panel connects to a counter input: None or one of its ``lines``. Any other
-    reply (a NONE that lost a letter) is garbled: read again, then stop naming the panel."""
+    reply (a NONE that lost a letter) is garbled: read again, then stop naming the panel.
+    ``first``: the reply already received."""
     pp = st.patch_panel
     words = ("NONE", *sorted(lines))
     r = read_word(pp, lambda: pp.connection(counter, inp) or "NONE", words,
-                  f"reply to 'CONN? C{counter} {inp}'")
+                  f"reply to 'CONN? C{counter} {inp}'", first)
     return None if r == "NONE" else r
 
 
@@ -267,6 +276,22 @@ def run_counters(st, presets: dict[int, int], timeout: float,
         st.counters[c].standby()
         st.counters[c].discard_readings()  # later gates printed while others still ran
     return Gate(readings, t0, st.clock.now())
+
+
+TURN_RATE_TOLERANCE = 1e-3  # relative: the table's mean rate over whole turns (data sheet)
+
+
+def check_turns_clock(st, counter: int, ticks: int, pulses: int, s1: float, s_phi: float,
+                      rate_deg_s: float) -> float:
+    """Table rate (deg/s) from a counter's clock ticks over whole turns; it must be the
+    commanded rate within TURN_RATE_TOLERANCE, else that counter's reading is wrong."""
+    w = s_phi * pulses / (ticks * s1) if ticks > 0 else math.inf
+    if not abs(w - abs(rate_deg_s)) <= TURN_RATE_TOLERANCE * abs(rate_deg_s):
+        raise Implausible(source_of(st.counters[counter]),
+                          f"{ticks} clock ticks over {pulses} rotation pulses make the table "
+                          f"turn at {w:.7g} deg/s, commanded {abs(rate_deg_s):g} deg/s: the "
+                          "reading is wrong")
+    return w
 
 
 def rotary_axis_turning(st, rate_deg_s: float, axis: int = 2,

@@ -22,6 +22,7 @@ from procedures.calibration import (
     TableGeometry,
     calibrate,
 )
+from procedures.calibration.checks import check_residuals
 from procedures.day import DayData
 from procedures.j_term import j_estimate
 from procedures.nonlinearity import fit_nonlinearity, q_is_from_fit
@@ -159,8 +160,12 @@ def compute_calibration(run: Run, data: DayData, plan: DayPlan, noise: NoiseSpec
         with sheet.step("8", "Compute the constants") as s:
             rows = calibrate(cd, noise)
             special_experiments(rows, data, plan, site, noise)
+            # the data the constants did not need must agree with them (calibration.checks)
+            checked = check_residuals(cd, rows, noise)
             s.reading = {"determined": sum(r.estimate is not None for r in rows),
-                         "rows": len(rows)}
+                         "rows": len(rows),
+                         "residual_z": {k: v["z"] for k, v in
+                                        checked.get("residuals", {}).items()}}
         with sheet.step("9", "Record the valid constants (Chart II-16) on the Calibration "
                         "Results Sheet") as s:
             used = sorted({*data.gyro, *data.accel})

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 from procedures.common import (
     axis_rate,
+    check_turns_clock,
     patch,
     rotary_axis_turning,
     run_counters,
@@ -18,6 +19,7 @@ from procedures.plan import DayPlan
 from procedures.runner import Run
 from procedures.settings import GYRO_ROTATING, wiring
 from procedures.sheets import CounterOutputs, ResolverSettings
+from procedures.turn_on import oscillator_periods
 
 TITLE = "Gyro scale factor and (Q^G)^-1, positions 1 to 6"
 
@@ -54,8 +56,11 @@ def position_pair(st, sheet, settings: ResolverSettings, plan: DayPlan, m: int,
         with sheet.step("9" + tag, "After a rotary output pulse, switch counters 1-4 to "
                         "operate together") as s:
             wait_clear_of_pulse(st, plan.table_rate_deg_s, plan.rotation_pulses_per_rev)
-            gate = run_counters(st, {c: n_pulses for c in (1, 2, 3, 4)},
-                                   timeout, rotary_axis_turning(st, plan.table_rate_deg_s))
+            gate = run_counters(st, {c: n_pulses for c in (1, 2, 3, 4)}, timeout,
+                                rotary_axis_turning(st, plan.table_rate_deg_s))
+            s1, _ = oscillator_periods(sheet.run)
+            check_turns_clock(st, 1, gate.readings[1], n_pulses, s1,
+                              360.0 / plan.rotation_pulses_per_rev, plan.table_rate_deg_s)
             s.reading = {str(c): v for c, v in gate.readings.items()}
         with sheet.step("10" + tag, "Counters printed: standby; stop the table"):
             st.table.stop(2)

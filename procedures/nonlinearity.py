@@ -15,6 +15,7 @@ import numpy as np
 
 from procedures.common import (
     axis_rate,
+    check_turns_clock,
     patch,
     rotary_axis_turning,
     run_counters,
@@ -49,8 +50,9 @@ def speed_series(st, sheet, tag: str, k: int, plan: DayPlan, s1: float,
             s.reading = {"rate_deg_s": axis_rate(st, 2, rate)}
         with sheet.step("8" + rtag, "Switch counters to operate between rotary pulses"):
             wait_clear_of_pulse(st, rate, ppr)
-            gate = run_counters(st, {1: n_pulses, k + 1: n_pulses},
-                                   timeout, rotary_axis_turning(st, rate))
+            gate = run_counters(st, {1: n_pulses, k + 1: n_pulses}, timeout,
+                                rotary_axis_turning(st, rate))
+            check_turns_clock(st, 1, gate.readings[1], n_pulses, s1, s_phi, rate)
         with sheet.step("10" + rtag, "Record the outputs") as s:
             ticks, counts = gate.readings[1], gate.readings[k + 1]
             t = ticks * s1

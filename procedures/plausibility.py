@@ -111,12 +111,14 @@ def with_rereads(reading: dict, log: list[dict]) -> dict:
     return {**reading, "rereads": list(log)} if log else reading
 
 
-def read_word(driver: object, read: Callable[[], str], words: Sequence[str], what: str) -> str:
+def read_word(driver: object, read: Callable[[], str], words: Sequence[str], what: str,
+              first: str | None = None) -> str:
     """A reply from a known vocabulary (a status word); anything else is a garbled reply,
-    read again (at most MAX_REREADS times, recorded) before the step stops."""
+    read again (at most MAX_REREADS times, recorded) before the step stops. ``first``: a
+    reply already received, judged before reading again."""
     got: list[str] = []
-    for _ in range(MAX_REREADS + 1):
-        r = read()
+    for i in range(MAX_REREADS + 1):
+        r = first if (i == 0 and first is not None) else read()
         if r in words:
             if got:
                 note_reread({"instrument": str(getattr(driver, "name", "")), "what": what,

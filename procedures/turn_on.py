@@ -119,7 +119,7 @@ def turn_on(station: Station, run: Run, warmup_s: float = DEFAULT_WARMUP_S) -> N
             left = {}
             for (i, inp), line in replies.items():
                 if line is not None and line not in known:  # garbled: read it again
-                    line = panel_connection(st, i, inp, known)
+                    line = panel_connection(st, i, inp, known, first=line)
                 if line is not None:
                     left[f"C{i}{inp}"] = line
             if left:

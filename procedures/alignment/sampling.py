@@ -87,18 +87,23 @@ def count_sigma(noise: NoiseSpec) -> float:
     return float(np.sqrt(noise.count_quantization_var))
 
 
+def sample_deviations(counts: np.ndarray, noise: NoiseSpec) -> tuple[np.ndarray, np.ndarray]:
+    """(|count - running median of its NEIGHBOURS| in sigma, the medians), n x 9."""
+    n = counts.shape[0]
+    w = min(NEIGHBOURS, n if n % 2 else n - 1)
+    if w < 3:
+        return np.zeros(counts.shape), counts.astype(float)
+    half = w // 2
+    padded = np.pad(counts.astype(float), ((half, half), (0, 0)), mode="edge")
+    med = np.median(np.lib.stride_tricks.sliding_window_view(padded, w, axis=0), axis=-1)
+    return np.abs(counts - med) / count_sigma(noise), med
+
+
 def sample_outliers(counts: np.ndarray, seqs: np.ndarray, noise: NoiseSpec,
                     k: float = pl.K_READING) -> list[dict]:
     """Samples whose count of some signal lies beyond ``k`` sigma of the running median of
     its ``NEIGHBOURS`` (n x 9 counts: gyros 1-3, then the six strings)."""
-    n = counts.shape[0]
-    w = min(NEIGHBOURS, n if n % 2 else n - 1)
-    if w < 3:
-        return []
-    half = w // 2
-    padded = np.pad(counts.astype(float), ((half, half), (0, 0)), mode="edge")
-    med = np.median(np.lib.stride_tricks.sliding_window_view(padded, w, axis=0), axis=-1)
-    dev = np.abs(counts - med) / count_sigma(noise)
+    dev, med = sample_deviations(counts, noise)
     out = []
     for i, j in zip(*np.nonzero(dev > k), strict=True):
         out.append({"seq": int(seqs[i]), "signal": SIGNALS[j], "count": int(counts[i, j]),

@@ -11,8 +11,10 @@ import pytest
 from rich.console import Console
 
 from instruments.ieu import load_dbc
-from procedures.alignment.sampling import collect
+from procedures.alignment.sampling import collect, collect_checked
+from procedures.calibration.noise_spec import NoiseSpec
 from procedures.journal import Journal
+from procedures.plausibility import Implausible
 from procedures.runner import ProcedureError, Run
 from procedures.turn_on import turn_on
 from sim.timebase import ticks
@@ -270,27 +272,50 @@ def test_altered_ieu_frames_differ_from_the_clean_ones_in_one_byte():
         assert sum(x != y for x, y in zip(a, b, strict=True)) == 1
 
 
-def test_ieu_corruption_seen_only_where_the_driver_or_collection_can_check():
-    """IEU frames carry no checksum (config/ieu.dbc): an altered sequence number, timer or
-    flag is caught, named after the IEU; an altered count passes unnoticed."""
+def test_ieu_corruption_is_caught_by_the_driver_or_the_collection():
+    """IEU frames carry no checksum (config/ieu.dbc): an altered sequence number is caught by
+    the driver, an altered timer or count by the collection's checks (a timer that is not
+    the period, a count off its neighbours' running median), each naming the sample."""
     # seed 0: a sequence number altered to a later one -> a RESEND the IEU refuses
     rec, _, fault = collect_with({"ieu": {"corrupt_rate": 0.02}}, seed=0)
     assert fault.frames_corrupted == 1
     assert isinstance(rec, DriverError) and rec.instrument == "ieu"
     assert "RESEND refused" in str(rec)
-    # seed 1: a timer count altered -> the collection's whole-period check
+    # seed 1: a timer count altered -> not one whole period
     rec, _, fault = collect_with({"ieu": {"corrupt_rate": 0.02}}, seed=1)
     assert fault.frames_corrupted >= 1
-    assert isinstance(rec, RuntimeError) and "IEU sample" in str(rec)
-    assert "not the commanded 1000" in str(rec)
-    # seed 17: one pulse count altered -> complete data, no recovery, nothing garbled, wrong
+    assert [o["signal"] for o in rec.outliers][:1] == ["timer"]
+    assert rec.outliers[0]["count"] != 1000
+    # seed 17: one pulse count altered: the data differ from the clean ones, and the
+    # collection says which sample and signal
     clean, clean_frames, _ = collect_with({}, seed=17)
     rec, frames, fault = collect_with({"ieu": {"corrupt_rate": 0.02}}, seed=17)
     assert fault.frames_corrupted == 1 and rec.recoveries == [] and rec.garbled == 0
-    assert not same_data(rec, clean)
+    assert not same_data(rec, clean) and clean.outliers == []
     db = load_dbc()
-    ((_, fid, _),) = [f for f, g in zip(frames, clean_frames, strict=True) if f != g]
-    assert db.get_message_by_frame_id(fid).name in ("IEU_GYRO", "IEU_ACCEL_A", "IEU_ACCEL_B")
+    ((_, fid, data),) = [f for f, g in zip(frames, clean_frames, strict=True) if f != g]
+    msg = db.get_message_by_frame_id(fid)
+    assert msg.name in ("IEU_GYRO", "IEU_ACCEL_A", "IEU_ACCEL_B")
+    (o,) = rec.outliers
+    assert o["seq"] == msg.decode(data)["Seq"] and o["deviation_sigma"] > 6.0
+
+
+def test_a_record_with_an_altered_count_is_taken_again_or_refused():
+    """collect_checked: the altered record is refused; with a retake the second record is
+    clean (and the refusal recorded), without one the step stops naming the IEU."""
+    faults = {"ieu": {"corrupt_rate": 0.02}}
+    for retakes in (0, 3):
+        with rig(faults, seed=17) as (_, st):
+            try:
+                rec = collect_checked(st, *SAMPLING, recover=True, s2=1e-4,
+                                      noise=NoiseSpec(), retakes=retakes)
+            except Implausible as e:
+                assert retakes == 0
+                assert str(e).startswith("ieu (sim:ieu): sample ")
+                assert "the record is not used" in str(e)
+                continue
+        assert retakes == 3 and rec.outliers == [] and rec.retakes
+        assert rec.summary()["retakes"] == rec.retakes
 
 
 # ----------------------------------------------------------------------------- 7. stall

@@ -7,9 +7,9 @@ telescope) or between intervals (an interval is a whole number of samples). Delt
 interval is S2^T times the sum of its samples' timer counts, the IEU's own measure of it.
 
 Every sample is checked: consecutive sequence numbers (the driver; in recover mode a lost
-sample is asked for again with RESEND), the timer count equal to the commanded period (a
-sample that is not one whole period means the IEU restarted or a count was lost) and no
-register overflow. Anything else stops the collection with a RuntimeError that says what.
+sample is asked for again with RESEND), no register overflow (which stops the collection:
+the period is too long) and the timer count equal to the commanded period (a sample that is
+not one whole period means the IEU restarted or a frame was altered).
 
 Then the counts themselves: the registers telescope and the lab is at rest, so each
 signal's count per sample stays within its quantization (a count is a difference of two
@@ -124,7 +124,8 @@ def collect(
     """Sample the IEU and sum ``samples_per_interval`` samples into each of K intervals.
 
     ``s2``: S2^T in seconds (as turn-on recorded it; read from the oscillator if not given).
-    The samples whose counts disagree with their neighbours are listed in ``outliers``.
+    The samples whose timer is not the period, or whose counts disagree with their
+    neighbours, are listed in ``outliers`` (``collect_checked`` refuses such a record).
     """
     if period_ticks < 1 or samples_per_interval < 1 or K < 1:
         raise ValueError("period, samples per interval and K must be positive")
@@ -136,6 +137,7 @@ def collect(
     timer = np.zeros(n, dtype=np.int64)
     stamps = np.zeros(n)
     seqs = np.zeros(n, dtype=np.int64)
+    bad_timer: list[dict] = []
     st.ieu.start(period_ticks, recover=recover)
     try:
         first = None
@@ -144,12 +146,12 @@ def collect(
             if first is None:
                 first = s
             if s.flags & 1:
-                raise RuntimeError(f"IEU register overflow in sample {s.seq}: shorten the period")
-            if s.timer != period_ticks:
-                raise RuntimeError(
-                    f"IEU sample {s.seq} timer counted {s.timer} S2^T pulses, not the "
-                    f"commanded {period_ticks}: the sample is not one whole period"
-                )
+                raise pl.Implausible(pl.source_of(st.ieu), f"register overflow in sample "
+                                     f"{s.seq}: shorten the period")
+            if s.timer != period_ticks:  # not one whole period: a restart or an altered frame
+                bad_timer.append({"seq": s.seq, "signal": "timer", "count": int(s.timer),
+                                  "neighbours_median": float(period_ticks),
+                                  "deviation_sigma": None})
             gyro[i] = s.gyro
             strings[i] = s.accel
             timer[i] = s.timer
@@ -180,7 +182,8 @@ def collect(
         last_seq=last.seq,
         recoveries=recoveries,
         garbled=garbled,
-        outliers=sample_outliers(np.hstack((gyro, strings)), seqs, noise or NoiseSpec()),
+        outliers=bad_timer + sample_outliers(np.hstack((gyro, strings)), seqs,
+                                             noise or NoiseSpec()),
     )
 
 
@@ -199,9 +202,11 @@ def collect_checked(st, period_ticks: int, samples_per_interval: int, K: int,
         refused.append({"seq": [rec.first_seq, rec.last_seq], "outliers": rec.outliers[:5]})
         if len(refused) > retakes:
             o = rec.outliers[0]
+            what = ("not one whole period" if o["signal"] == "timer"
+                    else f"{o['deviation_sigma']:.0f} sigma")
             raise pl.Implausible(
                 pl.source_of(st.ieu),
                 f"sample {o['seq']}: {o['signal']} counted {o['count']} where its neighbours "
-                f"count {o['neighbours_median']:g} ({o['deviation_sigma']:.0f} sigma; "
+                f"count {o['neighbours_median']:g} ({what}; "
                 f"{len(rec.outliers)} such count(s) in this record, {len(refused)} record(s) "
                 "taken): altered frames or a disturbance; the record is not used")

@@ -19,7 +19,8 @@ a traceback on stderr. Every outcome is judged against the fault-free day of the
 
 Fault kinds and their three rates: latency_s, drop_rate, corrupt_rate (serial bytes; IEU
 frames), silent_after_s (three times into the day), stall_axis (the four axes, stalling at
-three times). The issue's two cases run too (``--cases issue``): bubble-level
+three times: under a turning gate, during the J-term ramps, in the static positions). The
+issue's two cases run too (``--cases issue``): bubble-level
 ``drop_rate = 0.001`` on seed 1970 and IEU ``corrupt_rate = 3e-4`` on six seeds.
 """
 
@@ -50,7 +51,9 @@ RATES = {
     "corrupt_rate": {"serial": (1e-4, 1e-3, 1e-2), "ieu": (3e-5, 3e-4, 3e-3)},
     "silent_after_s": {"serial": (600.0, 12000.0, 30000.0), "ieu": (600.0, 30000.0, 32500.0)},
 }
-STALL_TIMES = (0.0, 12000.0, 30000.0)
+# inside the turning positions' first gate (II-6), during the J-term ramps (II-10), in the
+# static positions (II-13)
+STALL_TIMES = (2100.0, 11800.0, 20000.0)
 
 
 @dataclass
@@ -150,7 +153,7 @@ def names_cause(case: Case, message: str) -> bool:
     if case.kind == "stall_axis":
         axis = case.instrument.split()[-1]
         return "table" in message and f"axis {axis}" in message
-    return case.instrument in message
+    return case.instrument.lower() in message.lower()
 
 
 def stop_message(res: dict) -> str:

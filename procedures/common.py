@@ -27,7 +27,7 @@ from procedures.plausibility import (
 from station.errors import DriverError
 
 ARCSEC_PER_DEG = 3600.0
-SPEC = NoiseSpec()  # the laboratory's specification unless a procedure is given its own
+SPEC = NoiseSpec.model_validate({})  # the lab's specification unless a procedure has its own
 
 
 @dataclass

@@ -30,6 +30,7 @@ table's gimbal junctions (a few arcsec each), which a single-position survey can
 from __future__ import annotations
 
 import math
+from functools import partial
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -146,20 +147,19 @@ def read_mirrors(
     enclosing ``rereads()`` block) and the step stops naming the instrument if the
     readings cannot be brought into agreement.
     """
-    noise = noise or NoiseSpec()
+    noise = noise or NoiseSpec.model_validate({})
 
-    def mirror(k: int) -> list[float]:
+    def mirror(k: int, _: int | None = None) -> list[float]:
         az, zen = read_mirror(st, k)
         az0 = aims[k][0]
         return [az0 + _wrap180(az - az0), zen]
 
-    def level() -> list[float]:
+    def level(_: int | None = None) -> list[float]:
         return list(read_levels(st))
 
     got = {k: pl.AgreeingReadings(st.autocollimators[k], f"mirror {k} azimuth and zenith",
-                                  0.0, lambda i, k=k: mirror(k)) for k in (1, 2)}
-    lev = pl.AgreeingReadings(st.bubble_levels, "level corrections", 0.0,
-                              lambda i: level())
+                                  0.0, partial(mirror, k)) for k in (1, 2)}
+    lev = pl.AgreeingReadings(st.bubble_levels, "level corrections", 0.0, level)
     times: list[float] = []
     for _ in range(n):
         for k in (1, 2):

@@ -23,6 +23,7 @@ import numpy as np
 
 from procedures import survey_math as sm
 from procedures.alignment.align_math import ARCSEC, rotation_error_arcsec
+from procedures.alignment.preprocess import Constants
 from procedures.calibration.noise_spec import NoiseSpec
 from procedures.plausibility import Implausible
 from procedures.sheets import SurveyResults
@@ -92,7 +93,7 @@ def survey_sigma_arcsec(noise: NoiseSpec) -> tuple[float, float, float]:
     return level_axes, level_axes, azimuth
 
 
-def cal_sigma(constants, f: Callable[[object], float]) -> float:
+def cal_sigma(constants: Constants, f: Callable[[Constants], float]) -> float:
     """1-sigma of a scalar result f(constants) from the calibration constants' sigmas (taken
     as independent, as the alignment error models do), by central differences."""
     var = 0.0

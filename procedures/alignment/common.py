@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from functools import partial
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -103,7 +104,7 @@ def read_autocollimators(st: Station, ks, n: int, survey: SurveyResults | None,
     (``plausibility.AgreeingReadings``: an outlier is read again, bounded and recorded in
     the enclosing ``rereads()`` block; the step stops naming the autocollimator otherwise).
     """
-    noise = noise or NoiseSpec()
+    noise = noise or NoiseSpec.model_validate({})
     aims = mirror_aims(survey)
     times: dict[int, list[float]] = {k: [] for k in ks}
 
@@ -118,7 +119,7 @@ def read_autocollimators(st: Station, ks, n: int, survey: SurveyResults | None,
         return [az0 + ((az - az0 + 180.0) % 360.0 - 180.0), zen]
 
     got = {k: pl.AgreeingReadings(st.autocollimators[k], f"mirror {k} azimuth and zenith",
-                                  0.0, lambda i, k=k: read(k, i)) for k in ks}
+                                  0.0, partial(read, k)) for k in ks}
     for _ in range(n):
         for k in ks:
             got[k].add(read(k))

@@ -103,7 +103,8 @@ def mirror_alignment_procedure(st: Station, run: Run, noise: NoiseSpec,
             t = mirror_alignment(*ac)
             model = mirror_error_model(ac, times, t_ref, n, noise)
             checked = None
-            if survey is not None and run.sheets.get("survey_results") is survey:
+            surveyed_here = run.sheets.get("survey_results") is survey
+            if survey is not None and surveyed_here:
                 checked = check_against_survey(t, model["predicted"], survey, position0, noise)
             s.reading = {"t": t.tolist(), "predicted_sigma_arcsec": model["predicted"],
                          **({"checks": {"survey": checked}} if checked else {})}

@@ -183,7 +183,7 @@ def collect(
         recoveries=recoveries,
         garbled=garbled,
         outliers=bad_timer + sample_outliers(np.hstack((gyro, strings)), seqs,
-                                             noise or NoiseSpec()),
+                                             noise or NoiseSpec.model_validate({})),
     )
 
 

@@ -78,7 +78,7 @@ def predictions(z: Mapping[Key, float], c: Constants, keys: list[Key],
 def check_residuals(data: CalibrationData, rows: list[ResultRow],
                     noise: NoiseSpec | None = None, k: float = K_RESULT) -> dict:
     """Residuals of the redundant data (``z`` in sigma); Implausible beyond ``k``."""
-    noise = noise or NoiseSpec()
+    noise = noise or NoiseSpec.model_validate({})
     c = data.constants
     red = reduce(data)
     keys = list(red.values)
@@ -119,10 +119,10 @@ def check_residuals(data: CalibrationData, rows: list[ResultRow],
         rm = np.array([zm[key] for key in judged]) - predictions(zm, c, judged, special)
         jac[:, i] = (rp - rm) / (2.0 * h)
     var = np.einsum("ij,jk,ik->i", jac, cov, jac)
-    for key, s in sp_sigma.items():  # Q_II, Q_IS at their sigmas (special experiments)
+    for row, s in sp_sigma.items():  # Q_II, Q_IS at their sigmas (special experiments)
         if s:
-            up = predictions(red.values, c, judged, {**special, key: special[key] + s})
-            dn = predictions(red.values, c, judged, {**special, key: special[key] - s})
+            up = predictions(red.values, c, judged, {**special, row: special[row] + s})
+            dn = predictions(red.values, c, judged, {**special, row: special[row] - s})
             var += (0.5 * (up - dn)) ** 2
     own = np.array([cov[keys.index(key), keys.index(key)] for key in judged])
     out: dict[str, dict] = {}

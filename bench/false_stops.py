@@ -97,6 +97,12 @@ def scan(recs: list[dict]) -> dict:
                     events["IEU retakes"] += len(v)
                 elif k == "residual_z":
                     z["calibration residuals (II-15)"] += [abs(float(t)) for t in v.values()]
+                elif k == "string_sum_z":
+                    z["calibration string sums (II-15)"] += [abs(float(t)) for t in v.values()]
+                elif k == "special_z":
+                    for name, zs in v.items():
+                        z[f"calibration {name.split()[0]} speeds/pairs (II-15)"] += [
+                            abs(float(t)) for t in zs]
                 elif k == "checks":
                     for name, c in v.items():
                         items = c.items() if "z" not in c else [(name, c)]

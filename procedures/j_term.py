@@ -161,3 +161,18 @@ def j_estimate(records: list[dict], counter: int, dphi_arcsec: float, g_r: np.nd
     # each pair: two counts with sigma_counts pulses, over 2 w1
     sig_pair = math.sqrt(2.0) * sigma_counts * dphi / abs(dw) / 3600.0
     return j, sig_pair / math.sqrt(len(js))
+
+
+def j_pairs(records: list[dict], counter: int, dphi_arcsec: float, g_r: np.ndarray,
+            omega_sin_lambda: float, accel: float, sigma_counts: float) -> list[float]:
+    """Each up/down pair's J against the others' mean, in units of its sigma (the pairs
+    are independent measurements of one J; a garbled count makes one pair stand out)."""
+    one = [j_estimate(records[i:i + 2], counter, dphi_arcsec, g_r, omega_sin_lambda, accel,
+                      sigma_counts) for i in range(0, len(records) - 1, 2)]
+    js = np.array([j for j, _ in one])
+    sig = one[0][1] if one else 0.0
+    n = len(js)
+    if n < 3 or not sig > 0:
+        return []
+    others = (js.sum() - js) / (n - 1)
+    return [float(x) for x in (js - others) / (sig * math.sqrt(1.0 + 1.0 / (n - 1)))]

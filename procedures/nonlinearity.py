@@ -161,6 +161,11 @@ def fit_nonlinearity(rows: list[dict], sigma_counts: float) -> dict[str, float]:
     # d q / d(a1, a2) in the scaled coefficients
     jac = np.array([0.0, -coef[2] / coef[1] ** 2 / scale, 1.0 / coef[1] / scale])
     sq = float(np.sqrt(jac @ cov @ jac))
+    # each speed's residual over its own sigma (the fit's leverage removed): a garbled count
+    # stands out of the quadratic, the fit has len(rows) - 3 degrees of freedom
+    r = p / sig - a @ coef
+    lev = np.einsum("ij,jk,ik->i", a, cov, a)
+    z = r / np.sqrt(np.maximum(1.0 - lev, 1e-12))
     # P' = a1 w: 1/a1 deg/hr per pulse/s = 1/a1 arcsec per pulse
     return {"a0": float(a0), "a1": float(a1), "a2": float(a2), "Q_II": float(q), "sigma": sq,
-            "scale_factor_arcsec": 1.0 / float(a1)}
+            "scale_factor_arcsec": 1.0 / float(a1), "residual_z": [float(x) for x in z]}

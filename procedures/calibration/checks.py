@@ -1,15 +1,22 @@
 """Chart II-15's constants against the counter data they did not need.
 
-The closed forms of II-4.2 and II-4.3 use part of the data only. The rest is redundant:
-the pair sums of the turning positions 1-6 (each gyro's bias and even terms over whole
-turns, which the static positions 7-15 and the nonlinearity experiment already fix) and each
-accelerometer's second horizontal pair (a second D1 D0). With the constants computed, the
-forward model (``forward``) predicts every datum; a datum's residual, in units of the
-residual's own sigma, must stay within ``K_RESULT``. That sigma is the data covariance
-(``covariance``: noise, pier tilt, table errors) carried through the residual's Jacobian
-(a datum the constants were solved from has none and is not judged), plus Q_II and Q_IS
-(special experiments) at their sigmas. A disagreement names the counters whose readings
-make the datum, the position and the chart.
+The closed forms of II-4.2 and II-4.3 use part of the data only (``check_residuals``). The
+rest is redundant: the pair sums of the turning positions 1-6 (each gyro's bias and even
+terms over whole turns, which the static positions 7-15 and the nonlinearity experiment
+already fix) and each accelerometer's second horizontal pair (a second D1 D0). With the
+constants computed, the forward model (``forward``) predicts every datum; a datum's
+residual, in units of the residual's own sigma, must stay within ``K_RESULT``. That sigma
+is the data covariance (``covariance``: noise, pier tilt, table errors) carried through the
+residual's Jacobian (a datum the constants were solved from has none and is not judged),
+plus Q_II and Q_IS (special experiments) at their sigmas. A disagreement names the counters
+whose readings make the datum, the position and the chart.
+
+The accelerometer charts count each string on its own counter, and the constants use only
+the difference f2 - f1. The sum f1 + f2 (the strings' common frequency) is even in the
+input, 2 f0 + 2 kappa u^2 for push-pull strings, so over the positions it must follow
+a + b u + c u^2 (b allows for a mismatch of the strings) within the strings' noise
+(``check_string_sums``): a garbled string count breaks it even where the difference has no
+redundancy (the vertical pairs that fix D1, D2 and D3).
 """
 
 from __future__ import annotations
@@ -146,3 +153,57 @@ def check_residuals(data: CalibrationData, rows: list[ResultRow],
             f"the other positions' constants predict ({zz:+.1f} sigma, sigma {s:.3g} "
             f"pulses/s, limit {k:g}): a wrong count")
     return {"judged": len(out), "residuals": out}
+
+
+def _up(m: int, c: Constants) -> np.ndarray:
+    """Body components of up at accelerometer position m (nominal for 7-12)."""
+    return t_br(m, c)[:, 0] if m > 12 else FIRST_COLUMN[m]
+
+
+def check_string_sums(data: CalibrationData, rows: list[ResultRow],
+                      noise: NoiseSpec | None = None, k_lim: float = K_RESULT) -> dict:
+    """Each accelerometer's f1 + f2 over its positions against a + b u + c u^2; the residual
+    of each position in units of its own sigma (the strings' white noise over each gate,
+    taken independent per string, and the clock count's quantization); beyond ``k_lim`` an
+    Implausible naming the two counters."""
+    noise = noise or NoiseSpec.model_validate({})
+    c = data.constants
+    est = {(r.instrument, r.parameter): r.estimate for r in rows}
+    q = (noise.accel_white_micro_g_rt_hz * 1e-6) ** 2
+    out: dict[str, float] = {}
+    for k in (1, 2, 3):
+        ab = [est.get((f"accel{k}", f"A.B{j}")) for j in (1, 2, 3)]
+        a_vec = np.array(ab, dtype=float) if None not in ab else np.eye(3)[k - 1]
+        d1 = float(est.get((f"accel{k}", "D1")) or 2000.0)
+        ms, u, sums, var = [], [], [], []
+        for m, p in sorted(data.accel.items()):
+            if (k, 1) not in p.gamma or (k, 2) not in p.gamma:
+                continue
+            f = [p.gamma[(k, ell)] / (p.n1[(k, ell)] * c.s1_t) for ell in (1, 2)]
+            gates = [p.n1[(k, ell)] * c.s1_t for ell in (1, 2)]
+            ms.append(m)
+            u.append(c.g * float(a_vec @ _up(m, c)))
+            sums.append(f[0] + f[1])
+            var.append(sum((0.5 * d1) ** 2 * q / t + noise.clock_quantization_var
+                           * (fi / (t / c.s1_t)) ** 2 for fi, t in zip(f, gates, strict=True))
+                       + 2.0 * noise.string_common_drift_hz**2)
+        if len(ms) < 4:
+            continue  # three coefficients: nothing left to judge
+        x = np.column_stack([np.ones(len(u)), u, np.square(u)])
+        w = 1.0 / np.array(var)
+        h = np.linalg.inv(x.T @ (x * w[:, None]))
+        beta = h @ (x.T @ (w * np.array(sums)))
+        resid = np.array(sums) - x @ beta
+        cov_r = np.array(var) - np.einsum("ij,jk,ik->i", x, h, x)
+        for m, r, v, v0 in zip(ms, resid, cov_r, var, strict=True):
+            if v <= (REDUNDANT**2) * v0:
+                continue
+            z = float(r / math.sqrt(v))
+            out[f"accel{k} position {m}"] = z
+            if abs(z) > k_lim:
+                raise Implausible(
+                    f"counter{2 * k - 1} and counter{2 * k} (accelerometer {k}'s strings)",
+                    f"Chart {_chart('F', m)} position {m}: the strings' common frequency "
+                    f"f1 + f2 is {r:+.4g} Hz off the other positions' ({z:+.1f} sigma, sigma "
+                    f"{math.sqrt(v):.3g} Hz, limit {k_lim:g}): a wrong count")
+    return out

@@ -1,46 +1,213 @@
-"""Operations every calibration check-sheet repeats: set a position, patch, run counters."""
+"""Operations every calibration check-sheet repeats: set a position, patch, run counters.
+
+Each one checks what it reads (``procedures.plausibility``): a level reading must lie in the
+levels' range and be confirmed by a second reading after the table moved by it; a patch
+panel reply must be NONE or a line the panel has; a counter that times out on a gate the
+table's rotation closes asks the table whether its axis turns, so a stalled axis is reported
+as the table's.
+"""
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, field
 
+from procedures.calibration.noise_spec import ARCSEC, NoiseSpec
+from procedures.plausibility import (
+    K_READING,
+    MAX_REREADS,
+    Implausible,
+    autocollimator_reading,
+    level_reading,
+    note_reread,
+    read_word,
+    source_of,
+)
 from station.errors import DriverError
 
 ARCSEC_PER_DEG = 3600.0
+SPEC = NoiseSpec.model_validate({})  # the lab's specification unless a procedure has its own
 
 
 @dataclass
 class PositionSet:
-    """A table setting as commanded, with the bubble-level corrections applied (deg)."""
+    """A table setting as commanded, with the bubble-level corrections applied (deg).
+
+    ``level_check_arcsec``: the reading that confirmed the levelling (level 1 near 0, level 2
+    unchanged: phi3 turns the ISU, not the platform the levels stand on); ``relevelled``: the
+    further corrections a disagreeing confirmation called for.
+    """
 
     phi: tuple[float, float, float, float]
     level_arcsec: tuple[float, float] | None
     t_level: float | None
+    level_check_arcsec: tuple[float, float] | None = None
+    relevelled: list[dict] = field(default_factory=list)
+
+    def reading(self) -> dict:
+        """What a step records of the levelling (the further corrections only if any)."""
+        out: dict = {"level_arcsec": self.level_arcsec,
+                     "level_check_arcsec": self.level_check_arcsec}
+        if self.relevelled:
+            out["relevelled"] = self.relevelled
+        return out
+
+
+def read_levels(st) -> tuple[float, float]:
+    """One bubble-level reading inside the levels' range; an out-of-range reply is read
+    again (at most MAX_REREADS times) before the step stops naming the levels."""
+    refused: list[list[float]] = []
+    while True:
+        raw = st.bubble_levels.corrections()
+        try:
+            got = level_reading(st.bubble_levels, raw)
+        except Implausible:
+            if len(refused) == MAX_REREADS:
+                raise
+            refused.append([float(x) for x in raw])
+            continue
+        if refused:
+            note_reread({"instrument": st.bubble_levels.name, "what": "level corrections",
+                         "was": refused, "now": list(got)})
+        return got
+
+
+def read_mirror(st, k: int) -> tuple[float, float]:
+    """One autocollimator k reading (azimuth, zenith, deg) the mount and field allow; an
+    impossible one is read again (at most MAX_REREADS times), no return stops the step."""
+    ac = st.autocollimators[k]
+    refused: list[list[float]] = []
+    while True:
+        m = ac.measure()
+        if m is None:
+            raise Implausible(source_of(ac), f"no return from mirror {k} while reading it")
+        try:
+            got = autocollimator_reading(ac, m)
+        except Implausible:
+            if len(refused) == MAX_REREADS:
+                raise
+            refused.append([float(x) for x in m])
+            continue
+        if refused:
+            note_reread({"instrument": ac.name, "what": f"mirror {k} azimuth and zenith",
+                         "was": refused, "now": list(got)})
+        return got
+
+
+RESOLVER_REPEAT_ARCSEC = 0.5  # a holding axis's resolver reads the same within this
+
+
+def steady_resolvers(st, first: tuple[float, ...] | None = None
+                     ) -> tuple[float, float, float, float]:
+    """The resolvers of a table at rest, read until two consecutive readings agree within
+    RESOLVER_REPEAT_ARCSEC (``first``: a reading already taken at this setting, else one is
+    taken); at most MAX_REREADS more readings, recorded, then the step stops naming the table."""
+
+    def apart(a, b) -> float:
+        return max(abs((x - y + 180.0) % 360.0 - 180.0) for x, y in zip(a, b, strict=True))
+
+    prev = tuple(first) if first is not None else st.table.positions()
+    was: list[list[float]] = []
+    while True:
+        now = st.table.positions()
+        if apart(now, prev) * ARCSEC_PER_DEG <= RESOLVER_REPEAT_ARCSEC:
+            if was:
+                note_reread({"instrument": st.table.name, "what": "resolvers", "was": was,
+                             "now": list(now)})
+            return now
+        if len(was) == MAX_REREADS:
+            raise Implausible(source_of(st.table), f"resolver readings {list(prev)} and "
+                              f"{list(now)} deg of the table at rest disagree after "
+                              f"{len(was)} re-reads (garbled replies)")
+        was.append(list(prev))
+        prev = now
+
+
+IN_POSITION_ARCSEC = 10.0  # the controller holds an axis within this of its command
+
+
+def axis_in_position(st, axis: int, commanded_deg: float) -> float:
+    """The resolver of an axis holding at ``commanded_deg``: it must read within the
+    controller's in-position band of the command; a reading beyond it is read again (at most
+    MAX_REREADS times, recorded), then the step stops naming the table."""
+    was: list[float] = []
+    while True:
+        deg = st.table.position(axis)
+        if abs((deg - commanded_deg + 180.0) % 360.0 - 180.0) * 3600.0 <= IN_POSITION_ARCSEC:
+            if was:
+                note_reread({"instrument": st.table.name, "what": f"axis {axis} resolver",
+                             "was": was, "now": deg})
+            return deg
+        if len(was) == MAX_REREADS:
+            raise Implausible(source_of(st.table), f"axis {axis} holds but its resolver reads "
+                              f"{was + [deg]} deg, commanded {commanded_deg} deg")
+        was.append(deg)
+
+
+def level_check_sigma_arcsec(noise: NoiseSpec, dt: float) -> float:
+    """Scatter of a confirming level reading about its expected value: two readings, two
+    table settings (the move and the correction) and the pier's tilt change over ``dt``."""
+    ee0, nn0, _ = noise.tilt_covariance(0.0)
+    ee, nn, _ = noise.tilt_covariance(dt)
+    tilt = 2.0 * max(float(ee0 - ee), float(nn0 - nn)) / ARCSEC**2
+    return math.sqrt(2.0 * (noise.bubble_sigma / ARCSEC) ** 2
+                     + 2.0 * noise.table_setting_arcsec**2 + max(tilt, 0.0))
+
+
+def level_check_z(check: tuple[float, float], applied: tuple[float, float],
+                  sigma: float) -> float:
+    """Largest deviation (in sigma) of a confirming level reading from what the correction
+    leaves: level 1 nulled, level 2 unchanged."""
+    return max(abs(check[0]), abs(check[1] - applied[1])) / sigma
 
 
 def set_position(st, phi1: float, phi2: float | None, phi3: float, phi4: float,
-                 level: bool) -> PositionSet:
+                 level: bool, noise: NoiseSpec | None = None) -> PositionSet:
     """Move to (phi1, phi2, phi3, phi4); with ``level``, read the bubbles and correct phi1, phi3.
 
-    phi2 None leaves the rotary axis alone (it is turning or about to).
+    phi2 None leaves the rotary axis alone (it is turning or about to). The levelling is
+    confirmed by a second reading: level 1 must then read near zero and level 2 as before
+    (the levels stand on the rotary platform, which phi3 does not turn). A confirmation
+    that disagrees beyond ``K_READING`` sigma means one of the two readings was wrong: the
+    table is corrected by the new reading and confirmed again (at most MAX_REREADS times,
+    each recorded), then the step stops naming the levels.
     """
+    noise = noise or SPEC
     axes = [(1, phi1), (3, phi3), (4, phi4)] + ([] if phi2 is None else [(2, phi2)])
     for ax, deg in axes:
         st.table.move(ax, deg)
     st.table.wait_still()
-    corr = None
-    t_level = None
-    if level:
-        c1, c3 = st.bubble_levels.corrections()
-        t_level = st.clock.now()
-        corr = (c1, c3)
-        phi1 = phi1 + c1 / ARCSEC_PER_DEG
-        phi3 = phi3 + c3 / ARCSEC_PER_DEG
+    if not level:
+        return PositionSet((phi1, phi2 if phi2 is not None else float("nan"), phi3, phi4),
+                           None, None)
+    phi1_0, phi3_0 = phi1, phi3
+    c1, c3 = read_levels(st)
+    t_level = st.clock.now()
+    relevelled: list[dict] = []
+    while True:
+        phi1 = phi1_0 + c1 / ARCSEC_PER_DEG
+        phi3 = phi3_0 + c3 / ARCSEC_PER_DEG
         st.table.move(1, phi1)
         st.table.move(3, phi3)
         st.table.wait_still()
-    return PositionSet((phi1, phi2 if phi2 is not None else float("nan"), phi3, phi4), corr,
-                       t_level)
+        v1, v3 = read_levels(st)
+        sigma = level_check_sigma_arcsec(noise, st.clock.now() - t_level)
+        tol = K_READING * sigma
+        if level_check_z((v1, v3), (c1, c3), sigma) <= K_READING:
+            break
+        if len(relevelled) >= MAX_REREADS:
+            raise Implausible(
+                source_of(st.bubble_levels),
+                f"levelling not confirmed after {len(relevelled)} corrections: levels read "
+                f"({v1:g}, {v3:g}) arcsec after correcting by ({c1:g}, {c3:g}), expected "
+                f"(0, {c3:g}) within {tol:.2g} arcsec: the readings do not agree")
+        relevelled.append({"applied_arcsec": [c1, c3], "read_arcsec": [v1, v3],
+                           "tolerance_arcsec": round(tol, 3)})
+        c1, c3 = c1 + v1, v3
+        t_level = st.clock.now()
+    return PositionSet((phi1, phi2 if phi2 is not None else float("nan"), phi3, phi4),
+                       (c1, c3), t_level, (v1, v3), relevelled)
 
 
 def patch(st, wiring: dict[int, tuple[str | None, str | None, str]]) -> None:
@@ -54,6 +221,21 @@ def patch(st, wiring: dict[int, tuple[str | None, str | None, str]]) -> None:
         st.patch_panel.connect(z, c, "Z")
 
 
+def panel_connection(st, counter: int, inp: str, lines: set[str],
+                     first: str | None = None) -> str | None:
+    """What the panel connects to a counter input: None or one of its ``lines``. Any other
+    reply (a NONE that lost a letter) is garbled: read again, then stop naming the panel.
+    ``first``: the reply already received."""
+    pp = st.patch_panel
+    words = ("NONE", *sorted(lines))
+    r = read_word(pp, lambda: pp.connection(counter, inp) or "NONE", words,
+                  f"reply to 'CONN? C{counter} {inp}'", first)
+    return None if r == "NONE" else r
+
+
+RATE_TOLERANCE = 0.01  # relative: a turning axis at its commanded rate (servo and reading)
+
+
 @dataclass
 class Gate:
     readings: dict[int, int]
@@ -61,8 +243,14 @@ class Gate:
     t_done: float
 
 
-def run_counters(st, presets: dict[int, int], timeout: float) -> Gate:
-    """Set presets, switch every counter to operate, wait for each print-out, then standby."""
+def run_counters(st, presets: dict[int, int], timeout: float,
+                 diagnose: Callable[[], str | None] | None = None) -> Gate:
+    """Set presets, switch every counter to operate, wait for each print-out, then standby.
+
+    ``diagnose``: asked when a counter fails to print (its gate never closed); if it names a
+    cause outside the counters (the table's rotary axis not turning under a gate on its
+    pulses), the step stops with that cause, naming that instrument.
+    """
     for c, n in presets.items():
         st.counters[c].set_preset(n)
         st.counters[c].discard_readings()
@@ -73,18 +261,75 @@ def run_counters(st, presets: dict[int, int], timeout: float) -> Gate:
     try:
         for c in presets:
             readings[c] = st.counters[c].read(timeout=timeout)
-    except DriverError:
+    except DriverError as e:
         for c in presets:  # cancel waiting reads (device clear), leave every counter in standby
             try:
                 st.counters[c].clear()
                 st.counters[c].standby()
             except DriverError:
                 pass
+        cause = diagnose() if diagnose is not None else None
+        if cause is not None:
+            raise Implausible(source_of(st.table), f"{cause} ({e})") from e
         raise
     for c in presets:
         st.counters[c].standby()
         st.counters[c].discard_readings()  # later gates printed while others still ran
     return Gate(readings, t0, st.clock.now())
+
+
+TURN_RATE_TOLERANCE = 1e-3  # relative: the table's mean rate over whole turns (data sheet)
+
+
+def check_turns_clock(st, counter: int, ticks: int, pulses: int, s1: float, s_phi: float,
+                      rate_deg_s: float) -> float:
+    """Table rate (deg/s) from a counter's clock ticks over whole turns; it must be the
+    commanded rate within TURN_RATE_TOLERANCE, else that counter's reading is wrong."""
+    w = s_phi * pulses / (ticks * s1) if ticks > 0 else math.inf
+    if not abs(w - abs(rate_deg_s)) <= TURN_RATE_TOLERANCE * abs(rate_deg_s):
+        raise Implausible(source_of(st.counters[counter]),
+                          f"{ticks} clock ticks over {pulses} rotation pulses make the table "
+                          f"turn at {w:.7g} deg/s, commanded {abs(rate_deg_s):g} deg/s: the "
+                          "reading is wrong")
+    return w
+
+
+def rotary_axis_turning(st, rate_deg_s: float, axis: int = 2,
+                        tolerance: float = RATE_TOLERANCE) -> Callable[[], str | None]:
+    """A ``diagnose`` for gates on the table's rotation pulses: None if ``axis`` turns at the
+    commanded rate (within ``tolerance``, relative), else what the table reports."""
+
+    def check() -> str | None:
+        try:
+            status = st.table.status()
+            rate = st.table.rate(axis)
+        except DriverError:
+            return None  # nothing known of the axis: the counter's own error stands
+        if abs(rate - rate_deg_s) <= tolerance * abs(rate_deg_s):
+            return None
+        return (f"axis {axis} is not turning at the commanded {rate_deg_s:g} deg/s (STAT? "
+                f"{','.join(status)}, RATE? {rate:g} deg/s): a gate on its rotation pulses "
+                "cannot close")
+
+    return check
+
+
+def axis_rate(st, axis: int, commanded_deg_s: float) -> float:
+    """The rate of an axis the controller reports turning at ``commanded_deg_s``: a reply
+    off by more than RATE_TOLERANCE is read again (at most MAX_REREADS times, recorded), then
+    the step stops naming the table and the axis."""
+    was: list[float] = []
+    while True:
+        r = st.table.rate(axis)
+        if abs(r - commanded_deg_s) <= RATE_TOLERANCE * abs(commanded_deg_s):
+            if was:
+                note_reread({"instrument": st.table.name, "what": f"axis {axis} rate",
+                             "was": was, "now": r})
+            return r
+        if len(was) == MAX_REREADS:
+            raise Implausible(source_of(st.table), f"axis {axis} reports turning but at "
+                              f"{was + [r]} deg/s, commanded {commanded_deg_s:g} deg/s")
+        was.append(r)
 
 
 def set_modes(st, counters, mode: str) -> None:

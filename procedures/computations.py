@@ -22,10 +22,12 @@ from procedures.calibration import (
     TableGeometry,
     calibrate,
 )
+from procedures.calibration.checks import K_RESULT, check_residuals, check_string_sums
 from procedures.day import DayData
-from procedures.j_term import j_estimate
+from procedures.j_term import j_estimate, j_pairs
 from procedures.nonlinearity import fit_nonlinearity, q_is_from_fit
 from procedures.plan import DayPlan
+from procedures.plausibility import Implausible
 from procedures.runner import Run
 from procedures.settings import STRINGS
 from procedures.sheets import CalibrationResults, ResultRow
@@ -87,14 +89,29 @@ def _tilt_change_sigma_arcsec(noise: NoiseSpec, gate_s: float) -> float:
     return math.sqrt(max(var, 0.0)) * 180.0 / math.pi * 3600.0
 
 
+def _check_speeds(chart: str, k: int, pts: list[dict], fit: dict) -> list[float]:
+    """Each speed of a nonlinearity series off the quadratic through the others (sigma)."""
+    for p, z in zip(pts, fit["residual_z"], strict=True):
+        if abs(z) > K_RESULT:
+            raise Implausible(
+                f"counter1 or counter{k + 1} (gyro {k})",
+                f"Chart {chart} at {p['rate_deg_s']:+g} deg/s: the output frequency is "
+                f"{z:+.1f} sigma off the quadratic through the other speeds (limit "
+                f"{K_RESULT:g}): a wrong count")
+    return fit["residual_z"]
+
+
 def special_experiments(rows: list[ResultRow], data: DayData, plan: DayPlan, site: dict,
-                        noise: NoiseSpec) -> None:
-    """Q_II from II-1.2 and J from II-1.3, in place (Chart II-16: special experiments)."""
+                        noise: NoiseSpec) -> dict[str, list[float]]:
+    """Q_II from II-1.2 and J from II-1.3, in place (Chart II-16: special experiments); the
+    z of each speed and gate pair against the others (a wrong count stops the step)."""
+    checks: dict[str, list[float]] = {}
     for k, pts in data.nonlinearity.items():
         dphi = _row(rows, f"gyro{k}", "DeltaPhi").estimate or 3.0
         gates = np.array([abs(p["counts"] / p["p_dot"]) for p in pts])
         sig = np.array([_count_sigma(noise, g, dphi) for g in gates])
         fit = fit_nonlinearity(pts, sig)
+        checks[f"II-7 gyro{k}"] = _check_speeds("II-7", k, pts, fit)
         r = _row(rows, f"gyro{k}", "Q_II")
         r.estimate, r.sigma = fit["Q_II"], fit["sigma"]
         r.note = "II-1.2 nonlinearity fit (positions 1, 3, 5 at several speeds)"
@@ -106,12 +123,13 @@ def special_experiments(rows: list[ResultRow], data: DayData, plan: DayPlan, sit
             continue  # needs Q_II (II-7) and (Q^G)^-1 (positions 1-6)
         gates = np.array([abs(p["counts"] / p["p_dot"]) for p in pts])
         fit = fit_nonlinearity(pts, np.array([_count_sigma(noise, g, dphi) for g in gates]))
+        checks[f"II-7Q gyro{k}"] = _check_speeds("II-7Q", k, pts, fit)
         q, sq = q_is_from_fit(fit["Q_II"], fit["sigma"], rq.estimate, rq.sigma, np.array(gb), k)
         r = _row(rows, f"gyro{k}", "Q_IS")
         r.estimate, r.sigma = q, sq
         r.note = "designed speed series along (G + S)/sqrt2 (docs/special-experiments.md)"
     if not data.j_term:
-        return
+        return checks
     sv = data.survey
     for m, counters in J_COUNTERS.items():
         recs = data.j_term.get(m)
@@ -131,10 +149,20 @@ def special_experiments(rows: list[ResultRow], data: DayData, plan: DayPlan, sit
                                _tilt_change_sigma_arcsec(noise, gate) / rdp.estimate)
             j, sj = j_estimate(recs, c, rdp.estimate, g_r, site["omega_sin_lambda"],
                                plan.j_accel_deg_s2, sig_c)
+            zs = j_pairs(recs, c, rdp.estimate, g_r, site["omega_sin_lambda"],
+                         plan.j_accel_deg_s2, sig_c)
+            checks[f"II-10 gyro{k}"] = zs
+            for i, z in enumerate(zs):
+                if abs(z) > K_RESULT:
+                    raise Implausible(
+                        f"counter{c} (gyro {k})", f"Chart II-10 position {m}, gate pair {i + 1}: "
+                        f"J {z:+.1f} sigma off the other pairs' (limit {K_RESULT:g}): a wrong "
+                        "count, or the table did not ramp as commanded")
             r = _row(rows, f"gyro{k}", "J")
             r.estimate, r.sigma = j, sj
             r.note = (f"Chart II-10 designed experiment, position {m} "
                       "(docs/special-experiments.md)")
+    return checks
 
 
 def compute_calibration(run: Run, data: DayData, plan: DayPlan, noise: NoiseSpec,
@@ -158,9 +186,15 @@ def compute_calibration(run: Run, data: DayData, plan: DayPlan, noise: NoiseSpec
                    {str(k): v for k, v in (last_d1d3 or {}).items()} or None)
         with sheet.step("8", "Compute the constants") as s:
             rows = calibrate(cd, noise)
-            special_experiments(rows, data, plan, site, noise)
+            special = special_experiments(rows, data, plan, site, noise)
+            # the data the constants did not need must agree with them (calibration.checks)
+            checked = check_residuals(cd, rows, noise)
+            sums = check_string_sums(cd, rows, noise)
             s.reading = {"determined": sum(r.estimate is not None for r in rows),
-                         "rows": len(rows)}
+                         "rows": len(rows),
+                         "residual_z": {k: v["z"] for k, v in
+                                        checked.get("residuals", {}).items()},
+                         "string_sum_z": sums, "special_z": special}
         with sheet.step("9", "Record the valid constants (Chart II-16) on the Calibration "
                         "Results Sheet") as s:
             used = sorted({*data.gyro, *data.accel})

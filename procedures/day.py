@@ -24,7 +24,7 @@ from procedures.positions import resolver_settings
 from procedures.runner import Run
 from procedures.sheets import CounterOutputs, SurveyResults
 from procedures.system_survey import system_survey
-from procedures.turn_on import turn_on
+from procedures.turn_on import oscillator_periods, turn_on
 
 EXPERIMENTS = ("II-6", "II-7", "II-7Q", "II-10", "II-11", "II-12", "II-13", "II-14")
 
@@ -78,7 +78,7 @@ def measure_day(st, run: Run, plan: DayPlan, site: dict, f0: float,
     run.block("I-1", lambda: turn_on(st, run, plan.warmup_s), lambda _: None)
     survey = run.block("I-2", lambda: system_survey(st, run, site),
                        SurveyResults.model_validate)
-    s1 = st.oscillator.s_t(1)
+    s1, _ = oscillator_periods(run)  # as Chart I-1 step 3 read them (twice, agreeing)
     settings = resolver_settings(survey)
     run.save_sheet("resolver_settings", settings)
     run.save_sheet("counter_connections", st_settings.counter_connections())

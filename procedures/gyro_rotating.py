@@ -6,11 +6,20 @@ the same N whole turns of the rotary axis ("measure Z", Z = table rotation pulse
 
 from __future__ import annotations
 
-from procedures.common import patch, run_counters, set_modes, set_position
+from procedures.common import (
+    axis_rate,
+    check_turns_clock,
+    patch,
+    rotary_axis_turning,
+    run_counters,
+    set_modes,
+    set_position,
+)
 from procedures.plan import DayPlan
 from procedures.runner import Run
 from procedures.settings import GYRO_ROTATING, wiring
 from procedures.sheets import CounterOutputs, ResolverSettings
+from procedures.turn_on import oscillator_periods
 
 TITLE = "Gyro scale factor and (Q^G)^-1, positions 1 to 6"
 
@@ -43,11 +52,15 @@ def position_pair(st, sheet, settings: ResolverSettings, plan: DayPlan, m: int,
                         "measurement speed") as s:
             st.table.rotate(2, plan.table_rate_deg_s)
             st.table.wait_still()
-            s.reading = {"rate_deg_s": st.table.rate(2)}
+            s.reading = {"rate_deg_s": axis_rate(st, 2, plan.table_rate_deg_s)}
         with sheet.step("9" + tag, "After a rotary output pulse, switch counters 1-4 to "
                         "operate together") as s:
             wait_clear_of_pulse(st, plan.table_rate_deg_s, plan.rotation_pulses_per_rev)
-            gate = run_counters(st, {c: n_pulses for c in (1, 2, 3, 4)}, timeout)
+            gate = run_counters(st, {c: n_pulses for c in (1, 2, 3, 4)}, timeout,
+                                rotary_axis_turning(st, plan.table_rate_deg_s))
+            s1, _ = oscillator_periods(sheet.run)
+            check_turns_clock(st, 1, gate.readings[1], n_pulses, s1,
+                              360.0 / plan.rotation_pulses_per_rev, plan.table_rate_deg_s)
             s.reading = {str(c): v for c, v in gate.readings.items()}
         with sheet.step("10" + tag, "Counters printed: standby; stop the table"):
             st.table.stop(2)

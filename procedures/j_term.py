@@ -21,12 +21,16 @@ from scipy.integrate import quad
 
 from procedures.common import patch, set_modes, set_position
 from procedures.plan import DayPlan
+from procedures.plausibility import Implausible, source_of
 from procedures.runner import Run
 from procedures.settings import GYRO_STATIC, wiring
 from procedures.sheets import ResolverSettings
 
 TITLE = "J term experiment (designed: commanded table acceleration, positions 7 and 11)"
 GYROS_OF_POSITION = {7: (2, 3), 11: (1,)}
+# the table's rotary angle after a gate against the commanded ramp: a few arcsec of
+# resolver error and servo lag on a good day; a stalled axis or a garbled reading is far off
+PROFILE_TOLERANCE_DEG = 0.01
 DEG = math.pi / 180.0
 
 
@@ -78,7 +82,7 @@ def j_experiment(st, run: Run, settings: ResolverSettings, plan: DayPlan, s1: fl
             with sheet.step("3" + tag, f"Set position {m} with level correction; table at "
                             "rest") as s:
                 ps = set_position(st, 0.0, 90.0, p.phi3, p.phi4, level=True)
-                s.reading = {"level_arcsec": ps.level_arcsec}
+                s.reading = ps.reading()
             counters = {k + 1: n_ticks for k in gyros}
             recs = []
             for i in range(pairs):
@@ -107,13 +111,20 @@ def j_experiment(st, run: Run, settings: ResolverSettings, plan: DayPlan, s1: fl
                         t_read = st.clock.now() - t_pos
                         phi_read = st.table.position(2)
                         prof = profile(phi_start, w_start, w_end, acc, t_cmd)
+                        off = (prof(t_read) - phi_read + 180.0) % 360.0 - 180.0
+                        if abs(off) > PROFILE_TOLERANCE_DEG:
+                            raise Implausible(
+                                source_of(st.table),
+                                f"axis 2 did not follow the commanded ramp: it reads "
+                                f"{phi_read:.4f} deg where the ramp from {phi_start:.4f} deg "
+                                f"puts it at {prof(t_read) % 360.0:.4f} deg (RATE? "
+                                f"{st.table.rate(2):g} deg/s, commanded {w_end:g})")
                         rec = {"direction": direction, "phi_start": phi_start,
                                "w_start": w_start, "w_end": w_end, "t_cmd": t_cmd,
                                "gate_s": n_ticks * s1,
                                "t_oper": {str(c): v for c, v in t_oper.items()},
                                "counts": {str(c): v for c, v in readings.items()},
-                               "phi_check_deg": ((prof(t_read) - phi_read + 180.0) % 360.0)
-                               - 180.0}
+                               "phi_check_deg": off}
                         recs.append(rec)
                         s.reading = rec
             with sheet.step("5" + tag, "Stop the table"):
@@ -150,3 +161,18 @@ def j_estimate(records: list[dict], counter: int, dphi_arcsec: float, g_r: np.nd
     # each pair: two counts with sigma_counts pulses, over 2 w1
     sig_pair = math.sqrt(2.0) * sigma_counts * dphi / abs(dw) / 3600.0
     return j, sig_pair / math.sqrt(len(js))
+
+
+def j_pairs(records: list[dict], counter: int, dphi_arcsec: float, g_r: np.ndarray,
+            omega_sin_lambda: float, accel: float, sigma_counts: float) -> list[float]:
+    """Each up/down pair's J against the others' mean, in units of its sigma (the pairs
+    are independent measurements of one J; a garbled count makes one pair stand out)."""
+    one = [j_estimate(records[i:i + 2], counter, dphi_arcsec, g_r, omega_sin_lambda, accel,
+                      sigma_counts) for i in range(0, len(records) - 1, 2)]
+    js = np.array([j for j, _ in one])
+    sig = one[0][1] if one else 0.0
+    n = len(js)
+    if n < 3 or not sig > 0:
+        return []
+    others = (js.sum() - js) / (n - 1)
+    return [float(x) for x in (js - others) / (sig * math.sqrt(1.0 + 1.0 / (n - 1)))]

@@ -13,7 +13,15 @@ import math
 
 import numpy as np
 
-from procedures.common import patch, run_counters, set_modes, set_position
+from procedures.common import (
+    axis_rate,
+    check_turns_clock,
+    patch,
+    rotary_axis_turning,
+    run_counters,
+    set_modes,
+    set_position,
+)
 from procedures.gyro_rotating import wait_clear_of_pulse
 from procedures.plan import DayPlan
 from procedures.runner import Run
@@ -39,10 +47,12 @@ def speed_series(st, sheet, tag: str, k: int, plan: DayPlan, s1: float,
         with sheet.step("7" + rtag, f"Run the table at {rate:+g} deg/s") as s:
             st.table.rotate(2, rate)
             st.table.wait_still()
-            s.reading = {"rate_deg_s": st.table.rate(2)}
+            s.reading = {"rate_deg_s": axis_rate(st, 2, rate)}
         with sheet.step("8" + rtag, "Switch counters to operate between rotary pulses"):
             wait_clear_of_pulse(st, rate, ppr)
-            gate = run_counters(st, {1: n_pulses, k + 1: n_pulses}, timeout)
+            gate = run_counters(st, {1: n_pulses, k + 1: n_pulses}, timeout,
+                                rotary_axis_turning(st, rate))
+            check_turns_clock(st, 1, gate.readings[1], n_pulses, s1, s_phi, rate)
         with sheet.step("10" + rtag, "Record the outputs") as s:
             ticks, counts = gate.readings[1], gate.readings[k + 1]
             t = ticks * s1
@@ -151,6 +161,11 @@ def fit_nonlinearity(rows: list[dict], sigma_counts: float) -> dict[str, float]:
     # d q / d(a1, a2) in the scaled coefficients
     jac = np.array([0.0, -coef[2] / coef[1] ** 2 / scale, 1.0 / coef[1] / scale])
     sq = float(np.sqrt(jac @ cov @ jac))
+    # each speed's residual over its own sigma (the fit's leverage removed): a garbled count
+    # stands out of the quadratic, the fit has len(rows) - 3 degrees of freedom
+    r = p / sig - a @ coef
+    lev = np.einsum("ij,jk,ik->i", a, cov, a)
+    z = r / np.sqrt(np.maximum(1.0 - lev, 1e-12))
     # P' = a1 w: 1/a1 deg/hr per pulse/s = 1/a1 arcsec per pulse
     return {"a0": float(a0), "a1": float(a1), "a2": float(a2), "Q_II": float(q), "sigma": sq,
-            "scale_factor_arcsec": 1.0 / float(a1)}
+            "scale_factor_arcsec": 1.0 / float(a1), "residual_z": [float(x) for x in z]}

@@ -57,14 +57,14 @@ def run_static(st, run: Run, chart: str, title: str, kind: StaticKind,
             set_modes(st, kind.counters, kind.mode)
         with sheet.step("5", "Set phi1 to 0 deg plus level correction, phi2 to 90 deg") as s:
             ps = set_position(st, 0.0, 90.0, st.table.position(3), st.table.position(4), True)
-            s.reading = {"level_arcsec": ps.level_arcsec}
+            s.reading = ps.reading()
         for m, first, text in steps:
             tag = f"/m{m}"
             p = settings.positions[str(m)]
             with sheet.step(first + tag, text) as s:
                 ps = set_position(st, 0.0, 90.0, p.phi3, p.phi4, level=True)
                 s.reading = {"phi1": ps.phi[0], "phi3": ps.phi[2], "phi4": ps.phi[3],
-                             "level_arcsec": ps.level_arcsec}
+                             **ps.reading()}
             row = presets.presets[f"{kind.sheet_key} {m}"]
             n = {c: int(row[str(c)]) for c in kind.counters}
             with sheet.step("7" + tag, kind.preset_text) as s:

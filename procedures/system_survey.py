@@ -30,11 +30,15 @@ table's gimbal junctions (a few arcsec each), which a single-position survey can
 from __future__ import annotations
 
 import math
+from functools import partial
 from typing import TYPE_CHECKING
 
 import numpy as np
 
+from procedures import plausibility as pl
 from procedures import survey_math as sm
+from procedures.calibration.noise_spec import NoiseSpec
+from procedures.common import axis_in_position, read_levels, read_mirror, steady_resolvers
 from procedures.runner import Run
 from procedures.sheets import SurveyResults
 from station.drivers import AutocollimatorDriver
@@ -105,10 +109,9 @@ def acquire(
         ac.aim(m[0], m[1])  # centre the field on the return
         centred = ac.measure()
         if centred is None:
-            raise RuntimeError(
-                f"autocollimator {index}: return at azimuth {m[0]:.4f}, zenith {m[1]:.4f} deg "
-                "lost on centring"
-            )
+            raise pl.Implausible(
+                pl.source_of(ac), f"return from mirror {index} at azimuth {m[0]:.4f}, zenith "
+                f"{m[1]:.4f} deg lost on centring")
         return {
             "nominal_aim_deg": [az0, zen0],
             "aims_tried": tried,
@@ -118,10 +121,9 @@ def acquire(
             "first_reading_deg": [centred[0], centred[1]],
         }
     why = f"; {refused} aims refused ({last_refusal})" if refused else ""
-    raise RuntimeError(
-        f"mirror {index} not found by autocollimator {index}: no return at {tried} aims "
-        f"within +/-{radius_deg:g} deg of azimuth {az0:g}, zenith {zen0:g} deg{why}"
-    )
+    raise pl.Implausible(
+        pl.source_of(ac), f"mirror {index} not found: no return at {tried} aims within "
+        f"+/-{radius_deg:g} deg of azimuth {az0:g}, zenith {zen0:g} deg{why}")
 
 
 def read_mirrors(
@@ -129,6 +131,7 @@ def read_mirrors(
     n: int,
     aims: dict[int, tuple[float, float]],
     levels: bool,
+    noise: NoiseSpec | None = None,
 ) -> tuple[tuple[float, float, float, float], dict, tuple[float, float] | None]:
     """Mean (alpha1, theta1, alpha2, theta2) of ``n`` readings per mirror, their spread
     (arcsec) and, if ``levels``, the mean bubble-level corrections (arcsec).
@@ -136,27 +139,51 @@ def read_mirrors(
     The two autocollimators are read alternately, each reading followed at once by a level
     reading, so the pier tilt and wobble during the readings are common to both mirrors
     and to the level corrections. Azimuths are unwrapped around ``aims`` (0/360 deg).
+
+    Nothing is averaged blindly: every reading must lie in its instrument's range and
+    agree with the median of its repetitions within ``K_READING`` times the scatter the
+    lab's specification predicts (reading noise and the pier's tilt over the readings); an
+    outlier is read again (``plausibility.AgreeingReadings``: bounded, recorded in the
+    enclosing ``rereads()`` block) and the step stops naming the instrument if the
+    readings cannot be brought into agreement.
     """
-    got: dict[int, list[tuple[float, float]]] = {1: [], 2: []}
-    lev = []
+    noise = noise or NoiseSpec.model_validate({})
+
+    def mirror(k: int, _: int | None = None) -> list[float]:
+        az, zen = read_mirror(st, k)
+        az0 = aims[k][0]
+        return [az0 + _wrap180(az - az0), zen]
+
+    def level(_: int | None = None) -> list[float]:
+        return list(read_levels(st))
+
+    got = {k: pl.AgreeingReadings(st.autocollimators[k], f"mirror {k} azimuth and zenith",
+                                  0.0, partial(mirror, k)) for k in (1, 2)}
+    lev = pl.AgreeingReadings(st.bubble_levels, "level corrections", 0.0, level)
+    times: list[float] = []
     for _ in range(n):
         for k in (1, 2):
-            m = st.autocollimators[k].measure()
-            if m is None:
-                raise RuntimeError(f"mirror {k} lost by autocollimator {k} while reading")
-            az0 = aims[k][0]
-            got[k].append((az0 + _wrap180(m[0] - az0), m[1]))
+            got[k].add(mirror(k))
+            times.append(st.clock.now())
             if levels:
-                lev.append(st.bubble_levels.corrections())
-    mean = {k: np.mean(np.array(v), axis=0) for k, v in got.items()}
+                lev.add(level())
+    for k in (1, 2):
+        zen = float(np.median([v[1] for v in got[k].values]))
+        got[k].sigma = pl.autocollimator_sigma_deg(noise, times, zen)
+        got[k].settle()
+    if levels:
+        lev.sigma = pl.level_sigma_arcsec(noise, times)
+        lev.settle()
+    mean = {k: np.mean(np.array(v.values), axis=0) for k, v in got.items()}
     spread = {
-        str(k): [float(x) for x in np.std(np.array(v), axis=0, ddof=1) * 3600.0]
+        str(k): [float(x) for x in np.std(np.array(v.values), axis=0, ddof=1) * 3600.0]
         if n > 1
         else [0.0, 0.0]
         for k, v in got.items()
     }
     ac = (float(mean[1][0]), float(mean[1][1]), float(mean[2][0]), float(mean[2][1]))
-    lev_mean = tuple(float(x) for x in np.mean(np.array(lev), axis=0)) if lev else None
+    lev_mean = (tuple(float(x) for x in np.mean(np.array(lev.values), axis=0))
+                if levels else None)
     return ac, spread, lev_mean  # type: ignore[return-value]
 
 
@@ -166,6 +193,7 @@ def _trunnion_axis(
     ac0: tuple[float, float, float, float],
     n: int,
     search_step_deg: float,
+    noise: NoiseSpec | None = None,
 ) -> dict:
     """Step 5a: the trunnion axis's azimuth from the mirrors at phi1 = 0 and phi1 = tilt.
 
@@ -180,27 +208,28 @@ def _trunnion_axis(
     t_a = sm.mirror_alignment(*ac0)
     st.table.move(1, raw[0] + TRUNNION_TILT_DEG)
     st.table.wait_still()
-    phi1_b = st.table.position(1)
+    phi1_b = axis_in_position(st, 1, raw[0] + TRUNNION_TILT_DEG)
     turn = sm.rotation_about((0.0, 1.0, 0.0), phi1_b - raw[0])  # about east: north rises
     aims = {}
     for k, (a, th) in ((1, ac0[0:2]), (2, ac0[2:4])):
         az, zen = sm.angles(turn @ sm.direction(a, th))
         acquire(st.autocollimators[k], k, az, zen, search_step_deg, 2 * search_step_deg)
         aims[k] = (az, zen)
-    ac_b, spread, _ = read_mirrors(st, n, aims, levels=False)
+    ac_b, spread, _ = read_mirrors(st, n, aims, levels=False, noise=noise)
     st.table.move(1, POSITION0_DEG[0])
     st.table.wait_still()
     for k, (az0, zen0) in NOMINAL_AIM_DEG.items():  # back on the position-0 returns
         st.autocollimators[k].aim(*(ac0[0:2] if k == 1 else ac0[2:4]))
         if st.autocollimators[k].measure() is None:
-            raise RuntimeError(f"mirror {k} not found again at position 0 (aim {az0}, {zen0})")
+            raise pl.Implausible(pl.source_of(st.autocollimators[k]),
+                                 f"mirror {k} not found again at position 0 (aim {az0}, {zen0})")
     axis = sm.trunnion_axis_azimuth(t_a, sm.mirror_alignment(*ac_b))
-    d_res = (phi1_b - raw[0]) * 3600.0
     d_opt = axis["angle_deg"] * 3600.0
+    d_res = (phi1_b - raw[0]) * 3600.0
     if abs(d_opt - d_res) > TRUNNION_CHECK_ARCSEC:
-        raise RuntimeError(
-            f"mirrors turned {d_opt:.1f} arcsec, trunnion resolver {d_res:.1f} arcsec"
-        )
+        raise pl.Implausible(
+            pl.source_of(st.table), f"axis 1 resolver turned {d_res:.1f} arcsec while the "
+            f"mirrors (autocollimators 1 and 2) turned {d_opt:.1f} arcsec")
     return {
         "phi1_deg": [raw[0], phi1_b],
         "autocollimator_deg": list(ac_b),
@@ -242,6 +271,7 @@ def system_survey(
     search_radius_deg: float = SEARCH_RADIUS_DEG,
     level_correction: bool = True,
     base_azimuth: bool = True,
+    noise: NoiseSpec | None = None,
 ) -> SurveyResults:
     """Tick Chart I-2 and return the Survey Results Sheet (Chart I-3).
 
@@ -267,7 +297,8 @@ def system_survey(
             pos = st.table.positions()
             off = [abs(_wrap180(p - c)) * 3600.0 for p, c in zip(pos, POSITION0_DEG, strict=True)]
             if max(off) > POSITION_TOLERANCE_ARCSEC:
-                raise RuntimeError(f"table at {pos} deg, not at position 0 {POSITION0_DEG}")
+                raise pl.Implausible(pl.source_of(st.table),
+                                     f"at {pos} deg, not at position 0 {POSITION0_DEG}")
             t0 = st.clock.now()
             found = {}
             for k, (az0, zen0) in NOMINAL_AIM_DEG.items():
@@ -280,20 +311,22 @@ def system_survey(
             g, ws, wc = _check_site(site)
             s.reading = {"g": g, "omega_sin_lambda_deg_hr": ws, "omega_cos_lambda_deg_hr": wc}
 
-        with sheet.step("4", "Record test table resolver settings phi1^0..phi4^0") as s:
-            raw = st.table.positions()
-            s.reading = {"resolvers_deg": list(raw)}
+        with sheet.step("4", "Record test table resolver settings phi1^0..phi4^0") as s, \
+                pl.rereads() as rr:
+            raw = steady_resolvers(st, first=pos)  # must repeat step 2's reading
+            s.reading = pl.with_rereads({"resolvers_deg": list(raw)}, rr)
 
         text5 = "Record azimuth and zenith angles alpha1, theta1, alpha2, theta2"
-        with sheet.step("5", text5) as s:
-            ac_deg, spread, lev = read_mirrors(st, n_readings, NOMINAL_AIM_DEG, level_correction)
+        with sheet.step("5", text5) as s, pl.rereads() as rr:
+            ac_deg, spread, lev = read_mirrors(st, n_readings, NOMINAL_AIM_DEG,
+                                               level_correction, noise)
             c1, c3 = lev if lev is not None else (0.0, 0.0)
-            s.reading = {
+            s.reading = pl.with_rereads({
                 "autocollimator_deg": list(ac_deg),
                 "n_readings": n_readings,
                 "spread_arcsec": spread,
                 "level_corrections_arcsec": list(lev) if lev is not None else None,
-            }
+            }, rr)
 
         dphi2 = 0.0
         if base_azimuth:
@@ -301,8 +334,9 @@ def system_survey(
                 f"(project addition) Tilt the trunnion to phi1 = {TRUNNION_TILT_DEG:g} deg, "
                 "read both mirrors, return to position 0: trunnion-axis azimuth"
             )
-            with sheet.step("5a", text) as s:
-                s.reading = _trunnion_axis(st, raw, ac_deg, n_readings, search_step_deg)
+            with sheet.step("5a", text) as s, pl.rereads() as rr:
+                s.reading = pl.with_rereads(
+                    _trunnion_axis(st, raw, ac_deg, n_readings, search_step_deg, noise), rr)
                 dphi2 = s.reading["azimuth_arcsec"] / 3600.0
 
         with sheet.step("6", "Enter the System Survey Program (Charts I-4, I-5, I-6)") as s:

@@ -10,7 +10,8 @@ import numpy as np
 import pytest
 from rich.console import Console
 
-from procedures.alignment.sampling import collect
+from procedures.alignment.sampling import collect, sample_outliers
+from procedures.calibration.noise_spec import NoiseSpec
 from procedures.journal import Journal
 from procedures.runner import ProcedureError, Run
 from procedures.turn_on import turn_on
@@ -283,6 +284,24 @@ def test_altered_ieu_frames_fail_the_sample_check_and_are_sent_again(seed):
         clean.first_seq, clean.last_seq)
     assert any(r["failed_check"] for r in rec.recoveries)
     assert len(rec.recoveries) <= 2 * fault.frames_corrupted  # each follows an alteration
+
+
+def test_a_count_altered_past_the_check_is_found_among_its_neighbours():
+    """Defence in depth behind the IEU's CRC: a count altered after the check (in the host,
+    say) lies beyond K_READING sigma of its neighbours' running median and is listed with
+    its sample and signal; untouched counts are not (collect_checked refuses such a record)."""
+    noise = NoiseSpec()
+    rng = np.random.default_rng(5)
+    n = 120
+    rates = np.array([400, -250, 90, 20000, 20500, 19800, 20100, 20050, 19950])
+    counts = (np.floor(np.cumsum(np.tile(rates + rng.uniform(0, 0.3, 9), (n, 1)), axis=0)
+                       + rng.uniform(0, 1, 9)).astype(np.int64))
+    counts = np.diff(np.vstack([np.zeros((1, 9), np.int64), counts]), axis=0)[1:]
+    seqs = np.arange(len(counts)) + 1000
+    assert sample_outliers(counts, seqs, noise) == []
+    counts[57, 4] += 256  # one byte of a count changed
+    (o,) = sample_outliers(counts, seqs, noise)
+    assert (o["seq"], o["signal"]) == (1057, "A1S2") and o["deviation_sigma"] > 6.0
 
 
 # ----------------------------------------------------------------------------- 7. stall

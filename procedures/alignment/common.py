@@ -5,20 +5,23 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from functools import partial
 from typing import TYPE_CHECKING
 
 import numpy as np
 
+from procedures import plausibility as pl
 from procedures import survey_math as sm
 from procedures.alignment import error_model as em
 from procedures.alignment.estimation import LevelParams
 from procedures.alignment.preprocess import Constants
 from procedures.alignment.results_sheet import AlignmentResults, AlignPlan
 from procedures.calibration.noise_spec import NoiseSpec
-from procedures.common import set_position
+from procedures.common import read_levels, read_mirror, set_position
 from procedures.runner import Run
 from procedures.sheets import CalibrationResults, SurveyResults
 from procedures.system_survey import NOMINAL_AIM_DEG, POSITION0_DEG, acquire
+from procedures.turn_on import oscillator_periods
 
 if TYPE_CHECKING:
     from station.rack import Station
@@ -64,17 +67,20 @@ def require_turn_on(run: Run) -> dict:
     return {"turn_on_completed_at_s": done.steps[-1].t_sim}
 
 
-def set_position0(st: Station) -> dict:
+def set_position0(st: Station, noise: NoiseSpec | None = None) -> dict:
     """Position 0 (the survey's) with bubble-level corrections on phi1 and phi3."""
-    ps = set_position(st, *POSITION0_DEG, level=True)
+    ps = set_position(st, *POSITION0_DEG, level=True, noise=noise)
+    lev = ps.reading()
     return {"commanded_deg": list(ps.phi), "level_arcsec": list(ps.level_arcsec or (0, 0)),
-            "resolvers_deg": list(st.table.positions())}
+            "level_check_arcsec": lev["level_check_arcsec"],
+            **({"relevelled": lev["relevelled"]} if "relevelled" in lev else {}),
+            "resolvers_deg": list(st.table.positions()), "t_s": st.clock.now()}
 
 
 def table_record(st: Station) -> tuple[tuple[float, float, float, float], tuple[float, float]]:
-    """Resolver readouts and bubble levels for the Alignment Results Sheet."""
+    """Resolver readouts and bubble levels (range-checked) for the Alignment Results Sheet."""
     pos = st.table.positions()
-    lev = st.bubble_levels.corrections()
+    lev = read_levels(st)
     return tuple(float(x) for x in pos), tuple(float(x) for x in lev)  # type: ignore[return-value]
 
 
@@ -90,25 +96,42 @@ def acquire_mirrors(st: Station, ks, survey: SurveyResults | None) -> dict:
     return {str(k): acquire(st.autocollimators[k], k, *aims[k]) for k in ks}
 
 
-def read_autocollimators(st: Station, ks, n: int, survey: SurveyResults | None) -> dict:
-    """``n`` readings of each autocollimator in ``ks``, alternating; means, times, spread."""
+def read_autocollimators(st: Station, ks, n: int, survey: SurveyResults | None,
+                         noise: NoiseSpec | None = None) -> dict:
+    """``n`` readings of each autocollimator in ``ks``, alternating; means, times, spread.
+
+    Each reading must lie in the instrument's range and agree with its repetitions
+    (``plausibility.AgreeingReadings``: an outlier is read again, bounded and recorded in
+    the enclosing ``rereads()`` block; the step stops naming the autocollimator otherwise).
+    """
+    noise = noise or NoiseSpec.model_validate({})
     aims = mirror_aims(survey)
-    got: dict[int, list[tuple[float, float, float]]] = {k: [] for k in ks}
+    times: dict[int, list[float]] = {k: [] for k in ks}
+
+    def read(k: int, i: int | None = None) -> list[float]:
+        az, zen = read_mirror(st, k)
+        az0 = aims[k][0]
+        t = st.clock.now()
+        if i is None:
+            times[k].append(t)
+        else:
+            times[k][i] = t
+        return [az0 + ((az - az0 + 180.0) % 360.0 - 180.0), zen]
+
+    got = {k: pl.AgreeingReadings(st.autocollimators[k], f"mirror {k} azimuth and zenith",
+                                  0.0, partial(read, k)) for k in ks}
     for _ in range(n):
         for k in ks:
-            m = st.autocollimators[k].measure()
-            if m is None:
-                raise RuntimeError(f"mirror {k} lost by autocollimator {k} while reading")
-            az0 = aims[k][0]
-            az = az0 + ((m[0] - az0 + 180.0) % 360.0 - 180.0)
-            got[k].append((az, m[1], st.clock.now()))
+            got[k].add(read(k))
     out = {}
-    for k, v in got.items():
-        a = np.array(v)
+    for k, g in got.items():
+        zen = float(np.median([v[1] for v in g.values]))
+        g.sigma = pl.autocollimator_sigma_deg(noise, times[k], zen)
+        a = g.settle()
         out[k] = {
             "azimuth_deg": float(a[:, 0].mean()),
             "zenith_deg": float(a[:, 1].mean()),
-            "times_s": a[:, 2].tolist(),
+            "times_s": list(times[k]),
             "spread_arcsec": ([float(x) for x in a[:, :2].std(axis=0, ddof=1) * 3600.0]
                               if n > 1 else [0.0, 0.0]),
         }
@@ -155,39 +178,43 @@ def ac_sigma_arcsec(noise: NoiseSpec, n: int) -> float:
     return max(noise.autocollimator_arcsec, AC_NOISE_FLOOR_ARCSEC) / math.sqrt(n)
 
 
-def ieu_period_ticks(st: Station, period_s: float) -> tuple[int, float]:
-    """IEU sample period in S2^T pulses for ``period_s`` (and S2^T)."""
-    s2 = st.oscillator.s_t(2)
+def ieu_period_ticks(run: Run, period_s: float) -> tuple[int, float]:
+    """IEU sample period in S2^T pulses for ``period_s`` (and S2^T, as turn-on recorded it:
+    Chart I-1 step 3, read twice there)."""
+    _, s2 = oscillator_periods(run)
     return int(round(period_s / s2)), s2
 
 
-def check_ieu_lines(st: Station, period_ticks: int, gyros: bool) -> dict:
+OSCILLATOR_STATES = ("LOCKED", "UNLOCKED")
+STRING_HZ = (1e4, 3e4)  # the strings count near 20 kHz (their data sheet)
+
+
+def check_ieu_lines(st: Station, period_ticks: int, gyros: bool, s2: float) -> dict:
     """Verify the oscillator and instrument lines reach the IEU: two samples whose timer
     counts the period and whose strings count near the basic frequency (Chart III-4 step 2,
-    Chart III-8 step 2)."""
-    status = st.oscillator.status()
+    Chart III-8 step 2). ``s2``: S2^T as turn-on recorded it."""
+    status = pl.read_word(st.oscillator, st.oscillator.status, OSCILLATOR_STATES, "status")
     if status != "LOCKED":
-        raise RuntimeError(f"master oscillator {status!r}, not LOCKED")
+        raise pl.Implausible(pl.source_of(st.oscillator), f"status {status!r}, not LOCKED")
     ieu = st.ieu.status()
     if int(ieu.get("ErrorCode", 0)) != 0:
-        raise RuntimeError(f"IEU reports error code {ieu['ErrorCode']}")
+        raise pl.Implausible(pl.source_of(st.ieu), f"reports error code {ieu['ErrorCode']}")
     st.ieu.start(period_ticks, recover=True)
     try:
         samples = [st.ieu.next_sample() for _ in range(2)]
     finally:
         st.ieu.stop()
-    s2 = st.oscillator.s_t(2)
     per_s = period_ticks * s2
     last = samples[-1]
     if last.timer != period_ticks:
-        raise RuntimeError(f"IEU timer counted {last.timer}, not {period_ticks}: check the "
-                           "master oscillator's S2^T line")
+        raise pl.Implausible(pl.source_of(st.ieu), f"timer counted {last.timer}, not "
+                             f"{period_ticks}: check the master oscillator's S2^T line")
     rates = [c / per_s for c in last.accel]
     dead = [n for n, r in zip(("A1S1", "A1S2", "A2S1", "A2S2", "A3S1", "A3S2"), rates,
-                              strict=True) if not 1e4 < r < 3e4]
+                              strict=True) if not STRING_HZ[0] < r < STRING_HZ[1]]
     if dead:
-        raise RuntimeError(f"string line(s) {dead} not counting near 20 kHz at the IEU: "
-                           f"{[round(r) for r in rates]} Hz")
+        raise pl.Implausible(pl.source_of(st.ieu), f"string line(s) {dead} not counting near "
+                             f"20 kHz at the IEU: {[round(r) for r in rates]} Hz")
     out = {"oscillator": status, "ieu_error_code": int(ieu.get("ErrorCode", 0)),
            "string_hz": [round(r, 1) for r in rates], "timer": last.timer}
     if gyros:

@@ -14,6 +14,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from procedures import plausibility as pl
+from procedures.alignment import checks as ck
 from procedures.alignment import error_model as em
 from procedures.alignment import estimation as es
 from procedures.alignment.align_math import ARCSEC, gyrocompass_matrix
@@ -40,7 +42,7 @@ from procedures.alignment.preprocess import (
 )
 from procedures.alignment.preprocess import string_differences as p_of
 from procedures.alignment.results_sheet import AlignmentResults, AlignPlan
-from procedures.alignment.sampling import IeuRecord, collect
+from procedures.alignment.sampling import IeuRecord, collect_checked
 from procedures.calibration.noise_spec import NoiseSpec
 from procedures.runner import Run
 from procedures.sheets import CalibrationResults, SurveyResults
@@ -112,8 +114,45 @@ def gyro_error_model(record, c, M, b, opts, params, noise, w_horizontal: float) 
              "estimator_g": em.as_enu_arcsec(j_g @ cov_g @ j_g.T),
              "gyro_noise_and_tilt_rate": em.as_enu_arcsec(j_w @ cov_w @ j_w.T),
              "gyro_rate_sigma_deg_hr": {k: math.sqrt(per[0][k]) for k in per[0]}}
+    # |omega| and the angle between omega and the vertical: calibration and gyro noise
+    def scalars(g: np.ndarray, w: np.ndarray) -> np.ndarray:
+        return np.array([float(np.linalg.norm(w)), ck.angle_deg(w, g)])
+
+    cal_w = ck.cal_sigma(c, lambda cc: float(np.linalg.norm(gyro_solution(record, cc, M, b,
+                                                                          opts)[2])))
+    cal_col = ck.cal_sigma(c, lambda cc: ck.angle_deg(*gyro_solution(record, cc, M, b,
+                                                                     opts)[2:0:-1]))
+    j_sw = em.jacobian(lambda w: scalars(g_b, w), w_b, 1e-4)
+    j_sg = em.jacobian(lambda g: scalars(g, w_b), g_b, 1e-7)
+    cov_s = j_sw @ cov_w @ j_sw.T + j_sg @ cov_g @ j_sg.T
+    w_sigma = math.hypot(cal_w, math.sqrt(max(float(cov_s[0, 0]), 0.0)))
+    col_sigma = math.hypot(cal_col, math.sqrt(max(float(cov_s[1, 1]), 0.0)))
     return {"t": t0, "g_b": g_b, "w_b": w_b, "cov": cov, "predicted": em.as_enu_arcsec(cov),
-            "limit": [bias[0], bias[1], az_lim], "parts": parts}
+            "limit": [bias[0], bias[1], az_lim], "parts": parts,
+            "w_sigma": w_sigma, "colatitude_sigma": col_sigma}
+
+
+GYRO_BLAME = ("the gyro or accelerometer data from the IEU (ieu) or the calibration constants "
+              "(counters, Charts II-6..II-14) are wrong")
+
+
+def gyro_checks(e: str, model: dict, survey: SurveyResults | None, w_north: float,
+                w_up: float, reference: tuple | None) -> dict:
+    """|g|, |omega|, the colatitude and T against what the survey and site know."""
+    src = f"gyrocompass alignment ({e})"
+    w_b, g_b = model["w_b"], model["g_b"]
+    out = {"|omega|": ck.check(src, "|omega| measured", float(np.linalg.norm(w_b)),
+                               math.hypot(w_north, w_up), model["w_sigma"], "deg/hr",
+                               GYRO_BLAME),
+           "colatitude": ck.check(src, "angle between omega and the vertical",
+                                  ck.angle_deg(w_b, g_b),
+                                  math.degrees(math.atan2(w_north, w_up)),
+                                  model["colatitude_sigma"], "deg", GYRO_BLAME)}
+    if reference is not None:
+        t_ref, s_ref, name, motion = reference
+        out |= ck.check_attitude(src, model["t"], model["predicted"], t_ref, s_ref, name,
+                                 GYRO_BLAME, motion)
+    return out
 
 
 def gyrocompass_procedure(
@@ -127,10 +166,14 @@ def gyrocompass_procedure(
     estimators: tuple[str, ...] = ("average",),
     tapes: dict[str, Tape] | None = None,
     calibration_id: str | None = None,
+    mirror: Outcome | None = None,
 ) -> list[Outcome]:
     """Tick Chart III-8; one Outcome (and Alignment Results Sheet) per estimator.
 
     ``tapes``: estimator -> level tape for this experiment's K and Delta t (hybrid).
+    ``mirror``: the mirror alignment of this run, which T is checked against at step 10
+    (else the survey's prediction, if the survey was made in this run); |omega| and the
+    colatitude are checked against the site, |g| against the survey.
     """
     plan = plan or AlignPlan()
     ests = tuple(dict.fromkeys(canonical_estimator("gyrocompass", e) for e in estimators))
@@ -152,11 +195,11 @@ def gyrocompass_procedure(
                                                 "options": opts}
         with sheet.step("1a", "(project addition) Set position 0 with bubble-level "
                         "corrections on phi1 and phi3") as s:
-            s.reading = set_position0(st)
-        period, s2 = ieu_period_ticks(st, plan.gyro_period_s)
+            position0 = s.reading = set_position0(st, noise)
+        period, s2 = ieu_period_ticks(run, plan.gyro_period_s)
         with sheet.step("2", "Verify master oscillator, gyros and accelerometers are "
-                        "connected to the IEU") as s:
-            s.reading = check_ieu_lines(st, period, gyros=True)
+                        "connected to the IEU") as s, pl.rereads() as rr:
+            s.reading = pl.with_rereads(check_ieu_lines(st, period, True, s2), rr)
         with sheet.step("3", "Set sampling rate on IEU panel") as s:
             spi = int(round(dt / (period * s2)))
             s.reading = {"period_ticks": period, "period_s": period * s2,
@@ -186,7 +229,8 @@ def gyrocompass_procedure(
                                                        "note": "simple average: not required"}
         with sheet.step("8", "Initiate alignment: IEU data, preprocessing (Chart III-9), "
                         "estimation (Chart III-10), T (Chart III-11)") as s:
-            record = collect(st, period, spi, K, recover=plan.recover_lost_samples)
+            record = collect_checked(st, period, spi, K, plan.recover_lost_samples, s2, noise,
+                                     plan.ieu_retakes)
             check_record(record, K, dt)
             mats = {e: matrices(e, K, dt, tapes.get(e)) for e in ests}
             sols = {e: gyro_solution(record, c, M, b, opts) for e, (M, b) in mats.items()}
@@ -199,9 +243,14 @@ def gyrocompass_procedure(
         with sheet.step("10", "After computer output, enter T on the Alignment Results "
                         "Sheet") as s:
             t_ref = record.t_end + plan.eps_t_s
+            reference = ck.attitude_reference(
+                survey, survey is not None and run.sheets.get("survey_results") is survey,
+                mirror, position0, noise, t_ref)
             out = []
+            checked = {}
             for e, (M, b) in mats.items():
                 model = gyro_error_model(record, c, M, b, opts, params, noise, w_north)
+                checked[e] = gyro_checks(e, model, survey, w_north, w_up, reference)
                 sheet_model = AlignmentResults(
                     procedure="gyrocompass", estimator=e, calibration_id=calibration_id,
                     filtering_parameter_id=tapes[e].sheet.reel_id if e in tapes else None,
@@ -221,6 +270,7 @@ def gyrocompass_procedure(
                                     "omega_body_deg_hr": model["w_b"].tolist(),
                                     "recovered": record.recoveries}))
             s.reading = {o.estimator: {"t": o.t.tolist(),
-                                       "predicted_sigma_arcsec": o.predicted_sigma_arcsec}
+                                       "predicted_sigma_arcsec": o.predicted_sigma_arcsec,
+                                       "checks": checked[o.estimator]}
                          for o in out}
     return out

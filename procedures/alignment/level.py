@@ -12,10 +12,13 @@ Alignment Results Sheet (``alignment_results_level_<estimator>``).
 
 from __future__ import annotations
 
+import math
 from typing import TYPE_CHECKING
 
 import numpy as np
 
+from procedures import plausibility as pl
+from procedures.alignment import checks as ck
 from procedures.alignment import error_model as em
 from procedures.alignment import estimation as es
 from procedures.alignment.align_math import level_matrix
@@ -38,7 +41,7 @@ from procedures.alignment.parameter_sheet import Tape, check_tape
 from procedures.alignment.preprocess import ACCEL_PARAMS, Constants, accel_integrals
 from procedures.alignment.preprocess import string_differences as p_of
 from procedures.alignment.results_sheet import AlignmentResults, AlignPlan
-from procedures.alignment.sampling import IeuRecord, collect
+from procedures.alignment.sampling import IeuRecord, collect_checked
 from procedures.calibration.noise_spec import NoiseSpec
 from procedures.runner import Run
 from procedures.sheets import CalibrationResults, SurveyResults
@@ -106,8 +109,34 @@ def level_error_model(record, c, M, b, alpha1, theta1, g_survey, params, noise,
     parts = {"calibration": em.as_enu_arcsec(cov_cal),
              "estimator": em.as_enu_arcsec(j_g @ cov_g @ j_g.T),
              "autocollimator": em.as_enu_arcsec(cov_ac)}
+    # |g|: the calibration constants and the estimator's error along the vertical
+    u = g_b / np.linalg.norm(g_b)
+    g_cal = ck.cal_sigma(c, lambda cc: float(np.linalg.norm(
+        level_solution(record, cc, M, b, alpha1, theta1, g_survey)[1])))
+    g_sigma = math.hypot(g_cal, math.sqrt(max(float(u @ cov_g @ u), 0.0)))
     return {"t": t0, "g_b": g_b, "cov": cov, "predicted": em.as_enu_arcsec(cov),
-            "limit": [bias[0], bias[1], ac_sigma_arcsec(noise, n_alpha)], "parts": parts}
+            "limit": [bias[0], bias[1], ac_sigma_arcsec(noise, n_alpha)], "parts": parts,
+            "g_sigma": g_sigma}
+
+
+ACCEL_BLAME = ("the accelerometer data from the IEU (ieu) or the accelerometer constants "
+               "(counters 1-6, Charts II-13, II-14) are wrong")
+
+
+def level_checks(e: str, model: dict, survey: SurveyResults | None,
+                 reference: tuple | None) -> dict:
+    """|g| against the survey's g and T against the reference attitude (``checks``)."""
+    src = f"level alignment ({e})"
+    out = {}
+    if survey is not None:
+        out["|g|"] = ck.check(src, "|g| measured", float(np.linalg.norm(model["g_b"])),
+                              float(survey.g), model["g_sigma"], "g", ACCEL_BLAME)
+    if reference is not None:
+        t_ref, s_ref, name, motion = reference
+        out |= ck.check_attitude(src, model["t"], model["predicted"], t_ref, s_ref, name,
+                                 ACCEL_BLAME + ", or the autocollimator's azimuth "
+                                 "(autocollimator1)", motion)
+    return out
 
 
 def level_alignment_procedure(
@@ -120,11 +149,14 @@ def level_alignment_procedure(
     estimators: tuple[str, ...] = ("average",),
     tapes: dict[str, Tape] | None = None,
     calibration_id: str | None = None,
+    mirror: Outcome | None = None,
 ) -> list[Outcome]:
     """Tick Chart III-4; one Outcome (and Alignment Results Sheet) per estimator.
 
     ``tapes``: estimator -> tape (posterior mean); its Chart I-8 parameters are checked
     against this experiment's at step 8, and a mismatch stops the step naming the parameter.
+    ``mirror``: the mirror alignment of this run, which T is checked against at step 12
+    (else the survey's prediction, if the survey was made in this run).
     """
     plan = plan or AlignPlan()
     ests = tuple(dict.fromkeys(canonical_estimator("level", e) for e in estimators))
@@ -140,11 +172,11 @@ def level_alignment_procedure(
             }
         with sheet.step("1a", "(project addition) Set position 0 with bubble-level "
                         "corrections on phi1 and phi3") as s:
-            s.reading = set_position0(st)
-        period, s2 = ieu_period_ticks(st, plan.level_period_s)
+            position0 = s.reading = set_position0(st, noise)
+        period, s2 = ieu_period_ticks(run, plan.level_period_s)
         with sheet.step("2", "Verify master oscillator and accelerometers are connected to "
-                        "the IEU") as s:
-            s.reading = check_ieu_lines(st, period, gyros=False)
+                        "the IEU") as s, pl.rereads() as rr:
+            s.reading = pl.with_rereads(check_ieu_lines(st, period, False, s2), rr)
         with sheet.step("3", "Set sampling rate on IEU panel") as s:
             spi = int(round(dt / (period * s2)))
             s.reading = {"period_ticks": period, "period_s": period * s2,
@@ -177,19 +209,21 @@ def level_alignment_procedure(
                                                        "note": "simple average: not required"}
         with sheet.step("9", "Initiate alignment: IEU data, preprocessing (Chart III-5), "
                         "estimation (Chart III-6)") as s:
-            record = collect(st, period, spi, K, recover=plan.recover_lost_samples)
+            record = collect_checked(st, period, spi, K, plan.recover_lost_samples, s2, noise,
+                                     plan.ieu_retakes)
             check_record(record, K, dt)
             mats = {e: estimator_matrices(e, K, dt, tapes.get(e)) for e in ests}
             g_est = {e: ((M @ accel_x(record, c) + b) / es.G0).tolist()
                      for e, (M, b) in mats.items()}
             s.reading = record.summary() | {"g_body_g": g_est}
         text10 = "Enter azimuth angle alpha1 from the autocollimator"
-        with sheet.step("10", text10 + f" ({plan.alpha_readings} readings)") as s:
-            rd = read_autocollimators(st, (1,), plan.alpha_readings, survey)[1]
+        with sheet.step("10", text10 + f" ({plan.alpha_readings} readings)") as s, \
+                pl.rereads() as rr:
+            rd = read_autocollimators(st, (1,), plan.alpha_readings, survey, noise)[1]
             alpha1 = rd["azimuth_deg"]
             theta1 = rd["zenith_deg"] if plan.mirror_zenith else None
-            s.reading = {"alpha1_deg": alpha1, "theta1_deg": rd["zenith_deg"],
-                         "spread_arcsec": rd["spread_arcsec"]}
+            s.reading = pl.with_rereads({"alpha1_deg": alpha1, "theta1_deg": rd["zenith_deg"],
+                                         "spread_arcsec": rd["spread_arcsec"]}, rr)
         with sheet.step("11", "Enter test table bubble levels and resolver readouts") as s:
             pos, lev = table_record(st)
             s.reading = {"resolvers_deg": list(pos), "bubble_levels_arcsec": list(lev)}
@@ -197,10 +231,15 @@ def level_alignment_procedure(
                         "Results Sheet") as s:
             g_survey = survey_g(survey) if plan.surveyed_g else None
             t_ref = record.t_end + plan.eps_t_s
+            reference = ck.attitude_reference(
+                survey, survey is not None and run.sheets.get("survey_results") is survey,
+                mirror, position0, noise, t_ref)
             out = []
+            checked = {}
             for e, (M, b) in mats.items():
                 model = level_error_model(record, c, M, b, alpha1, theta1, g_survey, params,
                                           noise, plan.alpha_readings)
+                checked[e] = level_checks(e, model, survey, reference)
                 sheet_model = AlignmentResults(
                     procedure="level", estimator=e, calibration_id=calibration_id,
                     filtering_parameter_id=tapes[e].sheet.reel_id if e in tapes else None,
@@ -218,6 +257,7 @@ def level_alignment_procedure(
                                    {"parts": model["parts"], "g_body_g": model["g_b"].tolist(),
                                     "recovered": record.recoveries}))
             s.reading = {o.estimator: {"t": o.t.tolist(),
-                                       "predicted_sigma_arcsec": o.predicted_sigma_arcsec}
+                                       "predicted_sigma_arcsec": o.predicted_sigma_arcsec,
+                                       "checks": checked[o.estimator]}
                          for o in out}
     return out

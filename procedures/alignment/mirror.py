@@ -12,6 +12,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from procedures import plausibility as pl
+from procedures.alignment import checks as ck
 from procedures.alignment import error_model as em
 from procedures.alignment.align_math import ARCSEC, mirror_alignment
 from procedures.alignment.common import (
@@ -53,10 +55,24 @@ def mirror_error_model(ac_deg, times, t_ref: float, n: int, noise: NoiseSpec) ->
             "motion_arcsec": [float(np.sqrt(motion[i, i]) / ARCSEC) for i in (0, 1)]}
 
 
+def check_against_survey(t, predicted, survey: SurveyResults, position0: dict,
+                         noise: NoiseSpec) -> dict:
+    """The mirror alignment's T against the survey's prediction at the same setting."""
+    t_pred = ck.survey_t(survey, position0["resolvers_deg"], position0["level_arcsec"])
+    return ck.check_attitude(
+        "mirror alignment", t, predicted, t_pred, ck.survey_sigma_arcsec(noise),
+        "the survey's T^BI (Chart I-3) at this setting",
+        "the autocollimators' readings (autocollimator1, autocollimator2), the table's "
+        "setting (table) or its levelling (bubble_levels) disagree with the survey")
+
+
 def mirror_alignment_procedure(st: Station, run: Run, noise: NoiseSpec,
                                survey: SurveyResults | None = None,
                                plan: AlignPlan | None = None) -> Outcome:
-    """Tick Chart III-2 and return the mirror alignment (Chart III-1 saved in the run)."""
+    """Tick Chart III-2 and return the mirror alignment (Chart III-1 saved in the run).
+
+    The readings must agree among themselves (``read_autocollimators``) and, when the survey
+    was made in this run, T must agree with the survey's prediction (``checks``)."""
     plan = plan or AlignPlan()
     n = plan.mirror_readings
     with run.sheet(CHART, TITLE) as sheet:
@@ -64,27 +80,34 @@ def mirror_alignment_procedure(st: Station, run: Run, noise: NoiseSpec,
             s.reading = require_turn_on(run)
         with sheet.step("1a", "(project addition) Set position 0 with bubble-level "
                         "corrections on phi1 and phi3") as s:
-            s.reading = set_position0(st)
+            position0 = s.reading = set_position0(st, noise)
         with sheet.step("2", "Align autocollimators to mirrors") as s:
             s.reading = acquire_mirrors(st, (1, 2), survey)
         sheet.done("3", "Load the mirror alignment program",
                    {"program": "procedures.alignment.mirror", "chart": "III-3"})
         with sheet.step("4", f"Enter azimuths and zeniths from the autocollimators "
-                        f"({n} readings each, averaged) on the Alignment Results Sheet") as s:
-            rd = read_autocollimators(st, (1, 2), n, survey)
+                        f"({n} readings each, averaged) on the Alignment Results Sheet") as s, \
+                pl.rereads() as rr:
+            rd = read_autocollimators(st, (1, 2), n, survey, noise)
             ac = (rd[1]["azimuth_deg"], rd[1]["zenith_deg"], rd[2]["azimuth_deg"],
                   rd[2]["zenith_deg"])
             times = rd[1]["times_s"] + rd[2]["times_s"]
             t_ref = float(np.mean(times))
-            s.reading = {"autocollimator_deg": list(ac), "n_readings": n, "t_ref_s": t_ref,
-                         "spread_arcsec": {str(k): rd[k]["spread_arcsec"] for k in (1, 2)},
-                         "span_s": [min(times), max(times)]}
+            s.reading = pl.with_rereads(
+                {"autocollimator_deg": list(ac), "n_readings": n, "t_ref_s": t_ref,
+                 "spread_arcsec": {str(k): rd[k]["spread_arcsec"] for k in (1, 2)},
+                 "span_s": [min(times), max(times)]}, rr)
         sheet.done("5", "Enter alpha1, alpha2, theta1, theta2 into the computer",
                    {"autocollimator_deg": list(ac)})
         with sheet.step("6", "Compute and output the alignment matrix T (Chart III-3)") as s:
             t = mirror_alignment(*ac)
             model = mirror_error_model(ac, times, t_ref, n, noise)
-            s.reading = {"t": t.tolist(), "predicted_sigma_arcsec": model["predicted"]}
+            checked = None
+            surveyed_here = run.sheets.get("survey_results") is survey
+            if survey is not None and surveyed_here:
+                checked = check_against_survey(t, model["predicted"], survey, position0, noise)
+            s.reading = {"t": t.tolist(), "predicted_sigma_arcsec": model["predicted"],
+                         **({"checks": {"survey": checked}} if checked else {})}
         with sheet.step("7", "Record T, table resolver settings and bubble levels on the "
                         "Alignment Results Sheet (Chart III-1)") as s:
             pos, lev = table_record(st)

@@ -5,7 +5,7 @@ Lab units at this boundary: degrees, arcsec, seconds, g, deg/hr.
 
 from __future__ import annotations
 
-from typing import Literal
+from typing import Annotated, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
@@ -64,6 +64,8 @@ class AlignPlan(_Sheet):
     sigma_g_g: float = Field(1e-3, gt=0, description="Chart I-8 rms error of g~ (g)")
     sigma_theta_arcsec: float = Field(60.0, gt=0, description="Chart I-8 prior vertical error")
     recover_lost_samples: bool = True
+    # records taken again when a sample's counts disagree with its neighbours (sampling)
+    ieu_retakes: Annotated[int, Field(ge=0)] = 1
     # options of III-2.2 and III-3.2
     mirror_zenith: bool = False  # level: M1.U = cos(theta1) from the autocollimator
     surveyed_g: bool = False  # level and gyrocompass: |g| from the survey

@@ -60,8 +60,10 @@ def run_alignments(
     if survey is None:
         survey = run.sheets.get("survey_results")
     out: list[Outcome] = []
+    mirror = None
     if "mirror" in est:
-        out.append(mirror_alignment_procedure(st, run, noise, survey, plan))
+        mirror = mirror_alignment_procedure(st, run, noise, survey, plan)
+        out.append(mirror)
     need = {m for m in ("level", "gyrocompass")
             if m in est and any(e != "average" for e in est[m]) and m not in tapes}
     if need:
@@ -74,9 +76,9 @@ def run_alignments(
     if "level" in est:
         lt = {e: tapes["level"] for e in est["level"] if e != "average"}
         out += level_alignment_procedure(st, run, noise, calib, survey, plan, est["level"],
-                                         lt, calibration_id)
+                                         lt, calibration_id, mirror)
     if "gyrocompass" in est:
         gt = {e: tapes["gyrocompass"] for e in est["gyrocompass"] if e != "average"}
         out += gyrocompass_procedure(st, run, noise, calib, survey, site, plan,
-                                     est["gyrocompass"], gt, calibration_id)
+                                     est["gyrocompass"], gt, calibration_id, mirror)
     return out

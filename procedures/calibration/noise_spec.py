@@ -40,6 +40,10 @@ class NoiseSpec(BaseModel):
     # --- accelerometers and counters ---
     accel_white_micro_g_rt_hz: float = Field(10.0, ge=0, description="white noise on f2 - f1")
     clock_quantization_var: float = Field(1.0 / 6.0, ge=0, description="tick^2 per clock count")
+    string_common_drift_hz: float = Field(
+        0.0, ge=0, description="drift of an accelerometer's common string frequency over "
+        "the day, 1 sigma (the default lab's strings keep f0)"
+    )
     vibration_rms_micro_g: float = Field(100.0, ge=0, description="floor vibration per axis")
     vibration_band_hz: tuple[float, float] = (2.0, 30.0)
     # --- levels, table, survey ---

@@ -7,10 +7,10 @@ steps carry the ten averaged currents of each orientation and, last, the run's t
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field
 from typing import Protocol
 
-from procedures.gyrocompass_test.analysis import RunValues, run_values
+from procedures.gyrocompass_test.analysis import OrientationValues, RunValues, run_values
 from procedures.gyrocompass_test.scale import gsf_from_turn
 from procedures.runner import Run
 from station.drivers.cigtf import DvmDriver, FixtureDriver, GyroPowerDriver
@@ -105,10 +105,8 @@ def north_determination(st: Station, run: Run, plan: TestPlan, chart: str, title
     return rv
 
 
-def gyrocompass_test(st: Station, run: Run, plan: TestPlan | None = None) -> TestData:
-    """Turn-on and warm-up, 4.1, the operating phase (4.3) and the shutdown phase (4.4)."""
-    plan = plan or TestPlan()
-    data = TestData()
+def warm_up(st: Station, run: Run, plan: TestPlan) -> None:
+    """Section 4.0: gyro power on in torque-to-balance and the initial warm-up."""
     with run.sheet("4.0", "Gyro turn-on and warm-up") as sh:
         with sh.step("4.0.1", "gyro power on in torque-to-balance") as s:
             st.power.on()
@@ -119,10 +117,32 @@ def gyrocompass_test(st: Station, run: Run, plan: TestPlan | None = None) -> Tes
             if not on:
                 raise RuntimeError("gyro power is off after the warm-up")
             s.reading = {"on_s": since}
-    data.gsf = scale_factor(st, run, plan)
+
+
+def _as_record(rv: RunValues) -> dict:
+    """A run's values in their journal form (a block's result)."""
+    return asdict(rv)
+
+
+def _from_record(d: dict) -> RunValues:
+    return RunValues(d["theta"], d["sigma"],
+                     tuple(OrientationValues(**o) for o in d["orientations"]))
+
+
+def gyrocompass_test(st: Station, run: Run, plan: TestPlan | None = None) -> TestData:
+    """Turn-on and warm-up, 4.1, the operating phase (4.3) and the shutdown phase (4.4).
+
+    Each of them, and each run, is a journaled block (``Run.block``): a resume over links
+    restores the completed ones and repeats only the interrupted run (the warm-up too,
+    block "4.0", when the served rack was restarted)."""
+    plan = plan or TestPlan()
+    data = TestData()
+    run.block("4.0", lambda: warm_up(st, run, plan), lambda _: None)
+    data.gsf = run.block("4.1", lambda: scale_factor(st, run, plan), float)
     for i in range(1, plan.operating_runs + 1):
-        rv = north_determination(st, run, plan, f"4.3-R{i:02d}",
-                                 f"Operating phase, run {i}", data.gsf)
+        chart = f"4.3-R{i:02d}"
+        rv = run.block(chart, lambda c=chart, i=i: _as_record(north_determination(
+            st, run, plan, c, f"Operating phase, run {i}", data.gsf)), _from_record)
         data.runs["operating"].append(rv)
     for i in range(1, plan.shutdown_runs + 1):
         def shutdown(sh) -> None:
@@ -134,7 +154,9 @@ def gyrocompass_test(st: Station, run: Run, plan: TestPlan | None = None) -> Tes
                 st.power.on()
                 st.clock.sleep(plan.warmup_s)
                 s.reading = {"on_s": st.power.status()[1]}
-        rv = north_determination(st, run, plan, f"4.4-R{i:02d}", f"Shutdown phase, run {i}",
-                                 data.gsf, preamble=shutdown)
+        chart = f"4.4-R{i:02d}"
+        rv = run.block(chart, lambda c=chart, i=i, pre=shutdown: _as_record(
+            north_determination(st, run, plan, c, f"Shutdown phase, run {i}", data.gsf,
+                                preamble=pre)), _from_record)
         data.runs["shutdown"].append(rv)
     return data

@@ -124,7 +124,7 @@ EXTREMES: tuple[Any, ...] = (
 OTHER_VALUES: tuple[Any, ...] = (
     "", "abc", "1.0", "sim://x", "\n", "\x00", True, False, [], [1.0], [1.0, 2.0, 3.0],
     [[0.0, 90.0]], {}, {"x": 1}, dt.datetime(2026, 1, 1, 12, 0), dt.date(2026, 1, 1),
-    dt.time(12, 0),
+    Raw("12:00:00"),  # a TOML local time
 )
 TYPOS = ("cigft", "esgg", "sit", "enviroment", "tabel", "isuu", "osc", "instrument",
          "link", "fault", "Seed", "ESG", "Cigtf", "site.latitude_deg")

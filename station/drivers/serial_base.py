@@ -96,6 +96,9 @@ def strip_eol(raw: bytes) -> bytes:
 
 
 class SerialDriver:
+    """One serial instrument's link: exchanges matched to their commands, replies parsed
+    against their forms (station/drivers/replies.py)."""
+
     model: tuple[str, str] | None = None  # maker and model in *IDN? (None: any instrument)
 
     @property

@@ -25,11 +25,11 @@ from sim.world import World
 MAX_QUEUE = 256  # readings kept for the host
 MAX_PRESET = 10**11
 MODES = {"Z": "Z", "XY": "XY", "X-Y": "XY"}
-# Time to print one reading. The report gives no figure; the digital recorders of the
-# period printed a few lines a second, so each gate must last at least this long: a gate
-# that closes sooner is refused at OPER, or stops the counter (print overrun) if the world
-# changes while it counts. It also bounds the work per simulated second (5 readings).
-PRINT_S = 0.2
+# Time to hand one reading to the recorder (the print-out). The report gives no figure;
+# the simulation takes 20 ms, so each gate must last at least this long: a gate that
+# closes sooner is refused at OPER, or stops the counter (print overrun) if the world
+# changes while it counts. It also bounds the work per simulated second (50 readings).
+PRINT_S = 0.02
 MIN_GATE_S = PRINT_S * (1 - 1e-6)  # the limit, blind to the oscillator's ppb offset
 
 

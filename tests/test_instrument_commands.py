@@ -315,7 +315,7 @@ def test_preset_the_print_out_cannot_sustain_is_refused_at_oper(isu):
     wire(panel, "OSC2", "X", "OSC1", "Z")  # measure Z: the gate is 1 MHz clock ticks
     assert send(c, "PRESET 1") == ["OK"]
     reply = send(c, "OPER")[0]
-    m = re.fullmatch(r"ERR 25 gate of 1 pulses lasts (\S+) s, shorter than the 0.2 s "
+    m = re.fullmatch(r"ERR 25 gate of 1 pulses lasts (\S+) s, shorter than the 0.02 s "
                      r"print-out: preset at least ([0-9]+)", reply)
     assert m is not None, reply
     assert float(m.group(1)) == pytest.approx(1e-6, rel=1e-6)
@@ -326,7 +326,7 @@ def test_preset_the_print_out_cannot_sustain_is_refused_at_oper(isu):
     assert send(c, "OPER")[0].startswith("ERR 25 ")
     assert send(c, f"PRESET {least}") == ["OK"]
     assert send(c, "OPER") == ["OK"]
-    # the gate is 0.2 s of S1^T: 0.2 s x 10 kHz of S2^T, the readings 0.2 s apart
+    # the gate is 20 ms of S1^T: 20 ms x 10 kHz of S2^T, the readings 20 ms apart
     c.receive(b"READ?\nREAD?\nREAD?\n")
     advance(c, 1.0)
     assert lines_out(c) == [str(round(PRINT_S * 1e4))] * 3
@@ -339,19 +339,31 @@ def test_gate_shortened_while_counting_is_a_print_overrun(isu):
     c, panel, table = isu.serial["counter1"], isu.serial["patch_panel"], isu.serial["table"]
     wire(panel, "OSC1", "X", "TROT", "Z")
     assert send(table, "PPR 3600") == ["OK"]
-    assert send(c, "PRESET 10") == ["OK"]
+    assert send(c, "PRESET 2") == ["OK"]
     assert send(c, "OPER") == ["OK"]
-    c.receive(b"READ?\nREAD?\n")
-    assert send(table, "RATE 2 20") == ["OK"]  # at 20 deg/s, 200 pulses/s: 10 in 0.05 s
+    c.receive(b"READ?\n" * 40)
+    assert send(table, "RATE 2 20") == ["OK"]  # at 20 deg/s, 200 pulses/s: 2 in 0.01 s
     advance(c, 10.0)
-    first, second = lines_out(c)
-    # the first gate spans the start at 10 deg/s^2: 1 deg in sqrt(0.2) s of 1 MHz ticks
-    assert int(first) == pytest.approx(0.2**0.5 * 1e6, rel=0.05)
-    # the second, from 1 to 2 deg, lasts sqrt(0.4) - sqrt(0.2) = 0.185 s: too short to print
-    m = re.fullmatch(r"ERR 25 print overrun: gate of 10 pulses lasted (\S+) s, shorter than "
-                     r"the 0.2 s print-out; counter in standby", second)
-    assert m is not None, second
-    assert float(m.group(1)) == pytest.approx(0.4**0.5 - 0.2**0.5, rel=1e-2)
+    out = lines_out(c)
+    # the gates (0.2 deg) shorten as the table accelerates at 10 deg/s^2: the k-th, from
+    # 0.2 (k-1) to 0.2 k deg, lasts sqrt(0.04 k) - sqrt(0.04 (k-1)) s, 20 ms or more while
+    # k <= 25; the 26th is too short to print
+    readings, overruns = out[:25], out[25:]
+    assert len(overruns) == 15 and len(set(overruns)) == 1  # every waiting READ? is told
+    overrun = overruns[0]
+    # the first gate opens on the first edge, T0 after the ramp began: 5 T^2 grows by 0.2
+    # deg per gate from there (1 us ticks; the resolver's cyclic error is ~3e-4 deg)
+    d = [int(r) * 1e-6 for r in readings]
+    t = (0.04 - d[0] ** 2) / (2 * d[0])
+    theta0 = 5 * t * t
+    for k, dk in enumerate(d, start=1):
+        t += dk
+        assert 5 * t * t - theta0 == pytest.approx(0.2 * k, abs=1e-3)
+        assert dk >= PRINT_S
+    m = re.fullmatch(r"ERR 25 print overrun: gate of 2 pulses lasted (\S+) s, shorter than "
+                     r"the 0.02 s print-out; counter in standby", overrun)
+    assert m is not None, overrun
+    assert float(m.group(1)) == pytest.approx(1.04**0.5 - 1.0, rel=1e-2)
     assert c.n_readings <= 10.0 / PRINT_S
     assert send(c, "STATE?") == ["STBY"]
     assert send(c, "SYST:ERR?")[0].startswith("25 print overrun")

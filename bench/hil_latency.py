@@ -23,6 +23,7 @@ quiet link's p99 lateness should stay within 2 ms; the server's slip is printed 
 from __future__ import annotations
 
 import argparse
+import math
 import os
 import random
 import signal
@@ -36,10 +37,13 @@ from pathlib import Path
 
 import serial
 
-from station.config import load_config
-from station.drivers import IeuDriver, OscillatorDriver
-from station.hil import link_map
-from station.hil.profile import served
+ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT))  # measure this tree, not whichever copy is installed
+
+from station.config import load_config  # noqa: E402
+from station.drivers import IeuDriver, OscillatorDriver  # noqa: E402
+from station.hil import link_map  # noqa: E402
+from station.hil.profile import served  # noqa: E402
 
 # flood kind -> what it sends (the flooding process reads and drops every reply)
 FLOODS = {
@@ -151,9 +155,15 @@ def _smallest_accepted(port: serial.Serial, cmd: str, values: list[int]) -> int:
     raise SystemExit(f"flood: no {cmd} accepted among {values}")
 
 
+def _ready() -> None:
+    """Tell the measuring process this flood is under way (one line on stdout)."""
+    print("flooding", flush=True)
+
+
 def _pump(port: serial.Serial, chunks: list[bytes], stop: threading.Event) -> int:
     """Write ``chunks`` round and round, 256 bytes at a time, until ``stop``; bytes written
     (a piece cut short by the write timeout is not counted)."""
+    _ready()
     data = b"".join(chunks)
     pieces = [data[i:i + 256] for i in range(0, len(data), 256)]
     sent = 0
@@ -220,11 +230,13 @@ def flooder(kind: str, links: Path, stop: threading.Event, least: int) -> None:
         for period in (p for p in TRIES if p >= least):
             try:
                 ieu.start(period)
-            except Exception:  # noqa: BLE001 - refused: try a longer period
+            except Exception as e:  # noqa: BLE001 - refused: try a longer period
+                print(f"flood ieu: PeriodTicks {period}: {e}", file=sys.stderr, flush=True)
                 continue
             accepted = period
             break
         n = 0
+        _ready()
         while not stop.is_set():
             if ieu.bus.recv(0.2) is not None:
                 n += 1
@@ -258,6 +270,7 @@ def flooder(kind: str, links: Path, stop: threading.Event, least: int) -> None:
                     return
         threading.Thread(target=drain, daemon=True).start()
         sent = 0
+        _ready()
         sock.settimeout(0.5)
         while not stop.is_set():
             try:
@@ -285,6 +298,15 @@ def _loadavg() -> str:
         return "?"
 
 
+def _cpu_s(pid: int) -> float:
+    """CPU seconds (user + system) a process has used so far (Linux /proc)."""
+    try:
+        fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+    except OSError:
+        return math.nan
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
 def _nice(pid: int) -> str:
     try:
         return str(os.getpriority(os.PRIO_PROCESS, pid))
@@ -300,7 +322,7 @@ def _start_server(d: Path, only: str | None, nice: int = 0) -> tuple[Path, subpr
     if only:
         cmd += ["--only", only]
     with open(out, "w") as log:
-        server = subprocess.Popen(cmd, stdout=log, stderr=subprocess.STDOUT,
+        server = subprocess.Popen(cmd, stdout=log, stderr=subprocess.STDOUT, cwd=ROOT,
                                   preexec_fn=(lambda: os.nice(nice)) if nice else None)
     while not (links / link_map.FILENAME).exists():
         if server.poll() is not None:
@@ -332,24 +354,32 @@ def flood_case(kinds: list[str], n: int, least: dict[str, int] | None = None,
             for k in kinds:  # each runs until told to stop (SIGTERM), then reports
                 procs.append(subprocess.Popen(
                     [sys.executable, __file__, "--flooder", k, str(links),
-                     str((least or {}).get(k, 1))],
+                     str((least or {}).get(k, 1))], stdout=subprocess.PIPE, text=True,
                     preexec_fn=(lambda: os.nice(-nice)) if nice else None))
+            for k, p in zip(kinds, procs, strict=True):
+                line = p.stdout.readline() if p.stdout else ""
+                if line.strip() != "flooding":
+                    raise SystemExit(f"flood {k} did not start: {line.strip()!r}")
             time.sleep(FLOOD_START_S)
             print(f"speed 1, reply latency {latency_s * 1e3:g} ms configured; floods: "
                   f"{', '.join(kinds) or 'none'}; load average {_loadavg()} before; server "
                   f"nice {_nice(server.pid)}", flush=True)
+            cpu0, wall0 = _cpu_s(server.pid), time.monotonic()
             late = quiet_replies([link.serial["oscillator"], link.serial["table"]], n, latency_s)
+            cpu = (_cpu_s(server.pid) - cpu0) / (time.monotonic() - wall0)
             _report("quiet link (*IDN?/STAT?)", late)
+            print(f"server CPU meanwhile: {cpu:.0%} of one core", flush=True)
             print(f"load average {_loadavg()} after", flush=True)
         finally:
             for p in procs:
                 p.send_signal(signal.SIGTERM)
             for p in procs:
                 try:
-                    p.wait(30)
+                    out_text, _ = p.communicate(timeout=30)
                 except subprocess.TimeoutExpired:
                     p.kill()
-                    p.wait()
+                    out_text, _ = p.communicate()
+                print(out_text.strip(), flush=True)
             _stop_server(server, out)
 
 

@@ -56,7 +56,8 @@ FLOODS = {
     "slcan": "the slcan pty sent frames, junk and over-long lines as fast as it takes them",
 }
 FLOOD_START_S = 1.0  # wall seconds the floods run before the quiet link is measured
-TRIES = (1, 2, 5, 10, 15, 20, 50, 100, 200, 500, 1000, 2000, 5000, 10_000, 100_000)
+TRIES = (1, 2, 5, 10, 15, 20, 50, 100, 200, 500, 1000, 2000, 5000, 10_000, 20_000, 50_000,
+         100_000, 200_000, 500_000, 1_000_000)
 
 
 def _percentile(xs: list[float], q: float) -> float:
@@ -148,13 +149,6 @@ def _ask(port: serial.Serial, cmd: str) -> str:
     return port.read_until(b"\n").decode("ascii", "replace").strip()
 
 
-def _smallest_accepted(port: serial.Serial, cmd: str, values: list[int]) -> int:
-    for v in values:
-        if _ask(port, f"{cmd} {v}") == "OK":
-            return v
-    raise SystemExit(f"flood: no {cmd} accepted among {values}")
-
-
 def _ready() -> None:
     """Tell the measuring process this flood is under way (one line on stdout)."""
     print("flooding", flush=True)
@@ -219,11 +213,17 @@ def flooder(kind: str, links: Path, stop: threading.Event, least: int) -> None:
         c1 = serial.serial_for_url(link.serial["counter1"], timeout=2.0, write_timeout=0.5)
         _ask(c1, "*RST")
         _ask(c1, "MODE Z")
-        preset = _smallest_accepted(c1, "PRESET", [p for p in TRIES if p >= least])
-        oper = _ask(c1, "OPER")
+        preset = None
+        for v in (p for p in TRIES if p >= least):  # a counter may refuse at PRESET or OPER
+            _ask(c1, "STBY")
+            if _ask(c1, f"PRESET {v}") == "OK" and _ask(c1, "OPER") == "OK":
+                preset = v
+                break
         c1.close()
+        if preset is None:
+            raise SystemExit("flood preset: no PRESET accepted with OPER")
         what = _serial_flood(link.serial["counter1"], [b"READ?\n" * 64], stop)
-        print(f"flood preset: PRESET {preset} accepted, OPER {oper}; {what}", flush=True)
+        print(f"flood preset: PRESET {preset} on 1 MHz accepted in OPER; {what}", flush=True)
     elif kind == "ieu":
         ieu = IeuDriver(link.can["ieu"], timeout=2.0)
         accepted = None

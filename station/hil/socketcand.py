@@ -223,6 +223,8 @@ class SocketcandClient:
                 return
             if isinstance(msg, str) and not self._backlog and not self._busy:
                 data = msg.encode("ascii")
+                self.counters.tx_bytes += len(data)  # first: it may reach the host at once
+                self.counters.touch()
                 try:
                     n = self.sock.send(data, socket.MSG_DONTWAIT)
                 except BlockingIOError:
@@ -231,10 +233,9 @@ class SocketcandClient:
                     self._closed.set()
                     self._out_cond.notify()
                     return
-                self.counters.tx_bytes += n
-                self.counters.touch()
                 if n == len(data):
                     return
+                self.counters.tx_bytes -= len(data) - n  # the writer counts the rest
                 msg = data[n:].decode("ascii")
             if len(self._backlog) >= MAX_QUEUED:
                 log.warning("socketcand %s: client not reading, disconnecting it", self.peer)
@@ -252,8 +253,8 @@ class SocketcandClient:
     def deliver(self, t: float, arbitration_id: int, data: bytes) -> None:
         """Simulation thread: a frame for the client (only clients in raw mode are on the
         hub)."""
+        self.counters.tx_msgs += 1  # counted first: the frame may reach the host at once
         self._say(format_frame(t, arbitration_id, data))
-        self.counters.tx_msgs += 1
 
     def _write_loop(self) -> None:
         """Send what backed up, in batches; after a HOLD wait for the client to speak."""
@@ -292,6 +293,7 @@ class SocketcandClient:
     def _post(self, ident: int, data: bytes) -> None:
         """Reader thread: a host frame onto the bus (at its arrival's simulated time)."""
         self.posted += 1
+        self.counters.rx_msgs += 1
         self.server.hub.send(self, ident, data, self._applied)
 
     def _applied(self) -> None:
@@ -340,11 +342,9 @@ class SocketcandClient:
         if not tokens:
             return
         self.counters.last_msg = short(" ".join(tokens))
-        sent = self.protocol.frames_sent
         with self._out_cond:  # (reentrant) a frame delivered meanwhile queues behind the replies
             for reply in self.protocol.handle(tokens):
                 self._say(reply)
-        self.counters.rx_msgs += self.protocol.frames_sent - sent
         if self.protocol.refused:
             self.refusals.info(time.monotonic(), "socketcand %s: ignored %s: %s", self.peer,
                                " ".join(tokens)[:40], self.protocol.refused[0])

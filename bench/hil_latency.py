@@ -23,6 +23,7 @@ quiet link's p99 lateness should stay within 2 ms; the server's slip is printed 
 from __future__ import annotations
 
 import argparse
+import math
 import os
 import random
 import signal
@@ -36,10 +37,13 @@ from pathlib import Path
 
 import serial
 
-from station.config import load_config
-from station.drivers import IeuDriver, OscillatorDriver
-from station.hil import link_map
-from station.hil.profile import served
+ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT))  # measure this tree, not whichever copy is installed
+
+from station.config import load_config  # noqa: E402
+from station.drivers import IeuDriver, OscillatorDriver  # noqa: E402
+from station.hil import link_map  # noqa: E402
+from station.hil.profile import served  # noqa: E402
 
 # flood kind -> what it sends (the flooding process reads and drops every reply)
 FLOODS = {
@@ -52,7 +56,8 @@ FLOODS = {
     "slcan": "the slcan pty sent frames, junk and over-long lines as fast as it takes them",
 }
 FLOOD_START_S = 1.0  # wall seconds the floods run before the quiet link is measured
-TRIES = (1, 2, 5, 10, 15, 20, 50, 100, 200, 500, 1000, 2000, 5000, 10_000, 100_000)
+TRIES = (1, 2, 5, 10, 15, 20, 50, 100, 200, 500, 1000, 2000, 5000, 10_000, 20_000, 50_000,
+         100_000, 200_000, 500_000, 1_000_000)
 
 
 def _percentile(xs: list[float], q: float) -> float:
@@ -144,16 +149,15 @@ def _ask(port: serial.Serial, cmd: str) -> str:
     return port.read_until(b"\n").decode("ascii", "replace").strip()
 
 
-def _smallest_accepted(port: serial.Serial, cmd: str, values: list[int]) -> int:
-    for v in values:
-        if _ask(port, f"{cmd} {v}") == "OK":
-            return v
-    raise SystemExit(f"flood: no {cmd} accepted among {values}")
+def _ready() -> None:
+    """Tell the measuring process this flood is under way (one line on stdout)."""
+    print("flooding", flush=True)
 
 
 def _pump(port: serial.Serial, chunks: list[bytes], stop: threading.Event) -> int:
     """Write ``chunks`` round and round, 256 bytes at a time, until ``stop``; bytes written
     (a piece cut short by the write timeout is not counted)."""
+    _ready()
     data = b"".join(chunks)
     pieces = [data[i:i + 256] for i in range(0, len(data), 256)]
     sent = 0
@@ -209,22 +213,30 @@ def flooder(kind: str, links: Path, stop: threading.Event, least: int) -> None:
         c1 = serial.serial_for_url(link.serial["counter1"], timeout=2.0, write_timeout=0.5)
         _ask(c1, "*RST")
         _ask(c1, "MODE Z")
-        preset = _smallest_accepted(c1, "PRESET", [p for p in TRIES if p >= least])
-        oper = _ask(c1, "OPER")
+        preset = None
+        for v in (p for p in TRIES if p >= least):  # a counter may refuse at PRESET or OPER
+            _ask(c1, "STBY")
+            if _ask(c1, f"PRESET {v}") == "OK" and _ask(c1, "OPER") == "OK":
+                preset = v
+                break
         c1.close()
+        if preset is None:
+            raise SystemExit("flood preset: no PRESET accepted with OPER")
         what = _serial_flood(link.serial["counter1"], [b"READ?\n" * 64], stop)
-        print(f"flood preset: PRESET {preset} accepted, OPER {oper}; {what}", flush=True)
+        print(f"flood preset: PRESET {preset} on 1 MHz accepted in OPER; {what}", flush=True)
     elif kind == "ieu":
         ieu = IeuDriver(link.can["ieu"], timeout=2.0)
         accepted = None
         for period in (p for p in TRIES if p >= least):
             try:
                 ieu.start(period)
-            except Exception:  # noqa: BLE001 - refused: try a longer period
+            except Exception as e:  # noqa: BLE001 - refused: try a longer period
+                print(f"flood ieu: PeriodTicks {period}: {e}", file=sys.stderr, flush=True)
                 continue
             accepted = period
             break
         n = 0
+        _ready()
         while not stop.is_set():
             if ieu.bus.recv(0.2) is not None:
                 n += 1
@@ -258,6 +270,7 @@ def flooder(kind: str, links: Path, stop: threading.Event, least: int) -> None:
                     return
         threading.Thread(target=drain, daemon=True).start()
         sent = 0
+        _ready()
         sock.settimeout(0.5)
         while not stop.is_set():
             try:
@@ -285,6 +298,15 @@ def _loadavg() -> str:
         return "?"
 
 
+def _cpu_s(pid: int) -> float:
+    """CPU seconds (user + system) a process has used so far (Linux /proc)."""
+    try:
+        fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+    except OSError:
+        return math.nan
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
 def _nice(pid: int) -> str:
     try:
         return str(os.getpriority(os.PRIO_PROCESS, pid))
@@ -300,7 +322,7 @@ def _start_server(d: Path, only: str | None, nice: int = 0) -> tuple[Path, subpr
     if only:
         cmd += ["--only", only]
     with open(out, "w") as log:
-        server = subprocess.Popen(cmd, stdout=log, stderr=subprocess.STDOUT,
+        server = subprocess.Popen(cmd, stdout=log, stderr=subprocess.STDOUT, cwd=ROOT,
                                   preexec_fn=(lambda: os.nice(nice)) if nice else None)
     while not (links / link_map.FILENAME).exists():
         if server.poll() is not None:
@@ -332,24 +354,32 @@ def flood_case(kinds: list[str], n: int, least: dict[str, int] | None = None,
             for k in kinds:  # each runs until told to stop (SIGTERM), then reports
                 procs.append(subprocess.Popen(
                     [sys.executable, __file__, "--flooder", k, str(links),
-                     str((least or {}).get(k, 1))],
+                     str((least or {}).get(k, 1))], stdout=subprocess.PIPE, text=True,
                     preexec_fn=(lambda: os.nice(-nice)) if nice else None))
+            for k, p in zip(kinds, procs, strict=True):
+                line = p.stdout.readline() if p.stdout else ""
+                if line.strip() != "flooding":
+                    raise SystemExit(f"flood {k} did not start: {line.strip()!r}")
             time.sleep(FLOOD_START_S)
             print(f"speed 1, reply latency {latency_s * 1e3:g} ms configured; floods: "
                   f"{', '.join(kinds) or 'none'}; load average {_loadavg()} before; server "
                   f"nice {_nice(server.pid)}", flush=True)
+            cpu0, wall0 = _cpu_s(server.pid), time.monotonic()
             late = quiet_replies([link.serial["oscillator"], link.serial["table"]], n, latency_s)
+            cpu = (_cpu_s(server.pid) - cpu0) / (time.monotonic() - wall0)
             _report("quiet link (*IDN?/STAT?)", late)
+            print(f"server CPU meanwhile: {cpu:.0%} of one core", flush=True)
             print(f"load average {_loadavg()} after", flush=True)
         finally:
             for p in procs:
                 p.send_signal(signal.SIGTERM)
             for p in procs:
                 try:
-                    p.wait(30)
+                    out_text, _ = p.communicate(timeout=30)
                 except subprocess.TimeoutExpired:
                     p.kill()
-                    p.wait()
+                    out_text, _ = p.communicate()
+                print(out_text.strip(), flush=True)
             _stop_server(server, out)
 
 

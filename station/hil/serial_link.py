@@ -54,9 +54,7 @@ class SerialPtyLink:
 
     def _from_host(self, data: bytes) -> None:
         """Reader thread: hand the bytes to the simulation thread, stamped with their arrival."""
-        self.posted += len(data)
-        self.env.post(lambda: self._apply(data))
-        c = self.counters
+        c = self.counters  # counted first: the reply may reach the host before we return
         c.rx_bytes += len(data)
         *complete, rest = (bytes(self._seen) + data).split(b"\n")
         if complete:
@@ -64,6 +62,8 @@ class SerialPtyLink:
             c.last_msg = short(complete[-1][:MAX_SEEN])
         self._seen[:] = rest[:MAX_SEEN]
         c.touch()
+        self.posted += len(data)
+        self.env.post(lambda: self._apply(data))
 
     def _apply(self, data: bytes) -> None:
         """Simulation thread: the host's bytes reach the instrument."""
@@ -73,11 +73,11 @@ class SerialPtyLink:
     def _to_host(self, data: bytes) -> None:
         """Simulation thread: one chunk of instrument output."""
         self.instrument.output.clear()  # nobody else reads it; do not let it grow all day
-        self.port.write(data)
-        c = self.counters
+        c = self.counters  # counted first: the write may reach the host at once
         c.tx_bytes += len(data)
         c.tx_msgs += data.count(b"\n")
         c.touch()
+        self.port.write(data)
 
     def start(self) -> None:
         self.port.start()

@@ -164,7 +164,7 @@ class SlcanAdapter:
                  rate: throttle.Rate = throttle.SERIAL) -> None:
         self.hub = hub
         self.env = hub.env
-        self.protocol = SlcanProtocol(lambda i, d: hub.on_bus(self, i, d), self._discard)
+        self.protocol = SlcanProtocol(self._on_frame, self._discard)
         self.lines = SlcanLines()  # reader thread only
         self.posted = 0  # bytes handed to the simulation thread (reader thread)
         self.applied = 0  # of those, bytes executed (simulation thread)
@@ -193,6 +193,12 @@ class SlcanAdapter:
     def _keeping_up(self) -> bool:
         return self.posted - self.applied < MAX_BACKLOG
 
+    def _on_frame(self, arbitration_id: int, data: bytes) -> None:
+        """Simulation thread: a host frame onto the bus (counted first: the IEU may answer
+        it, and the answer reach the host, at once)."""
+        self.counters.rx_msgs += 1
+        self.hub.on_bus(self, arbitration_id, data)
+
     def _discard(self) -> None:
         self.port.discard_output()
 
@@ -212,9 +218,7 @@ class SlcanAdapter:
         """Simulation thread: execute command lines and answer each."""
         self.applied += size
         for raw in lines:
-            sent = self.protocol.frames_sent
-            reply = self.protocol.execute(raw)
-            self.counters.rx_msgs += self.protocol.frames_sent - sent
+            reply = self.protocol.execute(raw)  # a frame sent is counted by _on_frame
             if reply == ERROR:
                 what = "an over-long line" if raw is None else repr(raw[:20])
                 self.refusals.info(time.monotonic(), "slcan %s: refused %s", self.port.name,
@@ -223,12 +227,12 @@ class SlcanAdapter:
 
     def _write(self, data: bytes) -> None:
         """Simulation thread: bytes to the host."""
+        self.counters.tx_bytes += len(data)  # counted first: the write may reach the host at once
         self.port.write(data)
-        self.counters.tx_bytes += len(data)
 
     # ----- bus to host -----
     def deliver(self, t: float, arbitration_id: int, data: bytes) -> None:
         if self.protocol.is_open:
-            self._write(format_frame(arbitration_id, data))
             self.counters.tx_msgs += 1
             self.counters.touch()
+            self._write(format_frame(arbitration_id, data))

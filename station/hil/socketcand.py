@@ -20,10 +20,10 @@ refused message is logged at most once a second per client, with a count of the 
 from __future__ import annotations
 
 import logging
-import queue
 import socket
 import threading
 import time
+from collections import deque
 from collections.abc import Callable
 
 from station.hil import throttle
@@ -186,7 +186,7 @@ class SocketcandClient:
             server.channel, lambda: server.hub.attach(self), lambda: server.hub.detach(self),
             lambda i, d: self._post(i, d))
         self.messages = SocketcandMessages()
-        self.counters = LinkCounters()  # rx: reader thread; frames out: sim; bytes out: writer
+        self.counters = LinkCounters()  # rx: reader thread; frames out: sim; bytes out: lock
         speed = server.hub.env.speed
         now = time.monotonic()
         self._bytes = throttle.TokenBucket.of(throttle.SOCKETCAND_BYTES, speed, now)
@@ -196,7 +196,9 @@ class SocketcandClient:
         self.applied = 0  # of those, frames on the bus (simulation thread)
         self.held = 0  # times the reader waited (bus busy, simulation behind)
         self.refusals = throttle.LogLimiter(log)  # reader thread
-        self._out: queue.SimpleQueue = queue.SimpleQueue()  # bounded by _say (cheap put)
+        self._backlog: deque[str | object] = deque()  # messages waiting for the writer
+        self._busy = False  # the writer is sending (or holding): no direct sends meanwhile
+        self._out_cond = threading.Condition()
         self._spoke = threading.Event()  # the client sent something after entering raw mode
         self._closed = threading.Event()
         self._reader = threading.Thread(target=self._read_loop, name=f"scd-rd-{peer}", daemon=True)
@@ -213,60 +215,85 @@ class SocketcandClient:
 
     # ----- output -----
     def _say(self, msg: str | object) -> None:
-        if self._closed.is_set():
-            return
-        if self._out.qsize() < MAX_QUEUED:
-            self._out.put(msg)
-        else:
-            log.warning("socketcand %s: client not reading, disconnecting it", self.peer)
-            self.server.hub.detach(self)
-            self._closed.set()
-            try:
-                self.sock.shutdown(socket.SHUT_RDWR)
-            except OSError:
-                pass
-
-    def deliver(self, t: float, arbitration_id: int, data: bytes) -> None:
-        """Simulation thread: queue a frame (only clients in raw mode are on the hub)."""
-        self._say(format_frame(t, arbitration_id, data))
-        self.counters.tx_msgs += 1
-
-    def _write_loop(self) -> None:
-        while True:
-            item = self._out.get()
-            batch: list[str] = []
-            hold = False
-            while True:
-                if item is None:
-                    break
-                if item is HOLD:
-                    hold = True
-                    break
-                batch.append(item)
-                if len(batch) >= 256:
-                    break
+        """A message for the client (any thread). Sent at once from the calling thread when
+        nothing is queued or being written (a frame then costs one non-blocking send, not a
+        hand-over to the writer thread); otherwise queued, up to ``MAX_QUEUED``."""
+        with self._out_cond:
+            if self._closed.is_set():
+                return
+            if isinstance(msg, str) and not self._backlog and not self._busy:
+                data = msg.encode("ascii")
+                self.counters.tx_bytes += len(data)  # first: it may reach the host at once
+                self.counters.touch()
                 try:
-                    item = self._out.get_nowait()
-                except queue.Empty:
-                    break
-            if batch:
-                out = "".join(batch).encode("ascii")
-                try:
-                    self.sock.sendall(out)
+                    n = self.sock.send(data, socket.MSG_DONTWAIT)
+                except BlockingIOError:
+                    n = 0
                 except OSError:
                     self._closed.set()
+                    self._out_cond.notify()
                     return
-                self.counters.tx_bytes += len(out)
-                self.counters.touch()
-            if item is None or self._closed.is_set():
+                if n == len(data):
+                    return
+                self.counters.tx_bytes -= len(data) - n  # the writer counts the rest
+                msg = data[n:].decode("ascii")
+            if len(self._backlog) >= MAX_QUEUED:
+                log.warning("socketcand %s: client not reading, disconnecting it", self.peer)
+                self.server.hub.detach(self)
+                self._closed.set()
+                self._out_cond.notify()
+                try:
+                    self.sock.shutdown(socket.SHUT_RDWR)
+                except OSError:
+                    pass
                 return
-            if hold:
-                self._spoke.wait(GRACE_S)
+            self._backlog.append(msg)
+            self._out_cond.notify()
+
+    def deliver(self, t: float, arbitration_id: int, data: bytes) -> None:
+        """Simulation thread: a frame for the client (only clients in raw mode are on the
+        hub)."""
+        self.counters.tx_msgs += 1  # counted first: the frame may reach the host at once
+        self._say(format_frame(t, arbitration_id, data))
+
+    def _write_loop(self) -> None:
+        """Send what backed up, in batches; after a HOLD wait for the client to speak."""
+        while True:
+            with self._out_cond:
+                while not self._backlog and not self._closed.is_set():
+                    self._out_cond.wait()
+                if self._closed.is_set():
+                    return
+                batch: list[str] = []
+                hold = False
+                while self._backlog and len(batch) < 256:
+                    item = self._backlog.popleft()
+                    if item is HOLD:
+                        hold = True
+                        break
+                    batch.append(str(item))
+                self._busy = True
+            try:
+                if batch:
+                    out = "".join(batch).encode("ascii")
+                    self.sock.sendall(out)
+                    with self._out_cond:
+                        self.counters.tx_bytes += len(out)
+                        self.counters.touch()
+                if hold:
+                    self._spoke.wait(GRACE_S)
+            except OSError:
+                self._closed.set()
+                return
+            finally:
+                with self._out_cond:
+                    self._busy = False
 
     # ----- input -----
     def _post(self, ident: int, data: bytes) -> None:
         """Reader thread: a host frame onto the bus (at its arrival's simulated time)."""
         self.posted += 1
+        self.counters.rx_msgs += 1
         self.server.hub.send(self, ident, data, self._applied)
 
     def _applied(self) -> None:
@@ -315,10 +342,9 @@ class SocketcandClient:
         if not tokens:
             return
         self.counters.last_msg = short(" ".join(tokens))
-        sent = self.protocol.frames_sent
-        for reply in self.protocol.handle(tokens):
-            self._say(reply)
-        self.counters.rx_msgs += self.protocol.frames_sent - sent
+        with self._out_cond:  # (reentrant) a frame delivered meanwhile queues behind the replies
+            for reply in self.protocol.handle(tokens):
+                self._say(reply)
         if self.protocol.refused:
             self.refusals.info(time.monotonic(), "socketcand %s: ignored %s: %s", self.peer,
                                " ".join(tokens)[:40], self.protocol.refused[0])
@@ -332,7 +358,8 @@ class SocketcandClient:
             self.sock.shutdown(socket.SHUT_RDWR)
         except OSError:
             pass
-        self._out.put(None)  # the writer's end, past any bound
+        with self._out_cond:
+            self._out_cond.notify_all()  # the writer sees _closed and ends
         if self._writer.is_alive() and threading.current_thread() is not self._writer:
             self._writer.join(2.0)
         self.sock.close()

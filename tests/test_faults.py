@@ -300,12 +300,21 @@ def test_ieu_corruption_is_caught_by_the_driver_or_the_collection():
     assert o["seq"] == msg.decode(data)["Seq"] and o["deviation_sigma"] > 6.0
 
 
-def test_a_record_with_an_altered_count_is_taken_again_or_refused():
-    """collect_checked: the altered record is refused; with a retake the second record is
-    clean (and the refusal recorded), without one the step stops naming the IEU."""
-    faults = {"ieu": {"corrupt_rate": 0.02}}
-    for retakes in (0, 3):
-        with rig(faults, seed=17) as (_, st):
+def test_a_record_with_an_altered_count_is_taken_again_or_refused(monkeypatch):
+    """collect_checked: the altered record (seed 17: one count) is refused; with a retake
+    (the link clean again) the second record is used and the refusal recorded; without one
+    the step stops naming the IEU and the sample."""
+    import procedures.alignment.sampling as sampling
+
+    real = sampling.collect
+    for retakes in (0, 1):
+        with rig({"ieu": {"corrupt_rate": 0.02}}, seed=17) as (rack, st):
+            def once(*a, rack=rack, **k):
+                rec = real(*a, **k)
+                rack.ieu.frame_fault = None  # the fault passes: the retake is clean
+                return rec
+
+            monkeypatch.setattr(sampling, "collect", once)
             try:
                 rec = collect_checked(st, *SAMPLING, recover=True, s2=1e-4,
                                       noise=NoiseSpec(), retakes=retakes)
@@ -314,8 +323,11 @@ def test_a_record_with_an_altered_count_is_taken_again_or_refused():
                 assert str(e).startswith("ieu (sim:ieu): sample ")
                 assert "the record is not used" in str(e)
                 continue
-        assert retakes == 3 and rec.outliers == [] and rec.retakes
+        assert retakes == 1 and rec.outliers == []
+        (refused,) = rec.retakes
+        assert refused["outliers"][0]["deviation_sigma"] > 6.0
         assert rec.summary()["retakes"] == rec.retakes
+        assert rec.first_seq > refused["seq"][1]  # a new record, after the refused one
 
 
 # ----------------------------------------------------------------------------- 7. stall

@@ -236,11 +236,18 @@ def panel_connection(st, counter: int, inp: str, lines: set[str],
 RATE_TOLERANCE = 0.01  # relative: a turning axis at its commanded rate (servo and reading)
 
 
+def patch_check_counter(st, counter: int, k: int) -> None:
+    """Connect gyro k's + and - lines to a check counter's X and Y (its Z stays)."""
+    st.patch_panel.connect(f"G{k}+", counter, "X")
+    st.patch_panel.connect(f"G{k}-", counter, "Y")
+
+
 @dataclass
 class Gate:
     readings: dict[int, int]
     t_oper: float
     t_done: float
+    t_each: dict[int, float] = field(default_factory=dict)  # when each counter was operated
 
 
 def run_counters(st, presets: dict[int, int], timeout: float,
@@ -255,7 +262,9 @@ def run_counters(st, presets: dict[int, int], timeout: float,
         st.counters[c].set_preset(n)
         st.counters[c].discard_readings()
     t0 = st.clock.now()
+    t_each = {}
     for c in presets:
+        t_each[c] = st.clock.now()
         st.counters[c].operate()
     readings = {}
     try:
@@ -275,7 +284,35 @@ def run_counters(st, presets: dict[int, int], timeout: float,
     for c in presets:
         st.counters[c].standby()
         st.counters[c].discard_readings()  # later gates printed while others still ran
-    return Gate(readings, t0, st.clock.now())
+    return Gate(readings, t0, st.clock.now(), t_each)
+
+
+def check_repeated_counts(st, gate: Gate, repeats: dict[int, int],
+                          gate_s: float | None) -> dict[str, int]:
+    """Counters that counted the same line over the same gate must agree. ``gate_s`` None:
+    the gate is a number of the table's rotation pulses, opened on the same pulse for
+    every counter (no pulse falls between their switches to operate), so the counts are
+    equal to a pulse; else a preset of clock ticks, each counter's gate opened at its own
+    switch to operate, so they differ by the pulses of those few ms (2 + rate x the time
+    between the switches). Beyond that one reading is garbled: Implausible naming both
+    counters. Returns the differences found (main counter -> difference)."""
+    out = {}
+    for c, main in repeats.items():
+        if c not in gate.readings or main not in gate.readings:
+            continue
+        a, b = gate.readings[main], gate.readings[c]
+        if gate_s is None:
+            allowed = 1.0
+        else:
+            rate = max(abs(a), abs(b)) / gate_s if gate_s > 0 else 0.0
+            allowed = 2.0 + rate * abs(gate.t_each[c] - gate.t_each[main])
+        if abs(a - b) > allowed:
+            raise Implausible(
+                f"{source_of(st.counters[main])} and {source_of(st.counters[c])}",
+                f"counted the same line over the same gate as {a} and {b} (allowed "
+                f"difference {allowed:.3g}): one reading is garbled")
+        out[str(main)] = b - a
+    return out
 
 
 TURN_RATE_TOLERANCE = 1e-3  # relative: the table's mean rate over whole turns (data sheet)

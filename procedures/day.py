@@ -15,6 +15,7 @@ from typing import Any
 
 from procedures import settings as st_settings
 from procedures.accel_static import accel_positions_7_12, accel_positions_13_14
+from procedures.calibration.noise_spec import NoiseSpec
 from procedures.gyro_rotating import scale_factor_positions
 from procedures.gyro_static import gyro_positions_7_12, gyro_positions_13_15
 from procedures.j_term import j_experiment
@@ -59,13 +60,16 @@ def _singles(all_: tuple[int, ...], positions: set[int] | None) -> tuple[int, ..
 
 def measure_day(st, run: Run, plan: DayPlan, site: dict, f0: float,
                 only: tuple[str, ...] | None = None,
-                positions: tuple[int, ...] | None = None) -> DayData:
+                positions: tuple[int, ...] | None = None,
+                noise: NoiseSpec | None = None) -> DayData:
     """Turn-on, survey, settings and the measurement check-sheets; returns the data.
 
     ``positions`` restricts the position charts (II-6, II-11..II-14) to those positions; a
     position of a pair (m, m + 1, the second reached by turning phi3) brings its pair.
     Every chart is a journaled block (``Run.block``), so a resume over links restores the
-    charts already completed and repeats only the interrupted one.
+    charts already completed and repeats only the interrupted one. ``noise``: the lab's
+    specification, which the survey's agreement checks judge its readings by (default:
+    ``NoiseSpec``'s defaults, the default lab's).
     """
     wanted = set(EXPERIMENTS if not only else only)
     unknown = wanted - set(EXPERIMENTS) - {"I-1", "I-2"}
@@ -76,7 +80,7 @@ def measure_day(st, run: Run, plan: DayPlan, site: dict, f0: float,
         raise ValueError(f"unknown position(s) {sorted(pos - set(range(1, 16)))}; "
                          "calibration positions are 1 to 15")
     run.block("I-1", lambda: turn_on(st, run, plan.warmup_s), lambda _: None)
-    survey = run.block("I-2", lambda: system_survey(st, run, site),
+    survey = run.block("I-2", lambda: system_survey(st, run, site, noise=noise),
                        SurveyResults.model_validate)
     s1, _ = oscillator_periods(run)  # as Chart I-1 step 3 read them (twice, agreeing)
     settings = resolver_settings(survey)

@@ -8,8 +8,10 @@ from __future__ import annotations
 
 from procedures.common import (
     axis_rate,
+    check_repeated_counts,
     check_turns_clock,
     patch,
+    patch_check_counter,
     rotary_axis_turning,
     run_counters,
     set_modes,
@@ -17,7 +19,7 @@ from procedures.common import (
 )
 from procedures.plan import DayPlan
 from procedures.runner import Run
-from procedures.settings import GYRO_ROTATING, wiring
+from procedures.settings import ALONG_AXIS_CHECK, GYRO_ROTATING, turning_repeats, wiring
 from procedures.sheets import CounterOutputs, ResolverSettings
 from procedures.turn_on import oscillator_periods
 
@@ -40,6 +42,8 @@ def position_pair(st, sheet, settings: ResolverSettings, plan: DayPlan, m: int,
     """Steps 7-14 for positions m and m + 1; step numbers carry the position (e.g. 9/m2)."""
     n_pulses = plan.min_turns * plan.rotation_pulses_per_rev
     timeout = 2.0 * plan.min_turns * 360.0 / plan.table_rate_deg_s + 60.0
+    k_along = (m + 1) // 2  # gyro whose input axis the pair puts along the rotary axis
+    repeats = turning_repeats(k_along)
     for first, mm in ((True, m), (False, m + 1)):
         p = settings.positions[str(mm)]
         tag = f"/m{mm}"
@@ -47,6 +51,8 @@ def position_pair(st, sheet, settings: ResolverSettings, plan: DayPlan, m: int,
                 else f"Turn phi3 by 180 deg: position {mm}")
         with sheet.step(("7" if first else "12") + tag, text) as s:
             set_position(st, 90.0, None, p.phi3, p.phi4, level=False)
+            if first:  # counter 5 counts the gyro along the axis again
+                patch_check_counter(st, ALONG_AXIS_CHECK, k_along)
             s.reading = {"phi3": p.phi3, "phi4": p.phi4}
         with sheet.step(("8" if first else "13") + tag, "Start the table turning at the "
                         "measurement speed") as s:
@@ -56,8 +62,9 @@ def position_pair(st, sheet, settings: ResolverSettings, plan: DayPlan, m: int,
         with sheet.step("9" + tag, "After a rotary output pulse, switch counters 1-4 to "
                         "operate together") as s:
             wait_clear_of_pulse(st, plan.table_rate_deg_s, plan.rotation_pulses_per_rev)
-            gate = run_counters(st, {c: n_pulses for c in (1, 2, 3, 4)}, timeout,
+            gate = run_counters(st, {c: n_pulses for c in (1, 2, 3, 4, *repeats)}, timeout,
                                 rotary_axis_turning(st, plan.table_rate_deg_s))
+            check_repeated_counts(st, gate, repeats, None)
             s1, _ = oscillator_periods(sheet.run)
             check_turns_clock(st, 1, gate.readings[1], n_pulses, s1,
                               360.0 / plan.rotation_pulses_per_rev, plan.table_rate_deg_s)
@@ -84,10 +91,11 @@ def scale_factor_positions(st, run: Run, settings: ResolverSettings, plan: DayPl
     with run.sheet("II-6", TITLE) as sheet:
         sheet.done("1", "Resolver and counter settings available", {"positions": list(range(1, 7))})
         sheet.done("2", "Turn-on procedures complete (Chart I-1)")
-        with sheet.step("3", "Patch gyros, master oscillator and rotary output to counters 1-4"):
+        with sheet.step("3", "Patch gyros, master oscillator and rotary output to counters 1-4 "
+                        "(and again to 5, 6)"):
             patch(st, wiring(GYRO_ROTATING))
-        with sheet.step("4", "Set counters 1-4 to measure Z"):
-            set_modes(st, (1, 2, 3, 4), "measure Z")
+        with sheet.step("4", "Set counters 1-4 to measure Z (and 5, 6 counting again)"):
+            set_modes(st, (1, 2, 3, 4, 5, 6), "measure Z")
         with sheet.step("5", "Set phi1 to 90 deg (rotary axis horizontal)"):
             st.table.move(1, 90.0)
             st.table.set_pulses_per_rev(plan.rotation_pulses_per_rev)

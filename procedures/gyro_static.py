@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from procedures.common import Gate, PositionSet
 from procedures.runner import Run
-from procedures.settings import GYRO_STATIC
+from procedures.settings import GYRO_CHECK_COUNTERS, GYRO_STATIC
 from procedures.sheets import CounterOutputs, CounterSettings, ResolverSettings
 from procedures.static_positions import StaticKind, pair_steps, run_static, single_steps
 
@@ -25,11 +25,12 @@ def _kind(s1: float) -> StaticKind:
 
     return StaticKind(
         experiment=GYRO_STATIC, counters=(2, 3, 4), mode="measure Z", sheet_key="gyro",
-        patch_text="Patch gyros and master oscillator to counters 2-4",
+        patch_text="Patch gyros and master oscillator to counters 2-4 (and again to 5, 6, 1)",
         preset_text="Set the clock-count presets on counters 2-4",
         operate_text="Switch counters to operate; after the print-out, standby",
         record_text="Record the gyro counts on the Counter Outputs Sheet",
         timeout=lambda n: max(n.values()) * s1 * 1.5 + 60.0, record=record,
+        repeats=GYRO_CHECK_COUNTERS, gate_s=lambda n: max(n.values()) * s1,
     )
 
 

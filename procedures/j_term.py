@@ -19,18 +19,20 @@ import math
 import numpy as np
 from scipy.integrate import quad
 
-from procedures.common import patch, set_modes, set_position
+from procedures.common import Gate, check_repeated_counts, patch, set_modes, set_position
 from procedures.plan import DayPlan
 from procedures.plausibility import Implausible, source_of
 from procedures.runner import Run
-from procedures.settings import GYRO_STATIC, wiring
+from procedures.settings import GYRO_CHECK_COUNTERS, GYRO_STATIC, wiring
 from procedures.sheets import ResolverSettings
 
 TITLE = "J term experiment (designed: commanded table acceleration, positions 7 and 11)"
 GYROS_OF_POSITION = {7: (2, 3), 11: (1,)}
 # the table's rotary angle after a gate against the commanded ramp: a few arcsec of
-# resolver error and servo lag on a good day; a stalled axis or a garbled reading is far off
+# resolver error and servo lag on a good day, plus the turn during a link's delay when the
+# table still turns (a real-time link: up to PROFILE_DELAY_S); a stalled axis is far off
 PROFILE_TOLERANCE_DEG = 0.01
+PROFILE_DELAY_S = 0.05
 DEG = math.pi / 180.0
 
 
@@ -75,7 +77,7 @@ def j_experiment(st, run: Run, settings: ResolverSettings, plan: DayPlan, s1: fl
         with sheet.step("2", "Patch gyros and master oscillator to counters 2-4 (positions "
                         "7-15 wiring); measure Z"):
             patch(st, wiring(GYRO_STATIC))
-            set_modes(st, (2, 3, 4), "measure Z")
+            set_modes(st, (2, 3, 4, *GYRO_CHECK_COUNTERS), "measure Z")
         for m, gyros in GYROS_OF_POSITION.items():
             p = settings.positions[str(m)]
             tag = f"/m{m}"
@@ -84,6 +86,8 @@ def j_experiment(st, run: Run, settings: ResolverSettings, plan: DayPlan, s1: fl
                 ps = set_position(st, 0.0, 90.0, p.phi3, p.phi4, level=True)
                 s.reading = ps.reading()
             counters = {k + 1: n_ticks for k in gyros}
+            repeats = {c: main for c, main in GYRO_CHECK_COUNTERS.items() if main in counters}
+            counters |= {c: n_ticks for c in repeats}  # each count read twice
             recs = []
             for i in range(pairs):
                 for direction in ("up", "down"):
@@ -108,11 +112,13 @@ def j_experiment(st, run: Run, settings: ResolverSettings, plan: DayPlan, s1: fl
                                     for c in counters}
                         for c in counters:
                             st.counters[c].standby()
+                        check_repeated_counts(st, Gate(readings, 0.0, 0.0, t_oper), repeats,
+                                              n_ticks * s1)
                         t_read = st.clock.now() - t_pos
                         phi_read = st.table.position(2)
                         prof = profile(phi_start, w_start, w_end, acc, t_cmd)
                         off = (prof(t_read) - phi_read + 180.0) % 360.0 - 180.0
-                        if abs(off) > PROFILE_TOLERANCE_DEG:
+                        if abs(off) > PROFILE_TOLERANCE_DEG + abs(w_end) * PROFILE_DELAY_S:
                             raise Implausible(
                                 source_of(st.table),
                                 f"axis 2 did not follow the commanded ramp: it reads "

@@ -15,8 +15,10 @@ import numpy as np
 
 from procedures.common import (
     axis_rate,
+    check_repeated_counts,
     check_turns_clock,
     patch,
+    patch_check_counter,
     rotary_axis_turning,
     run_counters,
     set_modes,
@@ -25,7 +27,7 @@ from procedures.common import (
 from procedures.gyro_rotating import wait_clear_of_pulse
 from procedures.plan import DayPlan
 from procedures.runner import Run
-from procedures.settings import GYRO_ROTATING, wiring
+from procedures.settings import ALONG_AXIS_CHECK, GYRO_ROTATING, turning_repeats, wiring
 from procedures.sheets import ResolverSettings
 
 TITLE = "Gyro scale-factor nonlinearity experiments"
@@ -50,8 +52,10 @@ def speed_series(st, sheet, tag: str, k: int, plan: DayPlan, s1: float,
             s.reading = {"rate_deg_s": axis_rate(st, 2, rate)}
         with sheet.step("8" + rtag, "Switch counters to operate between rotary pulses"):
             wait_clear_of_pulse(st, rate, ppr)
-            gate = run_counters(st, {1: n_pulses, k + 1: n_pulses}, timeout,
+            repeats = turning_repeats(k)
+            gate = run_counters(st, {c: n_pulses for c in (1, k + 1, *repeats)}, timeout,
                                 rotary_axis_turning(st, rate))
+            check_repeated_counts(st, gate, repeats, None)
             check_turns_clock(st, 1, gate.readings[1], n_pulses, s1, s_phi, rate)
         with sheet.step("10" + rtag, "Record the outputs") as s:
             ticks, counts = gate.readings[1], gate.readings[k + 1]
@@ -77,13 +81,14 @@ def nonlinearity_experiment(st, run: Run, settings: ResolverSettings, plan: DayP
         with sheet.step("3", "Patch gyros, master oscillator and rotary output (positions 1-6)"):
             patch(st, wiring(GYRO_ROTATING))
         with sheet.step("4", "Set counters to measure Z"):
-            set_modes(st, (1, 2, 3, 4), "measure Z")
+            set_modes(st, (1, 2, 3, 4, 5, 6), "measure Z")
         for k in (1, 2, 3):
             m = POSITION_OF_GYRO[k]
             p = settings.positions[str(m)]
             tag = f"/g{k}"
             with sheet.step("5" + tag, f"Set phi1 = 90 deg, phi3 and phi4 of position {m}"):
                 set_position(st, 90.0, None, p.phi3, p.phi4, level=False)
+                patch_check_counter(st, ALONG_AXIS_CHECK, k)  # counted again on counter 5
             points[k] = speed_series(st, sheet, tag, k, plan, s1, omega_sin_lambda)
             with sheet.step("12" + tag, "Stop the table"):
                 st.table.stop(2)
@@ -116,13 +121,14 @@ def q_is_experiment(st, run: Run, t_bi, plan: DayPlan, s1: float,
     with run.sheet("II-7Q", Q_IS_TITLE) as sheet:
         with sheet.step("1", "Patch as for positions 1-6; counters to measure Z"):
             patch(st, wiring(GYRO_ROTATING))
-            set_modes(st, (1, 2, 3, 4), "measure Z")
+            set_modes(st, (1, 2, 3, 4, 5, 6), "measure Z")
         for k in (1, 2, 3):
             tag = f"/g{k}"
             phi3, phi4 = settings_for(np.asarray(t_bi), bisector(k))
             with sheet.step("5" + tag, f"Set phi1 = 90 deg; (G{k} + S{k})/sqrt2 along the "
                             "rotary axis") as s:
                 set_position(st, 90.0, None, phi3, phi4, level=False)
+                patch_check_counter(st, ALONG_AXIS_CHECK, k)  # counted again on counter 5
                 s.reading = {"phi3": phi3, "phi4": phi4}
             points[k] = speed_series(st, sheet, tag, k, plan, s1, omega_sin_lambda)
             with sheet.step("12" + tag, "Stop the table"):

@@ -19,6 +19,21 @@ GYRO_STATIC = "gyro 7-15"
 ACCEL = "accelerometer 7-15"
 
 STRINGS = {1: "A1S1", 2: "A1S2", 3: "A2S1", 4: "A2S2", 5: "A3S1", 6: "A3S2"}
+# Positions 7-15 leave counters 5, 6 and 1 free: each counts a gyro again over the same
+# clock gate (the panel lets a line feed several inputs), so every gyro count is read twice
+# (project addition to Chart II-2: a count has no other repetition, procedures.plausibility)
+GYRO_CHECK_COUNTERS = {5: 2, 6: 3, 1: 4}  # check counter -> counter it repeats
+# Positions 1-6 and the speed series leave counters 5 and 6 free: 5 counts again the gyro
+# whose input axis is along the rotary axis (re-patched per position pair or gyro), 6 the
+# clock, over the same rotation pulses
+TURNING_CHECK_COUNTERS = {6: 1}  # and 5 -> the counter of the gyro along the rotary axis
+ALONG_AXIS_CHECK = 5
+
+
+def turning_repeats(k: int) -> dict[int, int]:
+    """Check counter -> counter it repeats while gyro k's input axis is along the rotary
+    axis (counter k + 1 counts gyro k)."""
+    return {ALONG_AXIS_CHECK: k + 1, **TURNING_CHECK_COUNTERS}
 
 
 def counter_connections() -> CounterConnections:
@@ -27,9 +42,13 @@ def counter_connections() -> CounterConnections:
         "1": CounterConnection(xy="OSC1", z="TROT", mode="measure Z"),
         **{str(k + 1): CounterConnection(xy=f"G{k}+/G{k}-", z="TROT", mode="measure Z")
            for k in (1, 2, 3)},
+        # counter 5: gyro 1 to begin with, then the gyro along the rotary axis
+        str(ALONG_AXIS_CHECK): CounterConnection(xy="G1+/G1-", z="TROT", mode="measure Z"),
+        "6": CounterConnection(xy="OSC1", z="TROT", mode="measure Z"),
     }
     s = {str(k + 1): CounterConnection(xy=f"G{k}+/G{k}-", z="OSC1", mode="measure Z")
          for k in (1, 2, 3)}
+    s |= {str(c): s[str(main)] for c, main in GYRO_CHECK_COUNTERS.items()}
     a = {str(c): CounterConnection(xy=line, z="OSC1", mode="measure X-Y")
          for c, line in STRINGS.items()}
     return CounterConnections(experiments={GYRO_ROTATING: g, GYRO_STATIC: s, ACCEL: a})
@@ -57,10 +76,10 @@ def counter_settings(
     presets: dict[str, dict[str, int]] = {}
     turns = plan.min_turns * plan.rotation_pulses_per_rev
     for m in range(1, 7):
-        presets[f"gyro {m}"] = {str(c): turns for c in (1, 2, 3, 4)}
+        presets[f"gyro {m}"] = {str(c): turns for c in (1, 2, 3, 4, 5, 6)}
     n_gyro = int(round(gyro_gate_s / s1))
     for m in range(7, 16):
-        presets[f"gyro {m}"] = {str(c): n_gyro for c in (2, 3, 4)}
+        presets[f"gyro {m}"] = {str(c): n_gyro for c in (2, 3, 4, *GYRO_CHECK_COUNTERS)}
     for m in range(7, 15):
         vert = vertical_accelerometer(m)
         row = {}

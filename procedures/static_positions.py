@@ -8,9 +8,17 @@ what is patched, the counter mode, the presets and what a reading means (``Stati
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
-from procedures.common import Gate, PositionSet, patch, run_counters, set_modes, set_position
+from procedures.common import (
+    Gate,
+    PositionSet,
+    check_repeated_counts,
+    patch,
+    run_counters,
+    set_modes,
+    set_position,
+)
 from procedures.runner import Run
 from procedures.settings import wiring
 from procedures.sheets import CounterOutputs, CounterSettings, ResolverSettings
@@ -28,6 +36,8 @@ class StaticKind:
     record_text: str
     timeout: Callable[[dict[int, int]], float]
     record: Callable[[dict[int, int], Gate, PositionSet], dict]
+    repeats: dict[int, int] = field(default_factory=dict)  # check counter -> counter
+    gate_s: Callable[[dict[int, int]], float] = lambda n: 0.0
 
 
 def pair_steps(pairs) -> list[tuple[int, str, str]]:
@@ -53,8 +63,11 @@ def run_static(st, run: Run, chart: str, title: str, kind: StaticKind,
         with sheet.step("3", kind.patch_text):
             patch(st, wiring(kind.experiment))
         counters = f"{kind.counters[0]}-{kind.counters[-1]}"
-        with sheet.step("4", f"Set counters {counters} to {kind.mode}"):
-            set_modes(st, kind.counters, kind.mode)
+        every = (*kind.counters, *kind.repeats)
+        also = (f" (and {', '.join(str(c) for c in kind.repeats)} counting again)"
+                if kind.repeats else "")
+        with sheet.step("4", f"Set counters {counters} to {kind.mode}{also}"):
+            set_modes(st, every, kind.mode)
         with sheet.step("5", "Set phi1 to 0 deg plus level correction, phi2 to 90 deg") as s:
             ps = set_position(st, 0.0, 90.0, st.table.position(3), st.table.position(4), True)
             s.reading = ps.reading()
@@ -66,11 +79,12 @@ def run_static(st, run: Run, chart: str, title: str, kind: StaticKind,
                 s.reading = {"phi1": ps.phi[0], "phi3": ps.phi[2], "phi4": ps.phi[3],
                              **ps.reading()}
             row = presets.presets[f"{kind.sheet_key} {m}"]
-            n = {c: int(row[str(c)]) for c in kind.counters}
+            n = {c: int(row[str(c)]) for c in every}
             with sheet.step("7" + tag, kind.preset_text) as s:
                 s.reading = {str(c): v for c, v in n.items()}
             with sheet.step("8" + tag, kind.operate_text) as s:
                 gate = run_counters(st, n, kind.timeout(n))
+                check_repeated_counts(st, gate, kind.repeats, kind.gate_s(n))
                 s.reading = {str(c): v for c, v in gate.readings.items()}
             with sheet.step("9" + tag, kind.record_text) as s:
                 outputs.outputs[f"{kind.sheet_key} {m}"] = {

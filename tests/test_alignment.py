@@ -12,6 +12,8 @@
     recovery is off.
 (e) A tape for another experiment stops Chart III-4 step 8 naming the parameter.
 (f) `station align` writes results.json with the alignment list.
+(g) The results are checked against the mirror alignment and the site: a constant 30 sigma
+    off stops the level or gyrocompass alignment naming what it contradicts.
 """
 
 from __future__ import annotations
@@ -235,6 +237,53 @@ def test_unrecoverable_loss_stops_the_step(day, tmp_path, case):
     assert (e.value.chart, e.value.step) == ("III-4", "9")
     assert "Chart III-4, step 9" in str(e.value)
     assert ("RESEND refused" if case == "history-gone" else "lost frame") in str(e.value)
+
+
+# ----------------------------------------------------------------------------- (g) checks
+def _shifted(calib: CalibrationResults, inst: str, par: str, n_sigma: float
+             ) -> CalibrationResults:
+    rows = [r.model_copy(update={"estimate": r.estimate + n_sigma * r.sigma})
+            if (r.instrument, r.parameter) == (inst, par) else r for r in calib.rows]
+    return CalibrationResults(rows=rows, positions_used=calib.positions_used)
+
+
+def _run_with(day, tmp_path, calib, estimators):
+    cfg = day["cfg"]
+    rack = SimulatedRack(cfg)
+    st = open_station(cfg, rack)
+    try:
+        run = Run(st.clock, Journal(tmp_path / "j.jsonl"))
+        turn_on(st, run, 60.0)
+        return run_alignments(st, run, noise_spec(cfg), calib, day["survey"],
+                              site_info(cfg), SHORT, estimators=estimators), run
+    finally:
+        st.close()
+        rack.close()
+
+
+@pytest.mark.parametrize(("method", "inst", "par", "step"), [
+    ("level", "accel1", "D0", "12"),  # 30 sigma of bias: about 21 arcsec of tilt
+    ("gyrocompass", "gyro1", "R", "10"),  # 30 sigma of drift: about an hour of azimuth
+])
+def test_a_wrong_constant_stops_the_alignment_against_the_mirror(day, tmp_path, method,
+                                                                 inst, par, step):
+    """The day's calibration gives alignments that agree with the mirror alignment and the
+    site (every check recorded); one constant off by 30 sigma stops the alignment's last
+    step naming what it contradicts."""
+    est = {"mirror": ("average",), method: ("average",)}
+    (tmp_path / "a").mkdir()
+    _, run = _run_with(day, tmp_path / "a", day["calib"], est)
+    chart = "III-4" if method == "level" else "III-8"
+    rec = next(s for s in run.check_sheets[chart].steps if s.number == step).reading
+    checks = rec["average"]["checks"]
+    assert {"about east", "about north", "about up (azimuth)"} <= set(checks)
+    assert all(abs(c["z"]) < 6.0 for c in checks.values())
+    (tmp_path / "b").mkdir()
+    with pytest.raises(ProcedureError) as e:
+        _run_with(day, tmp_path / "b", _shifted(day["calib"], inst, par, 30.0), est)
+    assert (e.value.chart, e.value.step) == (chart, step)
+    assert f"{method} alignment (average): T about " in str(e.value)
+    assert "the mirror alignment (Chart III-2)" in str(e.value)
 
 
 # ----------------------------------------------------------------------------- (e) tapes

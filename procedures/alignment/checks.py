@@ -114,11 +114,14 @@ def attitude_reference(survey: SurveyResults | None, surveyed_here: bool, mirror
                        ) -> tuple[np.ndarray, list[float], str, tuple[float, float, float]] | None:
     """What an alignment's T is compared with: the mirror alignment of this run (``mirror``,
     an Outcome), else the survey's prediction at the alignment's own setting when the survey
-    was made in this run; with the pier's tilt change between the two times."""
-    if mirror is not None:
+    was made in this run; with the pier's tilt change between the two times (the levelling
+    and the result) and, against the mirror alignment, the two settings of the rotary axis
+    (vertical at position 0: a turn in azimuth)."""
+    if mirror is not None:  # each alignment set position 0 anew: two settings of phi2
+        e, n, _ = tilt_motion_arcsec(noise, t_result - mirror.t_ref)
         return (np.asarray(mirror.t), list(mirror.predicted_sigma_arcsec),
                 "the mirror alignment (Chart III-2)",
-                tilt_motion_arcsec(noise, t_result - mirror.t_ref))
+                (e, n, math.sqrt(2.0) * noise.table_setting_arcsec))
     if survey is not None and surveyed_here:
         t = survey_t(survey, position0["resolvers_deg"], position0["level_arcsec"])
         return (t, list(survey_sigma_arcsec(noise)), "the survey's T^BI (Chart I-3) at this "

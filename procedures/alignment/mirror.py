@@ -56,14 +56,16 @@ def mirror_error_model(ac_deg, times, t_ref: float, n: int, noise: NoiseSpec) ->
 
 
 def check_against_survey(t, predicted, survey: SurveyResults, position0: dict,
-                         noise: NoiseSpec) -> dict:
-    """The mirror alignment's T against the survey's prediction at the same setting."""
+                         noise: NoiseSpec, t_ref: float) -> dict:
+    """The mirror alignment's T against the survey's prediction at the same setting, with
+    the pier's tilt change between the levelling and the readings."""
     t_pred = ck.survey_t(survey, position0["resolvers_deg"], position0["level_arcsec"])
     return ck.check_attitude(
         "mirror alignment", t, predicted, t_pred, ck.survey_sigma_arcsec(noise),
         "the survey's T^BI (Chart I-3) at this setting",
         "the autocollimators' readings (autocollimator1, autocollimator2), the table's "
-        "setting (table) or its levelling (bubble_levels) disagree with the survey")
+        "setting (table) or its levelling (bubble_levels) disagree with the survey",
+        ck.tilt_motion_arcsec(noise, t_ref - float(position0["t_s"])))
 
 
 def mirror_alignment_procedure(st: Station, run: Run, noise: NoiseSpec,
@@ -105,7 +107,8 @@ def mirror_alignment_procedure(st: Station, run: Run, noise: NoiseSpec,
             checked = None
             surveyed_here = run.sheets.get("survey_results") is survey
             if survey is not None and surveyed_here:
-                checked = check_against_survey(t, model["predicted"], survey, position0, noise)
+                checked = check_against_survey(t, model["predicted"], survey, position0, noise,
+                                               t_ref)
             s.reading = {"t": t.tolist(), "predicted_sigma_arcsec": model["predicted"],
                          **({"checks": {"survey": checked}} if checked else {})}
         with sheet.step("7", "Record T, table resolver settings and bubble levels on the "

@@ -81,10 +81,10 @@ class IeuRecord:
 
 
 def count_sigma(noise: NoiseSpec) -> float:
-    """One sample count's scatter about its neighbours' median, counts: the quantization of
-    a difference of two floors (the gyros' and strings' own noise over a sample is far
-    below a count)."""
-    return float(np.sqrt(noise.count_quantization_var))
+    """One sample count's scatter about its neighbours' running median, counts: the count
+    and the median each carry the quantization of a difference of two floors (the gyros'
+    and strings' own noise over a sample is far below a count)."""
+    return float(np.sqrt(2.0 * noise.count_quantization_var))
 
 
 def sample_deviations(counts: np.ndarray, noise: NoiseSpec) -> tuple[np.ndarray, np.ndarray]:

@@ -105,8 +105,9 @@ def setting_error_arcsec(cfg) -> float:
 
 
 class Lab:
-    def __init__(self, tmp_path, seed: int = 7, overrides: dict | None = None) -> None:
-        self.cfg = load_config(seed=seed, overrides=overrides)
+    def __init__(self, tmp_path, seed: int = 7, overrides: dict | None = None,
+                 cfg=None) -> None:
+        self.cfg = cfg or load_config(seed=seed, overrides=overrides)
         self.rack = SimulatedRack(self.cfg)
         self.st = open_station(self.cfg, self.rack)
         self.path = tmp_path / "j.jsonl"
@@ -373,7 +374,11 @@ def test_search_finds_a_mirror_1_5_deg_off(make_lab):
 
 
 def test_mirror_far_off_fails_chart_I2_step_2_and_keeps_the_turn_on(make_lab):
-    lab = make_lab(overrides={"isu": {"t_bi_rotation_deg": [0.0, 0.0, 20.0]}})
+    # a unit mounted 20 deg off: beyond what a config may set (the survey's search covers
+    # +/-3 deg), so built past validation, as a misinstalled unit would be
+    c = load_config(seed=7)
+    lab = make_lab(cfg=c.model_copy(update={"isu": c.isu.model_copy(
+        update={"t_bi_rotation_deg": (0.0, 0.0, 20.0)})}))
     turn_on(lab.st, lab.run, warmup_s=WARMUP_S)
     with pytest.raises(ProcedureError) as e:
         system_survey(lab.st, lab.run, site_of(lab.cfg))

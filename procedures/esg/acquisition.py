@@ -290,14 +290,14 @@ def cancel_drift(st: Station, run: Run, plan: EsgPlan, sh, acq: Acquisition) -> 
                 tilt = geo.elevation_deg(geo.drift_equilibrium(plan.latitude_deg, k))
                 _move_table(st, plan, tilt=tilt)
                 _damp(st, plan)
+            if not done and it == plan.offset_iterations:  # stop inside the step: named
+                raise RuntimeError(f"east-west drift still {rate:+.3f} deg/hr after "
+                                   f"{plan.offset_iterations} offsets")
             s.reading = {"east_drift_deg_hr": rate, "unbalance_k_deg_hr": k,
                          "tilt_deg": tilt, "within_tolerance": done}
         acq.residual_drift_deg_hr = rate
         if done:
             break
-    else:
-        raise RuntimeError(f"east-west drift still {rate:+.3f} deg/hr after "
-                           f"{plan.offset_iterations} offsets")
     acq.unbalance_k_deg_hr = k
 
 

@@ -179,7 +179,12 @@ class SerialDriver:
         return self.ident
 
     def clear(self) -> None:
-        """Device clear: drop pending replies (reported) and the error queue."""
+        """Device clear: drop pending replies (reported) and the error queue.
+
+        Out of step, resynchronise first with an ``*IDN?``: a ``*CLS`` pipelined behind the
+        resync's ``*IDN?`` would empty the output queue of the identity it waits for."""
+        if self.out_of_step:
+            self.identify()
         self.command("*CLS")
 
     def _exchange(self, cmd: str, form: Any, timeout: float | None) -> str:

@@ -335,8 +335,8 @@ def _stop_server(server: subprocess.Popen, out: Path) -> None:
     server.send_signal(signal.SIGTERM)
     server.wait(30)
     lines = out.read_text().strip().splitlines()
-    for line in lines[-2:-1]:
-        if line.startswith("input held back"):
+    for line in lines[-3:-1]:
+        if line.startswith(("input held back", "longest garbage")):
             print("server:", line)
     print("server:", lines[-1] if lines else "(no output)", flush=True)
 

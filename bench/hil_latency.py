@@ -336,7 +336,7 @@ def _stop_server(server: subprocess.Popen, out: Path) -> None:
     server.wait(30)
     lines = out.read_text().strip().splitlines()
     for line in lines[-3:-1]:
-        if line.startswith(("input held back", "longest garbage")):
+        if line.startswith(("input held back", "garbage collections")):
             print("server:", line)
     print("server:", lines[-1] if lines else "(no output)", flush=True)
 

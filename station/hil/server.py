@@ -308,11 +308,12 @@ def _settle_heap() -> None:
     gc.collect()
     gc.freeze()
     GC_PAUSES.clear()
+    GC_PAUSES.update(longest=0.0, count=0)
     if _time_gc not in gc.callbacks:
         gc.callbacks.append(_time_gc)
 
 
-GC_PAUSES: dict[str, float] = {}  # "longest" pause (s) and "started" (monotonic) since served
+GC_PAUSES: dict[str, float] = {}  # since served: "count", "longest" pause (s), "started" (monotonic)
 
 
 def _time_gc(phase: str, info: dict) -> None:
@@ -321,7 +322,8 @@ def _time_gc(phase: str, info: dict) -> None:
         GC_PAUSES["started"] = now
     elif "started" in GC_PAUSES:
         pause = now - GC_PAUSES.pop("started")
-        GC_PAUSES["longest"] = max(pause, GC_PAUSES.get("longest", 0.0))
+        GC_PAUSES["longest"] = max(pause, GC_PAUSES["longest"])
+        GC_PAUSES["count"] += 1
 
 
 def _watch(server: HilServer, tick: Callable[[], None] | None = None) -> None:
@@ -387,9 +389,9 @@ def _serve_until_stopped(server: HilServer, live: bool = False) -> None:
     held = status.held_line(server)
     if held:
         print(held, flush=True)
-    if "longest" in GC_PAUSES:
-        print(f"longest garbage-collection pause: {GC_PAUSES['longest'] * 1e3:.1f} ms",
-              flush=True)
+    if "count" in GC_PAUSES:
+        print(f"garbage collections while serving: {GC_PAUSES['count']:.0f}, longest pause "
+              f"{GC_PAUSES['longest'] * 1e3:.1f} ms", flush=True)
     print(
         f"stopped at t = {t:.3f} s simulated; "
         f"{env.inputs_applied} inputs applied; "

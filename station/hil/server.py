@@ -313,7 +313,7 @@ def _settle_heap() -> None:
         gc.callbacks.append(_time_gc)
 
 
-GC_PAUSES: dict[str, float] = {}  # since served: "count", "longest" pause (s), "started" (monotonic)
+GC_PAUSES: dict[str, float] = {}  # since served: "count", "longest" pause s, "started" at
 
 
 def _time_gc(phase: str, info: dict) -> None:

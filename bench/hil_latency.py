@@ -307,6 +307,15 @@ def _cpu_s(pid: int) -> float:
     return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
 
 
+def _ordinary(nice: int) -> None:
+    """In a flood process: ordinary scheduling, whatever the bench runs under (chrt, nice),
+    so the floods compete as any other host program would."""
+    if os.sched_getscheduler(0) != os.SCHED_OTHER:
+        os.sched_setscheduler(0, os.SCHED_OTHER, os.sched_param(0))
+    if nice:
+        os.nice(-nice)
+
+
 def _nice(pid: int) -> str:
     try:
         return str(os.getpriority(os.PRIO_PROCESS, pid))
@@ -335,8 +344,8 @@ def _stop_server(server: subprocess.Popen, out: Path) -> None:
     server.send_signal(signal.SIGTERM)
     server.wait(30)
     lines = out.read_text().strip().splitlines()
-    for line in lines[-2:-1]:
-        if line.startswith("input held back"):
+    for line in lines[-3:-1]:
+        if line.startswith(("input held back", "garbage collections")):
             print("server:", line)
     print("server:", lines[-1] if lines else "(no output)", flush=True)
 
@@ -355,7 +364,7 @@ def flood_case(kinds: list[str], n: int, least: dict[str, int] | None = None,
                 procs.append(subprocess.Popen(
                     [sys.executable, __file__, "--flooder", k, str(links),
                      str((least or {}).get(k, 1))], stdout=subprocess.PIPE, text=True,
-                    preexec_fn=(lambda: os.nice(-nice)) if nice else None))
+                    preexec_fn=lambda: _ordinary(nice)))
             for k, p in zip(kinds, procs, strict=True):
                 line = p.stdout.readline() if p.stdout else ""
                 if line.strip() != "flooding":
@@ -365,10 +374,13 @@ def flood_case(kinds: list[str], n: int, least: dict[str, int] | None = None,
                   f"{', '.join(kinds) or 'none'}; load average {_loadavg()} before; server "
                   f"nice {_nice(server.pid)}", flush=True)
             cpu0, wall0 = _cpu_s(server.pid), time.monotonic()
+            t0_before = served(links).session.t0_monotonic
             late = quiet_replies([link.serial["oscillator"], link.serial["table"]], n, latency_s)
             cpu = (_cpu_s(server.pid) - cpu0) / (time.monotonic() - wall0)
+            slip = served(links).session.t0_monotonic - t0_before  # re-published on a slip
             _report("quiet link (*IDN?/STAT?)", late)
-            print(f"server CPU meanwhile: {cpu:.0%} of one core", flush=True)
+            print(f"server CPU meanwhile: {cpu:.0%} of one core; slip meanwhile {slip:.3f} s",
+                  flush=True)
             print(f"load average {_loadavg()} after", flush=True)
         finally:
             for p in procs:

@@ -74,6 +74,8 @@ def test_second_serve_process_exits_2_and_leaves_the_first_reachable(tmp_path):
         assert second.stderr.count("\n") == 1  # one line, no traceback
         assert (links / "links.json").read_text() == before
         assert _ask(entries[0].address).startswith(b"ISU-LAB,TT-4AX")
+    # the served process froze its heap and reports its garbage-collection pauses
+    assert "garbage collections while serving: " in (tmp_path / "server.out").read_text()
 
 
 def test_stale_directory_of_a_dead_server_is_taken_over(tmp_path):

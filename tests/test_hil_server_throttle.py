@@ -13,7 +13,6 @@ import time
 
 import pytest
 import serial
-import simpy
 
 from instruments.base import ByteInstrument
 from station.hil import throttle
@@ -151,9 +150,6 @@ def test_inputs_apply_in_arrival_order_after_a_slip():
     env.run(until=env.now + 10**9)
     assert order == ["first", "second"]
 
-
-def test_realtime_env_is_a_simpy_environment():
-    assert issubclass(RealtimeEnv, simpy.Environment)
 
 
 class FakeHub:

@@ -206,7 +206,7 @@ def test_socketcand_repeated_rawmode_delivers_each_frame_once(served):
     cmd = cantools.database.load_file(str(config.path(config.IEU_DBC))) \
         .get_message_by_name("IEU_COMMAND")
 
-    def send(command: int, period: int = 1) -> bytes:
+    def send(command: int, period: int = 0) -> bytes:  # unused fields must be zero
         data = cmd.encode({"Command": command, "PeriodTicks": period, "Seq": 0})
         return f"< send {cmd.frame_id:03X} {len(data)} {' '.join(f'{b:X}' for b in data)} >" \
             .encode()

@@ -47,6 +47,9 @@ CAN_INSTRUMENT = "ieu"
 SLCAN_LINK = "ieu-slcan"
 GIL_SWITCH_S = 0.001  # s; Python's default is 0.005
 IEU_LOOKAHEAD_WALL_S = 0.003  # a sample's counts take about 0.8 ms (bench/hil_latency.py)
+# a served IEU refuses START below 200 S2^T pulses (20 ms): at the bus minimum (15) counting
+# one sample takes 63 % of the simulation thread and the rack slips (docs/hil.md)
+SERVED_IEU_MIN_PERIOD = 200
 STATIONS = ("isu", "cigtf", "esg")
 DEFAULT_SEED = 1  # cigtf, esg: the default of `station gyrocompass-test` / `esg-calibration`
 STATUS_EVERY_S = 10.0  # wall seconds between plain status lines (stdout not a terminal)
@@ -160,6 +163,8 @@ class HilServer:
             if self.can_instrument is not None and self.can_instrument in names:
                 # count each sample a little ahead so its frames leave at the latch instant
                 self.rack.ieu.lookahead_s = IEU_LOOKAHEAD_WALL_S * speed
+                lo, hi = self.rack.ieu.periods
+                self.rack.ieu.periods = (max(lo, SERVED_IEU_MIN_PERIOD), hi)
                 self.hub = CanHub(self.env, self.rack.ieu)
                 self.socketcand = SocketcandServer(self.hub, CAN_INSTRUMENT, can_host, can_port)
                 self.slcan = SlcanAdapter(self.hub, SLCAN_LINK, self.links_dir / SLCAN_LINK,

@@ -7,7 +7,6 @@ the same N whole turns of the rotary axis ("measure Z", Z = table rotation pulse
 from __future__ import annotations
 
 from procedures.common import (
-    axis_rate,
     check_repeated_counts,
     check_turns_clock,
     patch,
@@ -18,6 +17,7 @@ from procedures.common import (
     set_position,
 )
 from procedures.plan import DayPlan
+from procedures.readings import axis_rate
 from procedures.runner import Run
 from procedures.settings import ALONG_AXIS_CHECK, GYRO_ROTATING, turning_repeats, wiring
 from procedures.sheets import CounterOutputs, ResolverSettings

@@ -38,7 +38,7 @@ import numpy as np
 from procedures import plausibility as pl
 from procedures import survey_math as sm
 from procedures.calibration.noise_spec import NoiseSpec
-from procedures.common import axis_in_position, read_levels, read_mirror, steady_resolvers
+from procedures.readings import axis_in_position, read_levels, read_mirror, steady_resolvers
 from procedures.runner import Run
 from procedures.sheets import SurveyResults
 from station.drivers import AutocollimatorDriver

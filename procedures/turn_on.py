@@ -16,7 +16,6 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-from procedures.common import panel_connection, read_levels
 from procedures.plausibility import (
     Implausible,
     read_agreeing,
@@ -25,6 +24,7 @@ from procedures.plausibility import (
     source_of,
     with_rereads,
 )
+from procedures.readings import panel_connection, read_levels
 from procedures.runner import Run
 
 if TYPE_CHECKING:

@@ -17,7 +17,8 @@ from procedures.alignment.estimation import LevelParams
 from procedures.alignment.preprocess import Constants
 from procedures.alignment.results_sheet import AlignmentResults, AlignPlan
 from procedures.calibration.noise_spec import NoiseSpec
-from procedures.common import read_levels, read_mirror, set_position
+from procedures.common import set_position
+from procedures.readings import read_levels, read_mirror
 from procedures.runner import Run
 from procedures.sheets import CalibrationResults, SurveyResults
 from procedures.system_survey import NOMINAL_AIM_DEG, POSITION0_DEG, acquire

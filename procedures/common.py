@@ -14,8 +14,8 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 
 from procedures.calibration.noise_spec import ARCSEC, NoiseSpec
-from procedures.plausibility import K_READING, MAX_REREADS, Implausible, source_of
-from procedures.readings import RATE_TOLERANCE, read_levels
+from procedures.plausibility import K_READING, MAX_REREADS, PARSE_ERRORS, Implausible, source_of
+from procedures.readings import RATE_TOLERANCE, read_levels, resolver
 from station.errors import DriverError
 
 ARCSEC_PER_DEG = 3600.0
@@ -63,6 +63,22 @@ def level_check_z(check: tuple[float, float], applied: tuple[float, float],
     return max(abs(check[0]), abs(check[1] - applied[1])) / sigma
 
 
+SETTING_CHECK_ARCSEC = 3.0  # a held axis's resolver against its command (10 x the scatter)
+
+
+def axes_off_command(st, commanded: dict[int, float]) -> str | None:
+    """Axes whose resolver does not read their last command (within SETTING_CHECK_ARCSEC),
+    as the table reports them; None if every one does (asked only when a levelling fails:
+    a seized axis answers a command within its in-position band with HOLD)."""
+    off = []
+    for ax, deg in commanded.items():
+        res = resolver(st, ax)
+        d = abs((res - deg + 180.0) % 360.0 - 180.0) * ARCSEC_PER_DEG
+        if d > SETTING_CHECK_ARCSEC:
+            off.append(f"axis {ax} reads {res:.7f} deg, commanded {deg:.7f} deg")
+    return "; ".join(off) if off else None
+
+
 def set_position(st, phi1: float, phi2: float | None, phi3: float, phi4: float,
                  level: bool, noise: NoiseSpec | None = None) -> PositionSet:
     """Move to (phi1, phi2, phi3, phi4); with ``level``, read the bubbles and correct phi1, phi3.
@@ -98,6 +114,11 @@ def set_position(st, phi1: float, phi2: float | None, phi3: float, phi4: float,
         if level_check_z((v1, v3), (c1, c3), sigma) <= K_READING:
             break
         if len(relevelled) >= MAX_REREADS:
+            stuck = axes_off_command(st, {1: phi1, 3: phi3})
+            if stuck:  # the table did not make the correction: the levels are right
+                raise Implausible(source_of(st.table), f"{stuck}: the levelling corrections "
+                                  f"({c1:g}, {c3:g}) arcsec were not carried out (the levels "
+                                  f"still read ({v1:g}, {v3:g}) arcsec)")
             raise Implausible(
                 source_of(st.bubble_levels),
                 f"levelling not confirmed after {len(relevelled)} corrections: levels read "
@@ -226,7 +247,7 @@ def rotary_axis_turning(st, rate_deg_s: float, axis: int = 2,
         try:
             status = st.table.status()
             rate = st.table.rate(axis)
-        except DriverError:
+        except (DriverError, *PARSE_ERRORS):
             return None  # nothing known of the axis: the counter's own error stands
         if abs(rate - rate_deg_s) <= tolerance * abs(rate_deg_s):
             return None

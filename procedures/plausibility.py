@@ -25,11 +25,13 @@ from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from contextvars import ContextVar
 from dataclasses import dataclass, field
+from typing import TypeVar
 
 import numpy as np
 
 from procedures.calibration.noise_spec import ARCSEC, NoiseSpec
 
+T = TypeVar("T")
 K_READING = 6.0  # a reading this many sigma from its repetitions' median is an outlier
 MAX_REREADS = 3  # re-reads of one quantity's outliers before the step stops
 MAD_TO_SIGMA = 1.4826  # median absolute deviation of a normal sample, in sigma
@@ -109,6 +111,29 @@ def with_rereads(reading: dict, log: list[dict]) -> dict:
     """A step's reading with its re-reads added (nothing added when there were none, so a
     day without them records exactly what it did before)."""
     return {**reading, "rereads": list(log)} if log else reading
+
+
+PARSE_ERRORS = (ValueError, ArithmeticError, IndexError)  # a driver that trusted a reply
+
+
+def guarded(driver: object, what: str, read: Callable[[], T]) -> T:
+    """``read()``, where a reply the driver failed to parse (a builtin error out of it, e.g.
+    a float() of a garbled number) counts as a garbled reply: read again (at most
+    MAX_REREADS times, recorded), then Implausible naming the driver and what was read."""
+    errors: list[str] = []
+    while True:
+        try:
+            got = read()
+        except PARSE_ERRORS as e:
+            errors.append(str(e))
+            if len(errors) > MAX_REREADS:
+                raise Implausible(source_of(driver), f"{what}: replies the driver could not "
+                                  f"read ({'; '.join(errors)}): garbled replies") from e
+            continue
+        if errors:
+            note_reread({"instrument": str(getattr(driver, "name", "")), "what": what,
+                         "was": errors, "now": "read"})
+        return got
 
 
 def read_word(driver: object, read: Callable[[], str], words: Sequence[str], what: str,

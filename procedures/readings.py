@@ -14,6 +14,7 @@ from procedures.plausibility import (
     MAX_REREADS,
     Implausible,
     autocollimator_reading,
+    guarded,
     level_reading,
     note_reread,
     read_word,
@@ -64,6 +65,16 @@ def read_mirror(st, k: int) -> tuple[float, float]:
         return got
 
 
+def resolvers(st) -> tuple[float, float, float, float]:
+    """The four resolver readings (a reply the driver cannot read is read again)."""
+    return guarded(st.table, "resolvers", st.table.positions)
+
+
+def resolver(st, axis: int) -> float:
+    """One axis's resolver reading (a reply the driver cannot read is read again)."""
+    return guarded(st.table, f"axis {axis} resolver", lambda: st.table.position(axis))
+
+
 RESOLVER_REPEAT_ARCSEC = 0.5  # a holding axis's resolver reads the same within this
 
 
@@ -76,10 +87,10 @@ def steady_resolvers(st, first: tuple[float, ...] | None = None
     def apart(a, b) -> float:
         return max(abs((x - y + 180.0) % 360.0 - 180.0) for x, y in zip(a, b, strict=True))
 
-    prev = tuple(first) if first is not None else st.table.positions()
+    prev = tuple(first) if first is not None else resolvers(st)
     was: list[list[float]] = []
     while True:
-        now = st.table.positions()
+        now = resolvers(st)
         if apart(now, prev) * ARCSEC_PER_DEG <= RESOLVER_REPEAT_ARCSEC:
             if was:
                 note_reread({"instrument": st.table.name, "what": "resolvers", "was": was,
@@ -102,7 +113,7 @@ def axis_in_position(st, axis: int, commanded_deg: float) -> float:
     MAX_REREADS times, recorded), then the step stops naming the table."""
     was: list[float] = []
     while True:
-        deg = st.table.position(axis)
+        deg = resolver(st, axis)
         if abs((deg - commanded_deg + 180.0) % 360.0 - 180.0) * 3600.0 <= IN_POSITION_ARCSEC:
             if was:
                 note_reread({"instrument": st.table.name, "what": f"axis {axis} resolver",
@@ -135,7 +146,7 @@ def axis_rate(st, axis: int, commanded_deg_s: float) -> float:
     the step stops naming the table and the axis."""
     was: list[float] = []
     while True:
-        r = st.table.rate(axis)
+        r = guarded(st.table, f"axis {axis} rate", lambda: st.table.rate(axis))
         if abs(r - commanded_deg_s) <= RATE_TOLERANCE * abs(commanded_deg_s):
             if was:
                 note_reread({"instrument": st.table.name, "what": f"axis {axis} rate",
@@ -145,3 +156,23 @@ def axis_rate(st, axis: int, commanded_deg_s: float) -> float:
             raise Implausible(source_of(st.table), f"axis {axis} reports turning but at "
                               f"{was + [r]} deg/s, commanded {commanded_deg_s:g} deg/s")
         was.append(r)
+
+
+AXIS_STATES = ("HOLD", "MOVING", "ROTATING", "ACCEL")
+
+
+def table_status(st) -> list[str]:
+    """The four axes' states, each a word the controller says (a garbled ``STAT?`` reply,
+    e.g. a HOLD that lost its H, is read again; then the step stops naming the table)."""
+    was: list[str] = []
+    while True:
+        axes = st.table.status()
+        if len(axes) == 4 and all(a in AXIS_STATES for a in axes):
+            if was:
+                note_reread({"instrument": st.table.name, "what": "axis states",
+                             "was": was, "now": ",".join(axes)})
+            return axes
+        if len(was) == MAX_REREADS:
+            raise Implausible(source_of(st.table), f"replies to 'STAT?' {was + [','.join(axes)]}"
+                              f" are not four of {', '.join(AXIS_STATES)} (garbled replies)")
+        was.append(",".join(axes))

@@ -1,21 +1,23 @@
-"""Plausibility of what a procedure reads: nothing the instruments could not have reported, and
-no single reading that disagrees with its repetitions, reaches a computation.
+"""Plausibility of what a procedure reads: nothing the instruments could not have reported,
+and no single reading that disagrees with its repetitions, reaches a computation.
 
-Two checks on readings (a third, on results, lives with each result: ``alignment.checks``,
-``calibration.checks``):
+The checks on readings (those on results live with each result: ``alignment.checks``,
+``calibration.checks``; the instrument-specific readings are in ``procedures.readings``):
 
 * range: a reading outside what the instrument can report (its data sheet, as in
-  docs/protocols.md) is refused;
+  docs/protocols.md) is refused; so is a status reply that is no word the instrument says
+  (``read_word``) and a reply the driver itself could not parse (``guarded``);
 * agreement: repeated readings of one quantity are compared with their median in units of
   the noise the laboratory's specification (``NoiseSpec``) predicts for them, never less than
-  their own robust scatter; a reading beyond ``K_READING`` of them is read again (at most
-  ``MAX_REREADS`` times per quantity, every re-read recorded) and the step stops, naming the
-  instrument, when the re-reads do not bring the readings into agreement.
+  their own robust scatter (``AgreeingReadings``); a value read once is read twice
+  (``read_agreeing``).
 
-Either failure raises :class:`Implausible`, whose message starts with the instrument and its
-link as a driver error does, so the step's ``ProcedureError`` names the chart, the step and
-the instrument. These checks do not rely on the drivers' own reply checks: a reply can be
-well formed and still wrong (a digit changed into another digit).
+A refused reading is read again (at most ``MAX_REREADS`` times per quantity, each re-read
+recorded in the enclosing ``rereads()`` block) and the step stops, naming the instrument,
+when the re-reads do not bring it into agreement: :class:`Implausible`, whose message starts
+with the instrument and its link as a driver error does, so the step's ``ProcedureError``
+names the chart, the step and the instrument. These checks do not rely on the drivers' own
+reply checks: a reply can be well formed and still wrong (a digit changed into another).
 """
 
 from __future__ import annotations

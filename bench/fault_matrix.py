@@ -145,24 +145,26 @@ def fingerprint(results: dict) -> str:
     return json.dumps([cal, ali])
 
 
-def names_cause(case: Case, message: str) -> bool:
-    """The stop names the chart and step, and the faulted instrument (a stall: the table
-    and its axis)."""
-    if "Chart " not in message or "step " not in message:
+def names_cause(case: Case, step: str, cause: str) -> bool:
+    """The stop names the chart and step, and its cause (not the step's own text) names the
+    faulted instrument (a stall: the table and its axis)."""
+    if not step:
         return False
     if case.kind == "stall_axis":
         axis = case.instrument.split()[-1]
-        return "table" in message and f"axis {axis}" in message
-    return case.instrument.lower() in message.lower()
+        return "table" in cause and f"axis {axis}" in cause
+    return case.instrument.lower() in cause.lower()
 
 
-def stop_message(res: dict) -> str:
+def stop_message(res: dict) -> tuple[str, str]:
+    """(chart and step, cause) of a stopped day: the journal's failed step, else the CLI's
+    "stopped:" line (a stop outside any step names no step)."""
     if res.get("failed"):
         f = res["failed"]
-        return f"Chart {f['chart']}, step {f['step']} ({f['text']}): {f['error']}"
+        return f"Chart {f['chart']}, step {f['step']} ({f['text']})", f["error"]
     text = res.get("stdout", "")
     i = text.find("stopped:")
-    return " ".join(text[i:].split()) if i >= 0 else text.strip()[-400:]
+    return "", " ".join(text[i:].split()) if i >= 0 else text.strip()[-400:]
 
 
 def classify(case: Case, res: dict, clean: dict) -> tuple[str, str]:
@@ -174,8 +176,9 @@ def classify(case: Case, res: dict, clean: dict) -> tuple[str, str]:
         tail = out.strip().splitlines()[-1:] or [""]
         return "traceback", f"exit {res['rc']}: {tail[0][:300]}"
     if res["rc"] == 1:
-        msg = stop_message(res)
-        return ("stopped, named" if names_cause(case, msg) else "stopped, misleading"), msg
+        step, cause = stop_message(res)
+        named = names_cause(case, step, cause)
+        return ("stopped, named" if named else "stopped, misleading"), f"{step}: {cause}"
     results = res.get("results") or {}
     if clean.get("results") and fingerprint(results) == fingerprint(clean["results"]):
         return "identical", ""

@@ -1,8 +1,8 @@
 """Operations every calibration check-sheet repeats: set a position, patch, run counters.
 
-Each one checks what it reads (``procedures.plausibility``): a level reading must lie in the
-levels' range and be confirmed by a second reading after the table moved by it; a patch
-panel reply must be NONE or a line the panel has; a counter that times out on a gate the
+Each one checks what it reads (``procedures.plausibility``, ``procedures.readings``): the
+levelling is confirmed by a second level reading after the table moved; a count read twice
+(an idle counter over the same gate) must agree; a counter that times out on a gate the
 table's rotation closes asks the table whether its axis turns, so a stalled axis is reported
 as the table's.
 """
@@ -14,16 +14,8 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 
 from procedures.calibration.noise_spec import ARCSEC, NoiseSpec
-from procedures.plausibility import (
-    K_READING,
-    MAX_REREADS,
-    Implausible,
-    autocollimator_reading,
-    level_reading,
-    note_reread,
-    read_word,
-    source_of,
-)
+from procedures.plausibility import K_READING, MAX_REREADS, PARSE_ERRORS, Implausible, source_of
+from procedures.readings import RATE_TOLERANCE, read_levels, resolver
 from station.errors import DriverError
 
 ARCSEC_PER_DEG = 3600.0
@@ -54,97 +46,6 @@ class PositionSet:
         return out
 
 
-def read_levels(st) -> tuple[float, float]:
-    """One bubble-level reading inside the levels' range; an out-of-range reply is read
-    again (at most MAX_REREADS times) before the step stops naming the levels."""
-    refused: list[list[float]] = []
-    while True:
-        raw = st.bubble_levels.corrections()
-        try:
-            got = level_reading(st.bubble_levels, raw)
-        except Implausible:
-            if len(refused) == MAX_REREADS:
-                raise
-            refused.append([float(x) for x in raw])
-            continue
-        if refused:
-            note_reread({"instrument": st.bubble_levels.name, "what": "level corrections",
-                         "was": refused, "now": list(got)})
-        return got
-
-
-def read_mirror(st, k: int) -> tuple[float, float]:
-    """One autocollimator k reading (azimuth, zenith, deg) the mount and field allow; an
-    impossible one is read again (at most MAX_REREADS times), no return stops the step."""
-    ac = st.autocollimators[k]
-    refused: list[list[float]] = []
-    while True:
-        m = ac.measure()
-        if m is None:
-            raise Implausible(source_of(ac), f"no return from mirror {k} while reading it")
-        try:
-            got = autocollimator_reading(ac, m)
-        except Implausible:
-            if len(refused) == MAX_REREADS:
-                raise
-            refused.append([float(x) for x in m])
-            continue
-        if refused:
-            note_reread({"instrument": ac.name, "what": f"mirror {k} azimuth and zenith",
-                         "was": refused, "now": list(got)})
-        return got
-
-
-RESOLVER_REPEAT_ARCSEC = 0.5  # a holding axis's resolver reads the same within this
-
-
-def steady_resolvers(st, first: tuple[float, ...] | None = None
-                     ) -> tuple[float, float, float, float]:
-    """The resolvers of a table at rest, read until two consecutive readings agree within
-    RESOLVER_REPEAT_ARCSEC (``first``: a reading already taken at this setting, else one is
-    taken); at most MAX_REREADS more readings, recorded, then the step stops naming the table."""
-
-    def apart(a, b) -> float:
-        return max(abs((x - y + 180.0) % 360.0 - 180.0) for x, y in zip(a, b, strict=True))
-
-    prev = tuple(first) if first is not None else st.table.positions()
-    was: list[list[float]] = []
-    while True:
-        now = st.table.positions()
-        if apart(now, prev) * ARCSEC_PER_DEG <= RESOLVER_REPEAT_ARCSEC:
-            if was:
-                note_reread({"instrument": st.table.name, "what": "resolvers", "was": was,
-                             "now": list(now)})
-            return now
-        if len(was) == MAX_REREADS:
-            raise Implausible(source_of(st.table), f"resolver readings {list(prev)} and "
-                              f"{list(now)} deg of the table at rest disagree after "
-                              f"{len(was)} re-reads (garbled replies)")
-        was.append(list(prev))
-        prev = now
-
-
-IN_POSITION_ARCSEC = 10.0  # the controller holds an axis within this of its command
-
-
-def axis_in_position(st, axis: int, commanded_deg: float) -> float:
-    """The resolver of an axis holding at ``commanded_deg``: it must read within the
-    controller's in-position band of the command; a reading beyond it is read again (at most
-    MAX_REREADS times, recorded), then the step stops naming the table."""
-    was: list[float] = []
-    while True:
-        deg = st.table.position(axis)
-        if abs((deg - commanded_deg + 180.0) % 360.0 - 180.0) * 3600.0 <= IN_POSITION_ARCSEC:
-            if was:
-                note_reread({"instrument": st.table.name, "what": f"axis {axis} resolver",
-                             "was": was, "now": deg})
-            return deg
-        if len(was) == MAX_REREADS:
-            raise Implausible(source_of(st.table), f"axis {axis} holds but its resolver reads "
-                              f"{was + [deg]} deg, commanded {commanded_deg} deg")
-        was.append(deg)
-
-
 def level_check_sigma_arcsec(noise: NoiseSpec, dt: float) -> float:
     """Scatter of a confirming level reading about its expected value: two readings, two
     table settings (the move and the correction) and the pier's tilt change over ``dt``."""
@@ -160,6 +61,22 @@ def level_check_z(check: tuple[float, float], applied: tuple[float, float],
     """Largest deviation (in sigma) of a confirming level reading from what the correction
     leaves: level 1 nulled, level 2 unchanged."""
     return max(abs(check[0]), abs(check[1] - applied[1])) / sigma
+
+
+SETTING_CHECK_ARCSEC = 3.0  # a held axis's resolver against its command (10 x the scatter)
+
+
+def axes_off_command(st, commanded: dict[int, float]) -> str | None:
+    """Axes whose resolver does not read their last command (within SETTING_CHECK_ARCSEC),
+    as the table reports them; None if every one does (asked only when a levelling fails:
+    a seized axis answers a command within its in-position band with HOLD)."""
+    off = []
+    for ax, deg in commanded.items():
+        res = resolver(st, ax)
+        d = abs((res - deg + 180.0) % 360.0 - 180.0) * ARCSEC_PER_DEG
+        if d > SETTING_CHECK_ARCSEC:
+            off.append(f"axis {ax} reads {res:.7f} deg, commanded {deg:.7f} deg")
+    return "; ".join(off) if off else None
 
 
 def set_position(st, phi1: float, phi2: float | None, phi3: float, phi4: float,
@@ -197,6 +114,11 @@ def set_position(st, phi1: float, phi2: float | None, phi3: float, phi4: float,
         if level_check_z((v1, v3), (c1, c3), sigma) <= K_READING:
             break
         if len(relevelled) >= MAX_REREADS:
+            stuck = axes_off_command(st, {1: phi1, 3: phi3})
+            if stuck:  # the table did not make the correction: the levels are right
+                raise Implausible(source_of(st.table), f"{stuck}: the levelling corrections "
+                                  f"({c1:g}, {c3:g}) arcsec were not carried out (the levels "
+                                  f"still read ({v1:g}, {v3:g}) arcsec)")
             raise Implausible(
                 source_of(st.bubble_levels),
                 f"levelling not confirmed after {len(relevelled)} corrections: levels read "
@@ -219,21 +141,6 @@ def patch(st, wiring: dict[int, tuple[str | None, str | None, str]]) -> None:
         if y:
             st.patch_panel.connect(y, c, "Y")
         st.patch_panel.connect(z, c, "Z")
-
-
-def panel_connection(st, counter: int, inp: str, lines: set[str],
-                     first: str | None = None) -> str | None:
-    """What the panel connects to a counter input: None or one of its ``lines``. Any other
-    reply (a NONE that lost a letter) is garbled: read again, then stop naming the panel.
-    ``first``: the reply already received."""
-    pp = st.patch_panel
-    words = ("NONE", *sorted(lines))
-    r = read_word(pp, lambda: pp.connection(counter, inp) or "NONE", words,
-                  f"reply to 'CONN? C{counter} {inp}'", first)
-    return None if r == "NONE" else r
-
-
-RATE_TOLERANCE = 0.01  # relative: a turning axis at its commanded rate (servo and reading)
 
 
 def patch_check_counter(st, counter: int, k: int) -> None:
@@ -340,7 +247,7 @@ def rotary_axis_turning(st, rate_deg_s: float, axis: int = 2,
         try:
             status = st.table.status()
             rate = st.table.rate(axis)
-        except DriverError:
+        except (DriverError, *PARSE_ERRORS):
             return None  # nothing known of the axis: the counter's own error stands
         if abs(rate - rate_deg_s) <= tolerance * abs(rate_deg_s):
             return None
@@ -349,24 +256,6 @@ def rotary_axis_turning(st, rate_deg_s: float, axis: int = 2,
                 "cannot close")
 
     return check
-
-
-def axis_rate(st, axis: int, commanded_deg_s: float) -> float:
-    """The rate of an axis the controller reports turning at ``commanded_deg_s``: a reply
-    off by more than RATE_TOLERANCE is read again (at most MAX_REREADS times, recorded), then
-    the step stops naming the table and the axis."""
-    was: list[float] = []
-    while True:
-        r = st.table.rate(axis)
-        if abs(r - commanded_deg_s) <= RATE_TOLERANCE * abs(commanded_deg_s):
-            if was:
-                note_reread({"instrument": st.table.name, "what": f"axis {axis} rate",
-                             "was": was, "now": r})
-            return r
-        if len(was) == MAX_REREADS:
-            raise Implausible(source_of(st.table), f"axis {axis} reports turning but at "
-                              f"{was + [r]} deg/s, commanded {commanded_deg_s:g} deg/s")
-        was.append(r)
 
 
 def set_modes(st, counters, mode: str) -> None:

@@ -7,7 +7,6 @@ the same N whole turns of the rotary axis ("measure Z", Z = table rotation pulse
 from __future__ import annotations
 
 from procedures.common import (
-    axis_rate,
     check_repeated_counts,
     check_turns_clock,
     patch,
@@ -18,6 +17,7 @@ from procedures.common import (
     set_position,
 )
 from procedures.plan import DayPlan
+from procedures.readings import axis_rate, resolver
 from procedures.runner import Run
 from procedures.settings import ALONG_AXIS_CHECK, GYRO_ROTATING, turning_repeats, wiring
 from procedures.sheets import CounterOutputs, ResolverSettings
@@ -30,7 +30,7 @@ def wait_clear_of_pulse(st, rate_deg_s: float, ppr: int, margin_s: float = 1.0) 
     """Step 9: switch on only after the rotary output has just fired, so that no pulse falls
     between the counters being switched (they must all share one gate)."""
     pitch = 360.0 / ppr
-    phi2 = st.table.position(2)
+    phi2 = resolver(st, 2)
     to_next = (pitch - phi2 % pitch) if rate_deg_s > 0 else (phi2 % pitch or pitch)
     t_next = to_next / abs(rate_deg_s)
     if t_next < margin_s:

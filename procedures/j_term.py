@@ -19,11 +19,12 @@ import math
 import numpy as np
 from scipy.integrate import quad
 
-from procedures.common import Gate, check_repeated_counts, patch, set_modes, set_position
+from procedures.common import patch, set_modes, set_position
 from procedures.plan import DayPlan
-from procedures.plausibility import Implausible, source_of
+from procedures.plausibility import Implausible, guarded, source_of
+from procedures.readings import resolver
 from procedures.runner import Run
-from procedures.settings import GYRO_CHECK_COUNTERS, GYRO_STATIC, wiring
+from procedures.settings import GYRO_STATIC, wiring
 from procedures.sheets import ResolverSettings
 
 TITLE = "J term experiment (designed: commanded table acceleration, positions 7 and 11)"
@@ -77,7 +78,7 @@ def j_experiment(st, run: Run, settings: ResolverSettings, plan: DayPlan, s1: fl
         with sheet.step("2", "Patch gyros and master oscillator to counters 2-4 (positions "
                         "7-15 wiring); measure Z"):
             patch(st, wiring(GYRO_STATIC))
-            set_modes(st, (2, 3, 4, *GYRO_CHECK_COUNTERS), "measure Z")
+            set_modes(st, (2, 3, 4), "measure Z")
         for m, gyros in GYROS_OF_POSITION.items():
             p = settings.positions[str(m)]
             tag = f"/m{m}"
@@ -86,8 +87,6 @@ def j_experiment(st, run: Run, settings: ResolverSettings, plan: DayPlan, s1: fl
                 ps = set_position(st, 0.0, 90.0, p.phi3, p.phi4, level=True)
                 s.reading = ps.reading()
             counters = {k + 1: n_ticks for k in gyros}
-            repeats = {c: main for c, main in GYRO_CHECK_COUNTERS.items() if main in counters}
-            counters |= {c: n_ticks for c in repeats}  # each count read twice
             recs = []
             for i in range(pairs):
                 for direction in ("up", "down"):
@@ -100,7 +99,7 @@ def j_experiment(st, run: Run, settings: ResolverSettings, plan: DayPlan, s1: fl
                             st.counters[c].set_preset(n)
                             st.counters[c].discard_readings()
                         t_pos = st.clock.now()  # the resolver is sampled when asked
-                        phi_start = st.table.position(2)
+                        phi_start = resolver(st, 2)
                         t_oper = {}
                         for c in counters:
                             t_oper[c] = st.clock.now() - t_pos
@@ -112,19 +111,18 @@ def j_experiment(st, run: Run, settings: ResolverSettings, plan: DayPlan, s1: fl
                                     for c in counters}
                         for c in counters:
                             st.counters[c].standby()
-                        check_repeated_counts(st, Gate(readings, 0.0, 0.0, t_oper), repeats,
-                                              n_ticks * s1)
                         t_read = st.clock.now() - t_pos
-                        phi_read = st.table.position(2)
+                        phi_read = resolver(st, 2)
                         prof = profile(phi_start, w_start, w_end, acc, t_cmd)
                         off = (prof(t_read) - phi_read + 180.0) % 360.0 - 180.0
                         if abs(off) > PROFILE_TOLERANCE_DEG + abs(w_end) * PROFILE_DELAY_S:
+                            rate = guarded(st.table, "axis 2 rate", lambda: st.table.rate(2))
                             raise Implausible(
                                 source_of(st.table),
                                 f"axis 2 did not follow the commanded ramp: it reads "
                                 f"{phi_read:.4f} deg where the ramp from {phi_start:.4f} deg "
                                 f"puts it at {prof(t_read) % 360.0:.4f} deg (RATE? "
-                                f"{st.table.rate(2):g} deg/s, commanded {w_end:g})")
+                                f"{rate:g} deg/s, commanded {w_end:g})")
                         rec = {"direction": direction, "phi_start": phi_start,
                                "w_start": w_start, "w_end": w_end, "t_cmd": t_cmd,
                                "gate_s": n_ticks * s1,

@@ -14,7 +14,6 @@ import math
 import numpy as np
 
 from procedures.common import (
-    axis_rate,
     check_repeated_counts,
     check_turns_clock,
     patch,
@@ -26,6 +25,7 @@ from procedures.common import (
 )
 from procedures.gyro_rotating import wait_clear_of_pulse
 from procedures.plan import DayPlan
+from procedures.readings import axis_rate
 from procedures.runner import Run
 from procedures.settings import ALONG_AXIS_CHECK, GYRO_ROTATING, turning_repeats, wiring
 from procedures.sheets import ResolverSettings

@@ -1,21 +1,23 @@
-"""Plausibility of what a procedure reads: nothing the instruments could not have reported, and
-no single reading that disagrees with its repetitions, reaches a computation.
+"""Plausibility of what a procedure reads: nothing the instruments could not have reported,
+and no single reading that disagrees with its repetitions, reaches a computation.
 
-Two checks on readings (a third, on results, lives with each result: ``alignment.checks``,
-``calibration.checks``):
+The checks on readings (those on results live with each result: ``alignment.checks``,
+``calibration.checks``; the instrument-specific readings are in ``procedures.readings``):
 
 * range: a reading outside what the instrument can report (its data sheet, as in
-  docs/protocols.md) is refused;
+  docs/protocols.md) is refused; so is a status reply that is no word the instrument says
+  (``read_word``) and a reply the driver itself could not parse (``guarded``);
 * agreement: repeated readings of one quantity are compared with their median in units of
   the noise the laboratory's specification (``NoiseSpec``) predicts for them, never less than
-  their own robust scatter; a reading beyond ``K_READING`` of them is read again (at most
-  ``MAX_REREADS`` times per quantity, every re-read recorded) and the step stops, naming the
-  instrument, when the re-reads do not bring the readings into agreement.
+  their own robust scatter (``AgreeingReadings``); a value read once is read twice
+  (``read_agreeing``).
 
-Either failure raises :class:`Implausible`, whose message starts with the instrument and its
-link as a driver error does, so the step's ``ProcedureError`` names the chart, the step and
-the instrument. These checks do not rely on the drivers' own reply checks: a reply can be
-well formed and still wrong (a digit changed into another digit).
+A refused reading is read again (at most ``MAX_REREADS`` times per quantity, each re-read
+recorded in the enclosing ``rereads()`` block) and the step stops, naming the instrument,
+when the re-reads do not bring it into agreement: :class:`Implausible`, whose message starts
+with the instrument and its link as a driver error does, so the step's ``ProcedureError``
+names the chart, the step and the instrument. These checks do not rely on the drivers' own
+reply checks: a reply can be well formed and still wrong (a digit changed into another).
 """
 
 from __future__ import annotations
@@ -25,11 +27,13 @@ from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from contextvars import ContextVar
 from dataclasses import dataclass, field
+from typing import TypeVar
 
 import numpy as np
 
 from procedures.calibration.noise_spec import ARCSEC, NoiseSpec
 
+T = TypeVar("T")
 K_READING = 6.0  # a reading this many sigma from its repetitions' median is an outlier
 MAX_REREADS = 3  # re-reads of one quantity's outliers before the step stops
 MAD_TO_SIGMA = 1.4826  # median absolute deviation of a normal sample, in sigma
@@ -109,6 +113,29 @@ def with_rereads(reading: dict, log: list[dict]) -> dict:
     """A step's reading with its re-reads added (nothing added when there were none, so a
     day without them records exactly what it did before)."""
     return {**reading, "rereads": list(log)} if log else reading
+
+
+PARSE_ERRORS = (ValueError, ArithmeticError, IndexError)  # a driver that trusted a reply
+
+
+def guarded(driver: object, what: str, read: Callable[[], T]) -> T:
+    """``read()``, where a reply the driver failed to parse (a builtin error out of it, e.g.
+    a float() of a garbled number) counts as a garbled reply: read again (at most
+    MAX_REREADS times, recorded), then Implausible naming the driver and what was read."""
+    errors: list[str] = []
+    while True:
+        try:
+            got = read()
+        except PARSE_ERRORS as e:
+            errors.append(str(e))
+            if len(errors) > MAX_REREADS:
+                raise Implausible(source_of(driver), f"{what}: replies the driver could not "
+                                  f"read ({'; '.join(errors)}): garbled replies") from e
+            continue
+        if errors:
+            note_reread({"instrument": str(getattr(driver, "name", "")), "what": what,
+                         "was": errors, "now": "read"})
+        return got
 
 
 def read_word(driver: object, read: Callable[[], str], words: Sequence[str], what: str,

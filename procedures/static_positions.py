@@ -19,6 +19,7 @@ from procedures.common import (
     set_modes,
     set_position,
 )
+from procedures.readings import resolver
 from procedures.runner import Run
 from procedures.settings import wiring
 from procedures.sheets import CounterOutputs, CounterSettings, ResolverSettings
@@ -69,7 +70,7 @@ def run_static(st, run: Run, chart: str, title: str, kind: StaticKind,
         with sheet.step("4", f"Set counters {counters} to {kind.mode}{also}"):
             set_modes(st, every, kind.mode)
         with sheet.step("5", "Set phi1 to 0 deg plus level correction, phi2 to 90 deg") as s:
-            ps = set_position(st, 0.0, 90.0, st.table.position(3), st.table.position(4), True)
+            ps = set_position(st, 0.0, 90.0, resolver(st, 3), resolver(st, 4), True)
             s.reading = ps.reading()
         for m, first, text in steps:
             tag = f"/m{m}"

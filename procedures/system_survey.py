@@ -38,7 +38,13 @@ import numpy as np
 from procedures import plausibility as pl
 from procedures import survey_math as sm
 from procedures.calibration.noise_spec import NoiseSpec
-from procedures.common import axis_in_position, read_levels, read_mirror, steady_resolvers
+from procedures.readings import (
+    axis_in_position,
+    read_levels,
+    read_mirror,
+    resolvers,
+    steady_resolvers,
+)
 from procedures.runner import Run
 from procedures.sheets import SurveyResults
 from station.drivers import AutocollimatorDriver
@@ -294,7 +300,7 @@ def system_survey(
             for axis, deg in enumerate(POSITION0_DEG, start=1):
                 st.table.move(axis, deg)
             st.table.wait_still()
-            pos = st.table.positions()
+            pos = resolvers(st)
             off = [abs(_wrap180(p - c)) * 3600.0 for p, c in zip(pos, POSITION0_DEG, strict=True)]
             if max(off) > POSITION_TOLERANCE_ARCSEC:
                 raise pl.Implausible(pl.source_of(st.table),

@@ -16,15 +16,16 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-from procedures.common import panel_connection, read_levels
 from procedures.plausibility import (
     Implausible,
+    guarded,
     read_agreeing,
     read_word,
     rereads,
     source_of,
     with_rereads,
 )
+from procedures.readings import panel_connection, read_levels, resolvers, table_status
 from procedures.runner import Run
 
 if TYPE_CHECKING:
@@ -35,7 +36,6 @@ OSCILLATOR_STATUS = ("LOCKED", "UNLOCKED")
 SELF_TEST = ("PASS", "FAIL")
 COUNTER_STATES = ("STBY", "OPER")
 INTERLOCK = ("CLOSED", "OPEN")
-AXIS_STATES = ("HOLD", "MOVING", "ROTATING", "ACCEL")
 TITLE = "Laboratory turn-on"
 COUNTER_INPUTS = ("X", "Y", "Z")
 HOME_TOLERANCE_ARCSEC = 10.0  # homed resolvers within this of 0 deg (resolver error ~1 arcsec)
@@ -80,9 +80,12 @@ def turn_on(station: Station, run: Run, warmup_s: float = DEFAULT_WARMUP_S) -> N
         text3 = "Record oscillator frequency and countdown ratios (S1^T, S2^T)"
         with sheet.step("3", text3) as s, rereads() as rr:
             osc = st.oscillator
-            f = read_agreeing(osc, osc.nominal_hz, "nominal frequency")
-            d1 = read_agreeing(osc, lambda: osc.divider(1), "countdown ratio 1")
-            d2 = read_agreeing(osc, lambda: osc.divider(2), "countdown ratio 2")
+            f = read_agreeing(osc, lambda: guarded(osc, "frequency", osc.nominal_hz),
+                              "nominal frequency")
+            d1 = read_agreeing(osc, lambda: guarded(osc, "countdown 1", lambda: osc.divider(1)),
+                               "countdown ratio 1")
+            d2 = read_agreeing(osc, lambda: guarded(osc, "countdown 2", lambda: osc.divider(2)),
+                               "countdown ratio 2")
             if f <= 0 or d1 <= 0 or d2 <= 0:
                 raise Implausible(source_of(osc),
                                   f"implausible settings: {f} Hz, /{d1}, /{d2}")
@@ -135,7 +138,7 @@ def turn_on(station: Station, run: Run, warmup_s: float = DEFAULT_WARMUP_S) -> N
         with sheet.step("7", "Home the table; all axes hold with resolvers near 0 deg") as s:
             st.table.home()
             st.table.wait_still()
-            pos = st.table.positions()
+            pos = resolvers(st)
             off = [_from_zero_arcsec(p) for p in pos]
             if max(off) > HOME_TOLERANCE_ARCSEC:
                 raise Implausible(
@@ -144,7 +147,7 @@ def turn_on(station: Station, run: Run, warmup_s: float = DEFAULT_WARMUP_S) -> N
                     "from 0")
             s.reading = {
                 "resolvers_deg": list(pos),
-                "status": st.table.status(),
+                "status": table_status(st),
                 "max_from_zero_arcsec": max(off),
             }
 
@@ -172,7 +175,7 @@ def turn_on(station: Station, run: Run, warmup_s: float = DEFAULT_WARMUP_S) -> N
         with sheet.step("11", text11) as s, rereads() as rr:
             status = read_word(st.oscillator, st.oscillator.status, OSCILLATOR_STATUS,
                                "status")
-            axes = st.table.status()
+            axes = table_status(st)
             if status != "LOCKED":
                 raise Implausible(source_of(st.oscillator),
                                   f"status {status!r} after warm-up")

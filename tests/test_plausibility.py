@@ -187,6 +187,40 @@ def test_levels_that_keep_disagreeing_stop_naming_them():
     assert "levelling not confirmed after 3 corrections" in str(e.value)
 
 
+def test_a_seized_trunnion_under_a_small_correction_is_reported_as_the_tables():
+    """A levelling correction within the controller's in-position band: a seized axis 1
+    reports HOLD and stays where it is (here: its position commands never reach it); the
+    levels keep reading the tilt, and the stop names the table's axis, not the levels."""
+    with rig(seed=3) as (_, _, st):
+        real_move = st.table.move
+
+        def move(ax: int, deg: float) -> None:
+            if not (ax == 1 and deg != 0.0):  # corrections of phi1 are not carried out
+                real_move(ax, deg)
+        st.table.move = move
+        with pytest.raises(pl.Implausible) as e:
+            set_position(st, 0.0, 90.0, 90.0, 0.0, level=True)
+    assert str(e.value).startswith("table (sim://table")
+    assert "axis 1 reads" in str(e.value) and "were not carried out" in str(e.value)
+
+
+def test_a_reply_the_driver_cannot_parse_is_read_again(tmp_path):
+    """Defence in depth: a driver that lets float() fail on a garbled resolver reply
+    ('3\x159.9998250') gets asked again, and the step names the table if it persists."""
+    from procedures.readings import resolver
+
+    with rig() as (_, _, st):
+        replies(st.table, "position", lambda ax: float("3\x159.99"))
+        with pl.rereads() as log:
+            assert abs((resolver(st, 2) + 180.0) % 360.0 - 180.0) < 1e-3  # homed: 0 deg
+        assert log[0]["instrument"] == "table" and "could not convert" in log[0]["was"][0]
+        st.table.position = lambda ax: float("nan?")
+        with pytest.raises(pl.Implausible) as e:
+            resolver(st, 2)
+    assert str(e.value).startswith("table (sim://table")
+    assert "axis 2 resolver: replies the driver could not read" in str(e.value)
+
+
 # ----------------------------------------------------------------------------- (d) survey
 
 

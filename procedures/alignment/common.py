@@ -17,7 +17,8 @@ from procedures.alignment.estimation import LevelParams
 from procedures.alignment.preprocess import Constants
 from procedures.alignment.results_sheet import AlignmentResults, AlignPlan
 from procedures.calibration.noise_spec import NoiseSpec
-from procedures.common import read_levels, read_mirror, set_position
+from procedures.common import set_position
+from procedures.readings import read_levels, read_mirror, resolvers
 from procedures.runner import Run
 from procedures.sheets import CalibrationResults, SurveyResults
 from procedures.system_survey import NOMINAL_AIM_DEG, POSITION0_DEG, acquire
@@ -74,12 +75,12 @@ def set_position0(st: Station, noise: NoiseSpec | None = None) -> dict:
     return {"commanded_deg": list(ps.phi), "level_arcsec": list(ps.level_arcsec or (0, 0)),
             "level_check_arcsec": lev["level_check_arcsec"],
             **({"relevelled": lev["relevelled"]} if "relevelled" in lev else {}),
-            "resolvers_deg": list(st.table.positions()), "t_s": st.clock.now()}
+            "resolvers_deg": list(resolvers(st)), "t_s": st.clock.now()}
 
 
 def table_record(st: Station) -> tuple[tuple[float, float, float, float], tuple[float, float]]:
     """Resolver readouts and bubble levels (range-checked) for the Alignment Results Sheet."""
-    pos = st.table.positions()
+    pos = resolvers(st)
     lev = read_levels(st)
     return tuple(float(x) for x in pos), tuple(float(x) for x in lev)  # type: ignore[return-value]
 

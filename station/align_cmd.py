@@ -268,7 +268,8 @@ def run_align(
                          calibration=str(calibration_dir) if calibration_dir else None,
                          session=conn.session.session if conn.session else None)
                 if calib is None:
-                    data = measure_day(st, run, day_plan, site, cfg.isu.accels[0].f0_hz)
+                    data = measure_day(st, run, day_plan, site, cfg.isu.accels[0].f0_hz,
+                                       noise=noise)
                     calib = compute_calibration(run, data, day_plan, noise, site)
                     survey = data.survey
                     cal_id = "this run (Chart II-15)"

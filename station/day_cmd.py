@@ -182,7 +182,7 @@ def _day(cfg: StationConfig, out: Path, conn: Connection, journal: Journal,
                  positions=list(positions or ()), session=sid,
                  links=None if links is None else str(links))
         data = measure_day(st, run, plan, site_info(cfg), cfg.isu.accels[0].f0_hz, only,
-                           positions)
+                           positions, noise=noise_spec(cfg))
         calib = compute_calibration(run, data, plan, noise_spec(cfg), site_info(cfg))
         alignment = []
         if align and data.survey is not None:

@@ -13,6 +13,7 @@ from pathlib import Path
 from urllib.parse import urlparse
 
 from station.hil.links_dir import DirHandle
+from station.hil.links_dir import write_text as links_dir_write
 
 FILENAME = "links.json"
 
@@ -27,13 +28,7 @@ class LinkEntry:
 def write(links_dir: DirHandle | Path, entries: list[LinkEntry]) -> Path:
     """Write the map atomically (a reader never sees half of it), following no symlink."""
     text = json.dumps([asdict(e) for e in entries], indent=2) + "\n"
-    if isinstance(links_dir, DirHandle):
-        return links_dir.write_text(FILENAME, text)
-    d = DirHandle(Path(links_dir))
-    try:
-        return d.write_text(FILENAME, text)
-    finally:
-        d.close()
+    return links_dir_write(links_dir, FILENAME, text)
 
 
 class BadLinkMap(ValueError):

@@ -231,3 +231,15 @@ class LinksDir(DirHandle):
             os.close(self._lock)
             self._lock = -1
         super().close()
+
+
+def write_text(links_dir: DirHandle | Path, name: str, text: str) -> Path:
+    """Write ``name`` in a links directory atomically, following no symlink, through an
+    open handle or by opening the directory for this one write."""
+    if isinstance(links_dir, DirHandle):
+        return links_dir.write_text(name, text)
+    d = DirHandle(Path(links_dir))
+    try:
+        return d.write_text(name, text)
+    finally:
+        d.close()

@@ -20,6 +20,7 @@ from typing import Any
 from pydantic import BaseModel, ConfigDict, TypeAdapter
 
 from station.hil.links_dir import DirHandle
+from station.hil.links_dir import write_text as links_dir_write
 
 FILENAME = "session.json"
 
@@ -44,14 +45,7 @@ def config_digest(cfg: BaseModel) -> str:
 
 def write(links_dir: DirHandle | Path, s: Session) -> Path:
     """Write atomically (a reader never sees half of it), following no symlink."""
-    text = json.dumps(asdict(s), indent=2) + "\n"
-    if isinstance(links_dir, DirHandle):
-        return links_dir.write_text(FILENAME, text)
-    d = DirHandle(Path(links_dir))
-    try:
-        return d.write_text(FILENAME, text)
-    finally:
-        d.close()
+    return links_dir_write(links_dir, FILENAME, json.dumps(asdict(s), indent=2) + "\n")
 
 
 class BadSession(ValueError):

@@ -10,6 +10,8 @@ enclosing ``plausibility.rereads()`` block), then the step stops naming the inst
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 from procedures.plausibility import (
     MAX_REREADS,
     Implausible,
@@ -111,18 +113,29 @@ def axis_in_position(st, axis: int, commanded_deg: float) -> float:
     """The resolver of an axis holding at ``commanded_deg``: it must read within the
     controller's in-position band of the command; a reading beyond it is read again (at most
     MAX_REREADS times, recorded), then the step stops naming the table."""
+    return _table_reading(
+        st, f"axis {axis} resolver", lambda: resolver(st, axis),
+        lambda deg: abs((deg - commanded_deg + 180.0) % 360.0 - 180.0) * 3600.0
+        <= IN_POSITION_ARCSEC,
+        lambda was: f"axis {axis} holds but its resolver reads {was} deg, commanded "
+        f"{commanded_deg} deg")
+
+
+def _table_reading(st, what: str, read: Callable[[], float], ok: Callable[[float], bool],
+                   refusal: Callable[[list[float]], str]) -> float:
+    """A table reading that must pass ``ok``: read again (at most MAX_REREADS times, the
+    re-read recorded), then Implausible naming the table with ``refusal`` of the readings."""
     was: list[float] = []
     while True:
-        deg = resolver(st, axis)
-        if abs((deg - commanded_deg + 180.0) % 360.0 - 180.0) * 3600.0 <= IN_POSITION_ARCSEC:
+        value = read()
+        if ok(value):
             if was:
-                note_reread({"instrument": st.table.name, "what": f"axis {axis} resolver",
-                             "was": was, "now": deg})
-            return deg
+                note_reread({"instrument": st.table.name, "what": what, "was": was,
+                             "now": value})
+            return value
         if len(was) == MAX_REREADS:
-            raise Implausible(source_of(st.table), f"axis {axis} holds but its resolver reads "
-                              f"{was + [deg]} deg, commanded {commanded_deg} deg")
-        was.append(deg)
+            raise Implausible(source_of(st.table), refusal(was + [value]))
+        was.append(value)
 
 
 def panel_connection(st, counter: int, inp: str, lines: set[str],
@@ -144,18 +157,12 @@ def axis_rate(st, axis: int, commanded_deg_s: float) -> float:
     """The rate of an axis the controller reports turning at ``commanded_deg_s``: a reply
     off by more than RATE_TOLERANCE is read again (at most MAX_REREADS times, recorded), then
     the step stops naming the table and the axis."""
-    was: list[float] = []
-    while True:
-        r = guarded(st.table, f"axis {axis} rate", lambda: st.table.rate(axis))
-        if abs(r - commanded_deg_s) <= RATE_TOLERANCE * abs(commanded_deg_s):
-            if was:
-                note_reread({"instrument": st.table.name, "what": f"axis {axis} rate",
-                             "was": was, "now": r})
-            return r
-        if len(was) == MAX_REREADS:
-            raise Implausible(source_of(st.table), f"axis {axis} reports turning but at "
-                              f"{was + [r]} deg/s, commanded {commanded_deg_s:g} deg/s")
-        was.append(r)
+    return _table_reading(
+        st, f"axis {axis} rate",
+        lambda: guarded(st.table, f"axis {axis} rate", lambda: st.table.rate(axis)),
+        lambda r: abs(r - commanded_deg_s) <= RATE_TOLERANCE * abs(commanded_deg_s),
+        lambda was: f"axis {axis} reports turning but at {was} deg/s, commanded "
+        f"{commanded_deg_s:g} deg/s")
 
 
 AXIS_STATES = ("HOLD", "MOVING", "ROTATING", "ACCEL")

@@ -78,8 +78,8 @@ def _load(config: Path | None, seed: int | None = None):
     _check_seed(seed)
     try:
         return load_config(config, seed=seed)
-    except ConfigError as e:
-        fail(e)
+    except ConfigError as e:  # the option too, so the user knows which argument to mend
+        fail(e if config is None else f"--config: {e}")
     except (OSError, ValueError, RecursionError) as e:  # defence: the loader's ConfigError
         fail(f"--config {config}: {getattr(e, 'strerror', None) or one_line(e)}")
 

@@ -18,6 +18,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from station.files import fsync_dir
+
 KINDS = ("step", "sheet", "note", "block", "failed")
 SAFE_NAME = re.compile(r"[A-Za-z0-9_][A-Za-z0-9_.+-]{0,127}")
 TORN_SUFFIX = ".torn-"
@@ -43,15 +45,6 @@ def dumps(rec: dict) -> str:
 def is_safe_name(name: object) -> bool:
     """A sheet name usable as a file name inside the run directory (no path, no dot-file)."""
     return isinstance(name, str) and SAFE_NAME.fullmatch(name) is not None
-
-
-def fsync_dir(d: Path) -> None:
-    """Make a directory's entries (a new or renamed file) durable."""
-    fd = os.open(d, os.O_RDONLY | os.O_DIRECTORY)
-    try:
-        os.fsync(fd)
-    finally:
-        os.close(fd)
 
 
 def _is_str(rec: dict, key: str) -> bool:
@@ -91,7 +84,20 @@ def _record_problem(rec: object, sheets_seen: set[str]) -> str | None:
                         "(it would address a path outside the run directory)")
             if name not in sheets_seen:
                 return f"block {rec['key']!r} names sheet {name!r}, which no earlier record saved"
+        steps = rec.get("steps", [])
+        if not isinstance(steps, list) or not all(_is_step(r) for r in steps):
+            return (f"block {rec['key']!r} carries steps that are not step records "
+                    "(number, text, done, finite t_sim)")
     return None
+
+
+def _is_step(rec: object) -> bool:
+    """A step of a check-sheet as a block journals it (``StepRecord``'s fields)."""
+    if not isinstance(rec, dict) or not _is_str(rec, "number") or not _is_str(rec, "text"):
+        return False
+    t = rec.get("t_sim")
+    return (isinstance(rec.get("done"), bool) and not isinstance(t, bool)
+            and isinstance(t, (int, float)) and math.isfinite(t))
 
 
 def _parse(line: bytes) -> object:

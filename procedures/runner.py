@@ -13,7 +13,10 @@ never bit-identical): each whole chart run through :meth:`Run.block` journals it
 a completed chart is restored from the journal with the sheets it saved, and the first
 incomplete chart is repeated from its first step (its earlier partial steps stay in the
 journal as history). ``repeat`` names blocks to run again even if completed (turn-on after
-the rack was power-cycled).
+the rack was power-cycled); its entries are shell-style patterns (``ESG-CAL.scan-*``).
+A block may also cover some steps of an open check-sheet (the ESG's scans are steps of one
+sheet): those steps are journaled with the block and put back on the sheet when it is
+restored.
 """
 
 from __future__ import annotations
@@ -22,6 +25,7 @@ import datetime as dt
 import json
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
+from fnmatch import fnmatchcase
 from typing import Any, TypeVar
 
 from pydantic import ValidationError
@@ -108,6 +112,7 @@ class Run:
         self.restored: list[str] = []  # blocks restored from the journal (skip mode)
         self.check_sheets: dict[str, CheckSheet] = {}
         self.sheets: dict[str, Any] = {}
+        self._open: list[CheckSheet] = []  # check-sheets being ticked, innermost last
 
     @property
     def replaying(self) -> bool:
@@ -141,7 +146,11 @@ class Run:
         self.check_sheets[chart] = cs
         if self.listener:
             self.listener({"kind": "sheet_start", "chart": chart, "title": title})
-        yield CheckSheetRun(self, cs)
+        self._open.append(cs)
+        try:
+            yield CheckSheetRun(self, cs)
+        finally:
+            self._open.pop()
         self.save_sheet(f"check_{chart}", cs)
 
     def save_sheet(self, name: str, model: Any) -> None:
@@ -154,20 +163,30 @@ class Run:
 
         The result always goes through its journal form (JSON), so a fresh run and a run
         restored from the journal see the same values. In skip mode a block completed in
-        the journal (and not in ``repeat``) is restored, with the sheets it saved, instead.
+        the journal (and matching no ``repeat`` pattern) is restored, with the sheets it
+        saved and the steps it ticked on the open check-sheet, instead.
         """
         done = self._blocks.get(key)
-        if self.resume == "skip" and done is not None and key not in self.repeat:
+        open_sheet = self._open[-1] if self._open else None
+        if (self.resume == "skip" and done is not None
+                and not any(fnmatchcase(key, p) for p in self.repeat)):
             for name in done.get("sheets", []):
                 self._restore_sheet(name)
+            if open_sheet is not None:
+                open_sheet.steps.extend(StepRecord.model_validate(r)
+                                        for r in done.get("steps", []))
             self.restored.append(key)
             self.journal.append({"kind": "note", "event": "restored", "block": key})
             return load(done["data"])
         first = len(self._saved)
+        first_step = len(open_sheet.steps) if open_sheet is not None else 0
         value = json.loads(dumps({"x": fn()}))["x"]
         if self.resume == "skip" or done is None:
             rec = {"kind": "block", "key": key, "data": value,
                    "sheets": list(dict.fromkeys(self._saved[first:]))}
+            if open_sheet is not None:
+                rec["steps"] = [r.model_dump(mode="json")
+                                for r in open_sheet.steps[first_step:]]
             self.journal.append(rec)
             self._blocks[key] = rec
         return load(value)
@@ -175,8 +194,6 @@ class Run:
     def _restore_sheet(self, name: str) -> None:
         value = self._old_sheets[name]
         self.sheets[name] = value
-        if isinstance(value, CheckSheet):
-            self.check_sheets[value.chart] = value
         if isinstance(value, CheckSheet):
             self.check_sheets[value.chart] = value
 

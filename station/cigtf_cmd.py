@@ -21,8 +21,9 @@ from procedures.journal import JournalError, scan
 from sim.cigtf_world import CigtfParams
 from station.cigtf_rack import CigtfRack, open_cigtf_station
 from station.connect import connect_rack, journaled_run
+from station.files import atomic_path
 from station.hil.session import params_digest
-from station.record import atomic_path, write_json, write_sheets
+from station.record import write_json, write_sheets
 from station.rundir import JOURNAL, RunDirError, prepare
 
 PHASES = ("operating", "shutdown")

@@ -26,9 +26,10 @@ from procedures.runner import Run
 from sim import units
 from station.config import StationConfig
 from station.connect import Connection, connect
+from station.files import atomic_path
 from station.plots import nonlinearity_plot
 from station.rack import SimulatedRack
-from station.record import atomic_path, write_results, write_sheets
+from station.record import write_results, write_sheets
 from station.rundir import opened_journal, prepare, resume_note
 from station.truth import calibration_truth
 

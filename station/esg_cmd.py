@@ -25,13 +25,14 @@ from pathlib import Path
 import numpy as np
 
 from procedures.esg import strategy
-from procedures.esg.acquisition import Acquisition, EsgPlan, acquire
+from procedures.esg.acquisition import RENEW, Acquisition, EsgPlan, acquire
 from procedures.esg.calibration import SCHEDULES, ScheduleResult, assign, calibrate, nominal
 from sim.esg.world import EsgParams, EsgWorld
 from station.connect import connect_rack, journaled_run
 from station.esg_rack import EsgRack, open_esg_station
+from station.files import atomic_path
 from station.hil.session import params_digest
-from station.record import atomic_path, write_json, write_sheets
+from station.record import write_json, write_sheets
 from station.rundir import prepare
 
 GOAL_ARCSEC = 15.0
@@ -196,7 +197,8 @@ def run_esg_calibration(seed: int, out: Path, params: EsgParams | None = None,
     st, rack, served = connect_rack(
         "esg", seed, params_digest("esg", params),
         lambda: EsgRack(seed, params), open_esg_station, links, rack_hook)
-    with journaled_run(out, st, rack, served, resume, seed=seed, test="esg-calibration") as (
+    with journaled_run(out, st, rack, served, resume, renew=RENEW, seed=seed,
+                       test="esg-calibration") as (
             run, extra, t_start):
         acq = acquire(st, run, plan)
         points, bud = assign(acq, plan, plan.lines_per_setting)

@@ -16,7 +16,8 @@ from hypothesis import strategies as hs
 from procedures.journal import Journal, JournalError, dumps, scan
 from procedures.runner import Run
 from station.clock import VirtualClock
-from station.record import atomic_path, sheet_path, write_json, write_sheets
+from station.files import atomic_path
+from station.record import sheet_path, write_json, write_sheets
 
 
 def sha(p: Path) -> str:

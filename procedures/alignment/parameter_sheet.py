@@ -21,6 +21,7 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from procedures.alignment.estimation import LevelParams, posterior_level
+from station.files import write_bytes
 
 TAPE_FORMAT = "isu-station alignment tape 1"
 REL_TOL = 1e-9  # parameters equal up to float round-off
@@ -79,8 +80,9 @@ def make_tape(sheet: AlignmentParameterSheet) -> Tape:
 
 
 def write_tape(tape: Tape, path: str | Path) -> Path:
+    """The tape as a JSON file, written whole or not at all (a kill leaves no half reel)."""
     path = Path(path)
-    path.write_text(tape.model_dump_json(indent=1))
+    write_bytes(path, tape.model_dump_json(indent=1).encode("utf-8"))
     return path
 
 

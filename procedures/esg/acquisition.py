@@ -9,12 +9,18 @@ the axes by the nominal geometry from the three count ratios; steps 6-7 read pic
 the first ratio, the second and the first again so that a steady drift cancels in the
 bisection. Printed slips: step 6 refers to step 3 and step 7 to step 5; both mean the
 step before (4 and 6).
+
+Each part is a journaled block (``Run.block``) so that a resume over links does not repeat
+hours of rotor time: ESG-DP, the mount check (step 1), the spinning-rotor set-up (steps 2-8
+with ESG-PA), each tilt readjustment and each scan. A restarted served rack (another
+session) has lost the processor's zero and the rotor's spin axis: ``RENEW`` repeats every
+block but the mount check then.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from typing import Protocol
 
 import numpy as np
@@ -32,6 +38,8 @@ from station.drivers.esg import (
     TurntableDriver,
 )
 
+# blocks a new session of a served rack repeats (processor zero, rotor state)
+RENEW = ("ESG-DP", "ESG-CAL.rotor", "ESG-CAL.tilt-*", "ESG-CAL.scan-*")
 MIRROR_ANGLE_DEG = 89.0 + 56.0 / 60.0 + 5.0 / 3600.0  # measured between the two mirrors
 
 
@@ -142,6 +150,34 @@ class Acquisition:
     mount_coning_arcsec: float = 0.0
     pickoff_coning_arcsec: float = 0.0
     scans: list[Scan] = field(default_factory=list)
+
+    def state(self) -> dict:
+        """The scalar results so far (a block's journal form; scans are kept apart)."""
+        return {f.name: getattr(self, f.name) for f in fields(self) if f.name != "scans"}
+
+    def set_state(self, d: dict) -> None:
+        for k, v in d.items():
+            setattr(self, k, v)
+
+
+def scan_record(scan: Scan) -> dict:
+    """A scan in its journal form."""
+    b = scan.baseline
+    return {"name": scan.name, "side": scan.side, "increment_deg": scan.increment_deg,
+            "baseline": {"gamma_deg": b.gamma_deg, "start": b.start.reading(),
+                         "end": b.end.reading() if b.end is not None else None},
+            "points": [{"scan": q.scan, "increment_deg": q.increment_deg,
+                        "offset_deg": q.offset_deg, "gamma_deg": q.gamma_deg,
+                        "setting": q.setting.reading()} for q in scan.points]}
+
+
+def scan_from_record(d: dict) -> Scan:
+    b = d["baseline"]
+    base = Baseline(b["gamma_deg"], Setting.from_reading(b["start"]),
+                    Setting.from_reading(b["end"]) if b["end"] is not None else None)
+    return Scan(d["name"], d["side"], d["increment_deg"], base,
+                [ScanPoint(q["scan"], q["increment_deg"], q["offset_deg"], q["gamma_deg"],
+                           Setting.from_reading(q["setting"])) for q in d["points"]])
 
 
 # ---------------------------------------------------------------- small operations
@@ -512,45 +548,75 @@ def fine_slope(scan: Scan) -> float:
     return float(np.polyfit(x, y, 2)[1])
 
 
-def calibration_scans(st: Station, run: Run, plan: EsgPlan, sh, acq: Acquisition) -> None:
-    """Steps 8-12."""
-    # d(CR)/d(gamma) at the equator: d(CR)/d(theta) times d(theta)/d(gamma)
-    slope_g = design_slope_per_deg(90.0, plan.design_inclination_deg) * acq.colatitude_sign
+def _scan_block(st: Station, run: Run, plan: EsgPlan, sh, acq: Acquisition, name: str,
+                side: int, increment: float, offsets: list[float],
+                slope_per_deg: float) -> Scan:
+    """One scan as a journaled block: its settings and the equator angle it leaves."""
+    def measure() -> dict:
+        scan = run_scan(st, plan, sh, acq, name, side, increment, offsets, slope_per_deg)
+        acq.scans.pop()  # added back by ``load``, the same for a fresh and a restored scan
+        return {"scan": scan_record(scan), "gamma_eq_deg": acq.gamma_eq_deg}
+
+    def load(d: dict) -> Scan:
+        acq.gamma_eq_deg = d["gamma_eq_deg"]
+        acq.scans.append(scan_from_record(d["scan"]))
+        return acq.scans[-1]
+
+    return run.block(f"ESG-CAL.scan-{name}", measure, load)
+
+
+def rotor_setup(st: Station, run: Run, plan: EsgPlan, sh, acq: Acquisition) -> None:
+    """Steps 2-8 and ESG-PA: spin-up, drift offset, equal ratios, equator, tilt, lock."""
+    start_gyro(st, run, plan, sh)
+    cancel_drift(st, run, plan, sh, acq)
+    s_lab = geo.drift_equilibrium(plan.latitude_deg, acq.unbalance_k_deg_hr)
+    s_lab = equal_ratio_points(st, run, plan, sh, acq, s_lab)
+    equator(st, run, plan, sh, acq, s_lab)
     with sh.step("8", "tilt until pickoff 1 reads the equator's ratio; lock the table") as s:
         _move_head(st, plan, acq.gamma_eq_deg)
         s.reading = tilt_to_equator(st, plan, acq.cr_eq)
         st.turntable.lock()
     pickoff_check(st, run, plan, acq)
+
+
+def calibration_scans(st: Station, run: Run, plan: EsgPlan, sh, acq: Acquisition) -> None:
+    """Steps 9-12 (step 8, the tilt and lock, is the end of ``rotor_setup``)."""
+    # d(CR)/d(gamma) at the equator: d(CR)/d(theta) times d(theta)/d(gamma)
+    slope_g = design_slope_per_deg(90.0, plan.design_inclination_deg) * acq.colatitude_sign
     inc9 = plan.fine_step_arcmin / 60.0
     n9 = int(round(plan.fine_span_deg / inc9))
     offs9 = [round(inc9 * k, 6) for k in range(-n9, n9 + 1) if k != 0]
-    sc9 = run_scan(st, plan, sh, acq, "9", 1, inc9, offs9, slope_g)
+    sc9 = _scan_block(st, run, plan, sh, acq, "9", 1, inc9, offs9, slope_g)
     slope_side = fine_slope(sc9)  # per degree towards side +
     slope_g = slope_side * (-acq.colatitude_sign)  # back to per degree of gamma
     end = plan.scan_end_deg
     for step, inc, first in (("10", 5.0, 5.0), ("11", 2.0, 30.0), ("12", 1.0, 40.0)):
-        with sh.step(f"{step}.tilt", "tilt readjusted: pickoff 1 at the equator's "
-                     "ratio") as s:
-            _move_head(st, plan, acq.gamma_eq_deg)
-            s.reading = tilt_to_equator(st, plan, acq.cr_eq)
+        def tilt(step: str = step) -> None:
+            with sh.step(f"{step}.tilt", "tilt readjusted: pickoff 1 at the equator's "
+                         "ratio") as s:
+                _move_head(st, plan, acq.gamma_eq_deg)
+                s.reading = tilt_to_equator(st, plan, acq.cr_eq)
+        run.block(f"ESG-CAL.tilt-{step}", tilt, lambda _: None)
         last = end - (end - first) % inc
         for side, tag in ((1, "+"), (-1, "-")):
-            run_scan(st, plan, sh, acq, f"{step}{tag}", side, inc,
-                     _scan_offsets(first, last, inc), slope_g)
+            _scan_block(st, run, plan, sh, acq, f"{step}{tag}", side, inc,
+                        _scan_offsets(first, last, inc), slope_g)
 
 
 def acquire(st: Station, run: Run, plan: EsgPlan | None = None) -> Acquisition:
     """Sheets ESG-DP, ESG-CAL (steps 1-13) and ESG-PA; returns the acquisition record."""
     plan = plan or EsgPlan()
     acq = Acquisition()
-    acq.t_zero_s = processor_setup(st, run, plan)["t_zero_s"]
+    acq.t_zero_s = run.block("ESG-DP", lambda: processor_setup(st, run, plan)["t_zero_s"],
+                             float)
     with run.sheet("ESG-CAL", "Pattern calibration data acquisition") as sh:
-        acq.mount_coning_arcsec = mount_check(st, run, plan, sh)
-        start_gyro(st, run, plan, sh)
-        cancel_drift(st, run, plan, sh, acq)
-        s_lab = geo.drift_equilibrium(plan.latitude_deg, acq.unbalance_k_deg_hr)
-        s_lab = equal_ratio_points(st, run, plan, sh, acq, s_lab)
-        equator(st, run, plan, sh, acq, s_lab)
+        acq.mount_coning_arcsec = run.block(
+            "ESG-CAL.mount", lambda: mount_check(st, run, plan, sh), float)
+
+        def rotor() -> dict:
+            rotor_setup(st, run, plan, sh, acq)
+            return acq.state()
+        run.block("ESG-CAL.rotor", rotor, acq.set_state)
         calibration_scans(st, run, plan, sh, acq)
         with sh.step("13", "gyro shut down; data to reduction") as s:
             st.console.spin_off()

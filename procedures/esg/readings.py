@@ -36,6 +36,14 @@ class Setting:
                 "line_cr": {str(k): v for k, v in self.line_cr.items()},
                 "rejected": self.rejected}
 
+    @classmethod
+    def from_reading(cls, d: dict) -> Setting:
+        """The setting back from its journal form (``reading``)."""
+        return cls(tuple(d["pickoffs"]), d["t_s"],  # type: ignore[arg-type]
+                   {int(k): v for k, v in d["cr"].items()}, list(d["times_s"]),
+                   {int(k): list(v) for k, v in d["line_cr"].items()},
+                   list(d["rejected"]))
+
 
 class TooFewLines(Exception):
     pass

@@ -23,18 +23,18 @@ from pathlib import Path
 
 
 def one(seed: int) -> dict:
-    from procedures.alignment.run import run_alignments
-    from procedures.computations import compute_calibration
-    from procedures.day import measure_day
+    from laboratory.isu.align import alignment_entries, day_alignments
+    from laboratory.isu.day import noise_spec, site_info
+    from laboratory.isu.truth import calibration_truth
+    from procedures.isu.alignment.run import run_alignments
+    from procedures.isu.computations import compute_calibration
+    from procedures.isu.day import measure_day
+    from procedures.isu.plan import DayPlan
+    from procedures.isu.turn_on import turn_on
     from procedures.journal import Journal
-    from procedures.plan import DayPlan
     from procedures.runner import Run
-    from procedures.turn_on import turn_on
-    from station.align_cmd import alignment_entries, day_alignments
-    from station.config import load_config
-    from station.day_cmd import noise_spec, site_info
-    from station.rack import SimulatedRack, open_station
-    from station.truth import calibration_truth
+    from station.config.isu import load_config
+    from station.racks.isu import SimulatedRack, open_station
 
     cfg = load_config(seed=seed)
     out: dict = {"seed": seed}

@@ -20,8 +20,8 @@ from pathlib import Path
 def one(seed: int) -> dict:
     from rich.console import Console
 
-    from station.config import load_config
-    from station.day_cmd import run_day
+    from laboratory.isu.day import run_day
+    from station.config.isu import load_config
 
     with tempfile.TemporaryDirectory() as d:
         res = run_day(load_config(seed=seed), Path(d), quiet=True, console=Console(quiet=True))

@@ -3,8 +3,8 @@ loaders accept crash a run (a traceback) instead of completing or stopping at a 
 
     python bench/config_corners.py [isu|cigtf|esg ...]
 
-Each corner sets many magnitudes at once to a bound (sim/params.py, station/config.py,
-station/cigtf_config.py, station/esg_config.py). Prints, per corner, "completed",
+Each corner sets many magnitudes at once to a bound (sim/isu/params.py, station/config/isu.py,
+station/config/cigtf.py, station/config/esg.py). Prints, per corner, "completed",
 "stopped: <the step's error>" (a clean refusal by the procedure: the corner is a lab that
 cannot do the job) or "TRACEBACK <type>: ..." (a defect). Exit 1 on any traceback.
 """
@@ -21,10 +21,10 @@ from typing import Any
 from rich.console import Console
 
 from procedures.runner import ProcedureError
-from station.cigtf_config import CigtfConfig
-from station.config import default_dict, load_config
+from station.config.cigtf import CigtfConfig
+from station.config.esg import EsgConfig, params_from
+from station.config.isu import default_dict, load_config
 from station.errors import StationError
-from station.esg_config import EsgConfig, params_from
 
 
 def _gyros(**kw: Any) -> list[dict]:
@@ -122,14 +122,14 @@ def run(lab: str, overrides: dict, out: Path) -> str:
     quiet = Console(quiet=True)
     try:
         if lab == "isu":
-            from station.day_cmd import run_day
+            from laboratory.isu.day import run_day
 
             run_day(load_config(overrides=overrides), out, quiet=True, console=quiet)
         elif lab == "cigtf":
             from dataclasses import replace
 
-            from sim.cigtf_world import CigtfParams
-            from station.cigtf_cmd import run_gyrocompass_test
+            from laboratory.cigtf.gyrocompassing import run_gyrocompass_test
+            from sim.cigtf.world import CigtfParams
 
             cfg = CigtfConfig.model_validate(overrides)
             params = replace(CigtfParams(), **{k: v for k, v in cfg.model_dump().items()
@@ -140,7 +140,7 @@ def run(lab: str, overrides: dict, out: Path) -> str:
                     f"{op['sigma_arcsec']:.2f}, truth {res['truth']['theta_arcsec']:+.2f} "
                     "arcsec")
         else:
-            from station.esg_cmd import run_esg_calibration
+            from laboratory.esg.calibration import run_esg_calibration
 
             run_esg_calibration(1, out, params=params_from(EsgConfig.model_validate(overrides)),
                                 with_study=False)

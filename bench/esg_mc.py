@@ -13,7 +13,7 @@ import sys
 import tempfile
 import time
 
-from station.esg_cmd import run_esg_calibration
+from laboratory.esg.calibration import run_esg_calibration
 
 
 def main(n: int = 20, first: int = 100) -> None:

@@ -4,7 +4,7 @@
 
 Runs N fault-free calibration days (alignments included; default 40 from seed 2000) and
 prints: days stopped (with the stop), re-reads, relevellings and IEU retakes, and per
-check family the largest |z| seen against its limit (procedures.plausibility.K_READING
+check family the largest |z| seen against its limit (procedures.isu.plausibility.K_READING
 for readings, K_RESULT for results) with a normal-tail estimate of the false-stop rate per
 day. Every number comes from the days' journals.
 """
@@ -32,8 +32,8 @@ def instrument() -> None:
     (once per worker process)."""
     import numpy as np
 
-    from procedures import common, plausibility
-    from procedures.alignment import sampling
+    from procedures.isu import common, plausibility
+    from procedures.isu.alignment import sampling
 
     if getattr(plausibility, "_bench_wrapped", False):
         return
@@ -65,9 +65,9 @@ def instrument() -> None:
 def one(seed: int) -> dict:
     from rich.console import Console
 
+    from laboratory.isu.day import run_day
     from procedures.runner import ProcedureError
-    from station.config import load_config
-    from station.day_cmd import run_day
+    from station.config.isu import load_config
 
     instrument()
     READING_CHECKS.clear()
@@ -127,8 +127,8 @@ def main() -> None:
     ap.add_argument("first", nargs="?", type=int, default=2000)
     ap.add_argument("--jobs", type=int, default=2)
     args = ap.parse_args()
-    from procedures.alignment.checks import K_RESULT
-    from procedures.calibration.checks import K_RESULT as K_CAL
+    from procedures.isu.alignment.checks import K_RESULT
+    from procedures.isu.calibration.checks import K_RESULT as K_CAL
 
     with ProcessPoolExecutor(max_workers=args.jobs) as ex:
         days = list(ex.map(one, range(args.first, args.first + args.n)))
@@ -163,7 +163,7 @@ def main() -> None:
     for d in days:
         for k, v in d["readings"].items():
             rd[k] += v
-    from procedures.plausibility import K_READING
+    from procedures.isu.plausibility import K_READING
 
     print(f"reading checks (limit {K_READING:g} sigma): largest deviation per check")
     for k, v in sorted(rd.items()):

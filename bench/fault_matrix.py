@@ -105,7 +105,7 @@ def run_day(faults: dict, seed: int, timeout: float) -> dict:
         cfg = Path(d) / "faults.toml"
         cfg.write_text(toml(faults))
         out = Path(d) / "run"
-        cmd = [sys.executable, "-m", "station.cli", "day", "--config", str(cfg), "--seed",
+        cmd = [sys.executable, "-m", "laboratory.cli", "day", "--config", str(cfg), "--seed",
                str(seed), "--out", str(out), "--quiet"]
         env = {**os.environ, "COLUMNS": "400", "PYTHONHASHSEED": "0"}
         w0 = time.perf_counter()

@@ -42,9 +42,9 @@ def _target(lab: str) -> FuzzTarget:
 
 def _imports() -> None:
     """The racks' modules, imported before the clock runs (seconds the first time)."""
-    import station.cigtf_rack  # noqa: F401
-    import station.esg_rack  # noqa: F401
-    import station.rack  # noqa: F401
+    import station.racks.cigtf  # noqa: F401
+    import station.racks.esg  # noqa: F401
+    import station.racks.isu  # noqa: F401
 
 
 TARGETS = [_target(lab) for lab in LABS]

@@ -32,11 +32,11 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 from crccheck.crc import Crc8Autosar, Crc32C  # type: ignore[import-untyped]  # noqa: E402
 from fuzz_core import FuzzTarget  # noqa: E402
 
-from instruments.ieu import load_dbc, sample_frames, seal  # noqa: E402
+from instruments.isu.ieu import load_dbc, sample_frames, seal  # noqa: E402
 from sim.timebase import ticks  # noqa: E402
-from station.config import load_config  # noqa: E402
-from station.drivers.ieu import PARTS, GarbledFrame, SampleAssembler, decode_frame  # noqa: E402
-from station.rack import SimulatedRack  # noqa: E402
+from station.config.isu import load_config  # noqa: E402
+from station.drivers.isu.ieu import PARTS, GarbledFrame, SampleAssembler, decode_frame  # noqa: E402
+from station.racks.isu import SimulatedRack  # noqa: E402
 
 DB = load_dbc()
 NAMES = {m.frame_id: m.name for m in DB.messages}

@@ -38,8 +38,8 @@ CLEAN_EVERY = 1000  # inputs between emptying the instrument's wire buffer
 
 def _isu(name: str) -> Callable[[], tuple[ByteInstrument, Callable[[], None]]]:
     def build():
-        from station.config import load_config
-        from station.rack import SimulatedRack
+        from station.config.isu import load_config
+        from station.racks.isu import SimulatedRack
 
         rack = SimulatedRack(load_config())
         if name == "counter1":  # wired as the calibration wires it: gates can open
@@ -52,7 +52,7 @@ def _isu(name: str) -> Callable[[], tuple[ByteInstrument, Callable[[], None]]]:
 
 def _cigtf(name: str):
     def build():
-        from station.cigtf_rack import CigtfRack
+        from station.racks.cigtf import CigtfRack
 
         rack = CigtfRack(1)
         return rack.serial[name], rack.close
@@ -61,7 +61,7 @@ def _cigtf(name: str):
 
 def _esg(name: str):
     def build():
-        from station.esg_rack import EsgRack
+        from station.racks.esg import EsgRack
 
         rack = EsgRack(1)
         return rack.serial[name], rack.close

@@ -10,8 +10,8 @@ from __future__ import annotations
 import statistics
 import time
 
-from station.config import load_config
-from station.rack import SimulatedRack, open_station
+from station.config.isu import load_config
+from station.racks.isu import SimulatedRack, open_station
 
 
 def _setup(seed: int):

@@ -20,8 +20,8 @@ from pathlib import Path
 
 from scipy import stats
 
-from sim.cigtf_world import CigtfParams
-from station.cigtf_cmd import run_gyrocompass_test
+from laboratory.cigtf.gyrocompassing import run_gyrocompass_test
+from sim.cigtf.world import CigtfParams
 
 
 def main() -> None:

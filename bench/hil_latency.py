@@ -40,8 +40,8 @@ import serial
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))  # measure this tree, not whichever copy is installed
 
-from station.config import load_config  # noqa: E402
-from station.drivers import IeuDriver, OscillatorDriver  # noqa: E402
+from station.config.isu import load_config  # noqa: E402
+from station.drivers.isu import IeuDriver, OscillatorDriver  # noqa: E402
 from station.hil import link_map  # noqa: E402
 from station.hil.profile import served  # noqa: E402
 

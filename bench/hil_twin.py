@@ -18,8 +18,8 @@ import tempfile
 import time
 from pathlib import Path
 
-from station.config import load_config
-from station.day_cmd import run_day
+from laboratory.isu.day import run_day
+from station.config.isu import load_config
 from station.hil import link_map
 from station.hil.twin import compare_rehearsal
 
@@ -47,7 +47,7 @@ def main(argv: list[str]) -> None:
                 time.sleep(0.05)
             w0 = time.perf_counter()
             day = subprocess.run(
-                [sys.executable, "-m", "station.cli", "day", "--links", str(links), "--seed",
+                [sys.executable, "-m", "laboratory.cli", "day", "--links", str(links), "--seed",
                  str(seed), *DAY, "--out", str(base / "run"), "--quiet"],
                 capture_output=True, text=True)
             wall = time.perf_counter() - w0

@@ -1,4 +1,4 @@
-"""Wall time of the level alignment's posterior (procedures.alignment.estimation) against K.
+"""Wall time of the level alignment's posterior (procedures.isu.alignment.estimation) against K.
 
 Prints, per (K, dt), the median of 5 evaluations of ``posterior_level`` on the default
 noise specification. The figure that used to be a test assertion (K = 300 under 1 s) lives
@@ -16,7 +16,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 
 from test_alignment_estimator import default_params  # noqa: E402
 
-from procedures.alignment.estimation import posterior_level  # noqa: E402
+from procedures.isu.alignment.estimation import posterior_level  # noqa: E402
 
 
 def main() -> None:

@@ -18,7 +18,7 @@ Gyro power control:
 from __future__ import annotations
 
 from instruments.base import ByteInstrument, Deferred, InstrumentError, as_int
-from sim.cigtf_world import CigtfWorld
+from sim.cigtf.world import CigtfWorld
 from sim.timebase import ticks
 
 

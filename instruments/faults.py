@@ -22,14 +22,14 @@ import numpy as np
 import simpy
 
 from instruments.base import ByteInstrument
-from instruments.ieu import Ieu
-from instruments.table_controller import TableController
+from instruments.isu.ieu import Ieu
+from instruments.isu.table_controller import TableController
 from sim.rng import stream
 from sim.timebase import ticks
 
 
 class FaultSettings(Protocol):
-    """One instrument's faults (``station.config.FaultSpec`` is one; defaults mean none)."""
+    """One instrument's faults (``station.config.isu.FaultSpec`` is one; defaults mean none)."""
 
     latency_s: float
     drop_rate: float

@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import datetime as dt
 import json
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Mapping
 from contextlib import contextmanager
 from fnmatch import fnmatchcase
 from typing import Any, TypeVar
@@ -31,7 +31,7 @@ from typing import Any, TypeVar
 from pydantic import ValidationError
 
 from procedures.journal import Journal, JournalError, dumps
-from procedures.sheets import SHEET_MODELS, CheckSheet, StepRecord
+from procedures.sheets import SHEET_MODELS, CheckSheet, Sheet, StepRecord
 from station.clock import Clock
 from station.errors import current_step
 
@@ -56,11 +56,12 @@ def _stable(rec: dict) -> dict:
     return {k: v for k, v in json.loads(dumps(rec)).items() if k not in VOLATILE}
 
 
-def _sheet_value(journal: Journal, rec: dict, line: int) -> Any:
+def _sheet_value(journal: Journal, rec: dict, line: int,
+                 models: Mapping[str, type[Sheet]]) -> Any:
     """A journaled sheet as its model (plain data if it has none); JournalError naming the
     line when the data is not such a sheet."""
     name = rec["name"]
-    model = SHEET_MODELS.get("check" if name.startswith("check_") else name)
+    model = models.get("check" if name.startswith("check_") else name)
     if model is None:
         return rec["data"]
     try:
@@ -87,7 +88,10 @@ class Run:
         listener: Callable[[dict], None] | None = None,
         resume: str = "replay",
         repeat: tuple[str, ...] = (),
+        sheet_models: Mapping[str, type[Sheet]] = SHEET_MODELS,
     ) -> None:
+        """``sheet_models``: the laboratory's sheet models by name, to restore its sheets
+        from the journal (skip mode) as models rather than plain data."""
         if resume not in RESUME_MODES:
             raise ValueError(f"resume mode must be one of {RESUME_MODES}, got {resume!r}")
         self.clock = clock
@@ -104,7 +108,8 @@ class Run:
         self._old_lines = [n for _, n in replayed]
         self._old_sheets: dict[str, Any] = {}
         if resume == "skip":
-            self._old_sheets = {r["name"]: _sheet_value(journal, r, n) for r, n in replayed
+            self._old_sheets = {r["name"]: _sheet_value(journal, r, n, sheet_models)
+                                for r, n in replayed
                                 if r["kind"] == "sheet"}
             self._old = []
         self._pos = 0

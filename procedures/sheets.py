@@ -1,6 +1,6 @@
-"""The laboratory's sheets as data: what a run records and what reports render from.
-
-Lab units at this boundary: degrees, arcsec, deg/hr, g, pulses, counts.
+"""The check-sheet as data (every laboratory's Laboratory Procedures Sheets) and the base
+of each laboratory's own sheets (procedures/isu/sheets.py): what a run records and what
+reports render from. Lab units at this boundary.
 """
 
 from __future__ import annotations
@@ -10,11 +10,13 @@ from typing import Any
 from pydantic import BaseModel, ConfigDict, Field
 
 
-class _Sheet(BaseModel):
+class Sheet(BaseModel):
+    """A sheet of the record: plain data, no unknown fields."""
+
     model_config = ConfigDict(extra="forbid")
 
 
-class StepRecord(_Sheet):
+class StepRecord(Sheet):
     number: str
     text: str
     done: bool
@@ -22,7 +24,7 @@ class StepRecord(_Sheet):
     reading: Any = None
 
 
-class CheckSheet(_Sheet):
+class CheckSheet(Sheet):
     """A Laboratory Procedures Sheet with its ticks (steps numbered as the chart)."""
 
     chart: str
@@ -30,81 +32,4 @@ class CheckSheet(_Sheet):
     steps: list[StepRecord] = Field(default_factory=list)
 
 
-class SurveyResults(_Sheet):
-    """Survey Results Sheet (Chart I-3)."""
-
-    g: float  # local gravity, in g (standard gravity units)
-    omega_sin_lambda_deg_hr: float  # north component of Earth rate
-    omega_cos_lambda_deg_hr: float  # vertical component of Earth rate
-    position0_deg: tuple[float, float, float, float]  # phi1..phi4 at position 0
-    autocollimator_deg: tuple[float, float, float, float]  # alpha1, theta1, alpha2, theta2
-    t_bi: list[list[float]]
-    settings_deg: dict[str, tuple[float, float]]  # m -> (phi3^m, phi4^m), m = 1, 3, 5, 13, 14, 15
-    t_br_column2: dict[str, tuple[float, float, float]]  # m -> (T12, T22, T32)^BRm
-
-
-class PositionSetting(_Sheet):
-    phi1: float
-    phi2: float | None  # None: rotating
-    phi3: float
-    phi4: float
-    bubble_correction: bool
-
-
-class ResolverSettings(_Sheet):
-    """Test Table Resolver Settings Sheet (Chart II-1 / II-17), degrees."""
-
-    positions: dict[str, PositionSetting]
-
-
-class CounterConnection(_Sheet):
-    xy: str  # e.g. "G1+/G1-", "A1S1", "OSC1"
-    z: str
-    mode: str  # "measure Z" | "measure X-Y"
-
-
-class CounterConnections(_Sheet):
-    """Counter Connections Sheet (Chart II-2): experiment -> counter -> patching."""
-
-    experiments: dict[str, dict[str, CounterConnection]]
-
-
-class CounterSettings(_Sheet):
-    """Counter Settings Sheet (Chart II-3 / II-20): position -> counter -> preset."""
-
-    presets: dict[str, dict[str, int]]
-    basis: dict[str, str]  # experiment -> how the preset follows from the required accuracy
-
-
-class CounterOutputs(_Sheet):
-    """Counter Outputs Sheet (Chart II-4): position -> counter -> reading."""
-
-    outputs: dict[str, dict[str, int]] = Field(default_factory=dict)
-
-
-class ResultRow(_Sheet):
-    instrument: str  # gyro1..gyro3, accel1..accel3
-    parameter: str  # as on Chart II-5: DeltaPhi, G.B1, R, ..., D1, A.B1, D0, D2, D3
-    units: str
-    estimate: float | None
-    sigma: float | None
-    positions: str  # Chart II-16 entry (prerequisites in parentheses)
-    note: str = ""
-
-
-class CalibrationResults(_Sheet):
-    """Calibration Results Sheet (Chart II-5)."""
-
-    rows: list[ResultRow]
-    positions_used: list[int]
-
-
-SHEET_MODELS: dict[str, type[_Sheet]] = {
-    "check": CheckSheet,  # every check_<chart> sheet
-    "survey_results": SurveyResults,
-    "resolver_settings": ResolverSettings,
-    "counter_connections": CounterConnections,
-    "counter_settings": CounterSettings,
-    "counter_outputs": CounterOutputs,
-    "calibration_results": CalibrationResults,
-}
+SHEET_MODELS: dict[str, type[Sheet]] = {"check": CheckSheet}  # every check_<chart> sheet

@@ -24,12 +24,12 @@ from typing import Any
 
 import numpy as np
 
-from sim.cigtf_world import CigtfParams
+from sim.cigtf.world import CigtfParams
 from sim.esg.world import EsgParams
-from station.cigtf_config import CigtfConfig, load_cigtf_params
-from station.config import FAULT_INSTRUMENTS, ConfigError, default_dict, load_config
-from station.config_file import LABORATORIES
-from station.esg_config import EsgConfig, PatternConfig, SignalConfig, load_esg_params
+from station.config.cigtf import CigtfConfig, load_cigtf_params
+from station.config.esg import EsgConfig, PatternConfig, SignalConfig, load_esg_params
+from station.config.file import LABORATORIES
+from station.config.isu import FAULT_INSTRUMENTS, ConfigError, default_dict, load_config
 
 LABS = ("ISU", "CIGTF", "ESG")
 _PLAIN = re.compile(r"[A-Za-z0-9_-]+")
@@ -302,9 +302,9 @@ def message_problem(msg: str, path: Path, lab: str) -> str | None:
 def exercise(lab: str, params: Any, seed: int, minutes: float = 3.0) -> None:
     """Build the laboratory's rack from accepted params and run its noise processes for a
     few simulated minutes; raise AssertionError if anything is not finite."""
-    from station.cigtf_rack import CigtfRack
-    from station.esg_rack import EsgRack
-    from station.rack import SimulatedRack
+    from station.racks.cigtf import CigtfRack
+    from station.racks.esg import EsgRack
+    from station.racks.isu import SimulatedRack
 
     t = np.linspace(0.0, 60.0 * minutes, 37)
     if lab == "ISU":

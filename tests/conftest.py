@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import pytest
 
-from station.config import load_config
-from station.rack import SimulatedRack, open_station
+from station.config.isu import load_config
+from station.racks.isu import SimulatedRack, open_station
 
 
 @pytest.fixture

@@ -23,15 +23,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
-from station.drivers.autocollimator import (
-    FOV_DEG,
-    READING_SLACK_DEG,
-    ZENITH_RANGE_DEG,
-    AutocollimatorDriver,
-)
-from station.drivers.bubble_level import BubbleLevelDriver
 from station.drivers.cigtf import DvmDriver, FixtureDriver, GyroPowerDriver
-from station.drivers.counter import CounterDriver
 from station.drivers.esg import (
     ConsoleDriver,
     HeadDriver,
@@ -39,10 +31,18 @@ from station.drivers.esg import (
     TheodoliteDriver,
     TurntableDriver,
 )
-from station.drivers.oscillator import OscillatorDriver
-from station.drivers.patch_panel import PatchPanelDriver
+from station.drivers.isu.autocollimator import (
+    FOV_DEG,
+    READING_SLACK_DEG,
+    ZENITH_RANGE_DEG,
+    AutocollimatorDriver,
+)
+from station.drivers.isu.bubble_level import BubbleLevelDriver
+from station.drivers.isu.counter import CounterDriver
+from station.drivers.isu.oscillator import OscillatorDriver
+from station.drivers.isu.patch_panel import PatchPanelDriver
+from station.drivers.isu.table import TableDriver
 from station.drivers.serial_base import SerialDriver
-from station.drivers.table import TableDriver
 from station.errors import DriverError
 
 REJECT = "<refused>"  # expected outcome: a DriverError

@@ -26,25 +26,25 @@ import numpy as np
 import pytest
 from rich.console import Console
 
-from instruments.ieu import load_dbc
-from procedures.alignment import align_math as am
-from procedures.alignment.parameter_sheet import write_tape
-from procedures.alignment.preprocess import Constants, accel_integrals, gyro_integrals
-from procedures.alignment.results_sheet import AlignPlan
-from procedures.alignment.run import run_alignments
-from procedures.computations import compute_calibration
-from procedures.day import measure_day
+from instruments.isu.ieu import load_dbc
+from laboratory.isu.align import alignment_entries, day_alignments, day_methods, run_align
+from laboratory.isu.day import noise_spec, site_info
+from laboratory.isu.truth import calibration_truth
+from procedures.isu.alignment import align_math as am
+from procedures.isu.alignment.parameter_sheet import write_tape
+from procedures.isu.alignment.preprocess import Constants, accel_integrals, gyro_integrals
+from procedures.isu.alignment.results_sheet import AlignPlan
+from procedures.isu.alignment.run import run_alignments
+from procedures.isu.computations import compute_calibration
+from procedures.isu.day import measure_day
+from procedures.isu.plan import DayPlan
+from procedures.isu.sheets import CalibrationResults, ResultRow
+from procedures.isu.turn_on import turn_on
 from procedures.journal import Journal
-from procedures.plan import DayPlan
 from procedures.runner import ProcedureError, Run
-from procedures.sheets import CalibrationResults, ResultRow
-from procedures.turn_on import turn_on
 from sim import units
-from station.align_cmd import alignment_entries, day_alignments, day_methods, run_align
-from station.config import load_config
-from station.day_cmd import noise_spec, site_info
-from station.rack import SimulatedRack, open_station
-from station.truth import calibration_truth
+from station.config.isu import load_config
+from station.racks.isu import SimulatedRack, open_station
 
 QUIET = Console(quiet=True)
 SEED = 2024
@@ -295,8 +295,8 @@ def test_tape_for_another_experiment_is_refused(day, tmp_path):
         run = Run(st.clock, Journal(tmp_path / "j.jsonl"))
         turn_on(st, run, 60.0)
         noise, site = noise_spec(cfg), site_info(cfg)
-        from procedures.alignment.common import calibration_constants, experiment_params
-        from procedures.alignment.parameter_evaluation import parameter_evaluation
+        from procedures.isu.alignment.common import calibration_constants, experiment_params
+        from procedures.isu.alignment.parameter_evaluation import parameter_evaluation
 
         c = calibration_constants(day["calib"], gyros=False)
         other = SHORT.model_copy(update={"level_K": 25})

@@ -13,7 +13,7 @@ import math
 import numpy as np
 import pytest
 
-from procedures.alignment.estimation import (
+from procedures.isu.alignment.estimation import (
     ARCSEC,
     MICRO_G,
     CovarianceTable,
@@ -29,14 +29,14 @@ from procedures.alignment.estimation import (
     simple_average,
     tilt_coefficients,
 )
-from procedures.alignment.parameter_sheet import (
+from procedures.isu.alignment.parameter_sheet import (
     AlignmentParameterSheet,
     check_tape,
     make_tape,
     read_tape,
     write_tape,
 )
-from procedures.calibration.noise_spec import NoiseSpec
+from procedures.isu.calibration.noise_spec import NoiseSpec
 
 G = 9.80382
 UP = np.array([1.0, 0.0, 0.0])
@@ -226,7 +226,7 @@ def test_posterior_equals_brute_force(K, dt, eps_t, sg, sth, seed):
 
 def test_tilt_convention_matches_the_simulator():
     """The model's g_B = a1 + [p q] (theta_E, theta_N) is the simulator's T^BE g_E to first
-    order, with T^BE = T1^T T^FE(eps) as sim.world composes it (T1 = T^EB, columns B_k)."""
+    order, with T^BE = T1^T T^FE(eps) as sim.isu.world composes it (T1 = T^EB, columns B_k)."""
     from sim.frames import transform_of_rotated
 
     T1 = attitude(7)

@@ -146,17 +146,17 @@ PKG = ["procedures", "survey"]  # as if the snippet were procedures/survey/<modu
     "source",
     [
         "import sim",
-        "import sim.world as w",
-        "import numpy, instruments.counter",
+        "import sim.isu.world as w",
+        "import numpy, instruments.isu.counter",
         "from sim import units",
-        "from sim.world import World",
+        "from sim.isu.world import World",
         "from instruments import base",
-        "from instruments.counter import FrequencyCounter as C",
-        "def f():\n    import sim.pulses\n",
+        "from instruments.isu.counter import FrequencyCounter as C",
+        "def f():\n    import sim.isu.pulses\n",
         "from ... import sim",  # relative, climbing out of procedures/
-        "import importlib\nm = importlib.import_module('sim.world')",
+        "import importlib\nm = importlib.import_module('sim.isu.world')",
         "from importlib import import_module\nimport_module('instruments')",
-        "import importlib as il\nil.import_module(name='instruments.ieu')",
+        "import importlib as il\nil.import_module(name='instruments.isu.ieu')",
         "m = __import__('sim')",
     ],
 )
@@ -169,7 +169,7 @@ def test_import_checker_flags(source):
     [
         "import simpy",
         "import simulation_tools",
-        "from station.drivers import TableDriver",
+        "from station.drivers.isu import TableDriver",
         "from station.errors import DriverError",
         "from . import sheets",
         "from .instruments_table import rows",  # procedures.survey.instruments_table

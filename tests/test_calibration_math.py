@@ -1,6 +1,6 @@
 """Calibration computations (report 000, Charts II-15, II-16, II-4.2, II-4.3) on synthetic data.
 
-The data come from a generator written here, independent of ``procedures.calibration``:
+The data come from a generator written here, independent of ``procedures.isu.calibration``:
 * instruments: Chart IV-2 (gyros, every term including Q and whole-turn averaging done
   numerically) and Chart IV-1 (accelerometers, strings counted separately), with the default
   configuration's truth and misalignments;
@@ -20,7 +20,7 @@ import numpy as np
 import pytest
 from scipy.signal import lfilter
 
-from procedures.calibration import (
+from procedures.isu.calibration import (
     AccelPosition,
     CalibrationData,
     Constants,
@@ -31,10 +31,10 @@ from procedures.calibration import (
     estimate,
     predicted_sigmas,
 )
-from procedures.calibration import chart_ii16 as chart
-from procedures.calibration.kernels import Functional, band_nodes, cosine_gram, exp_gram
-from procedures.calibration.reduce import reduce
-from station.config import default_dict
+from procedures.isu.calibration import chart_ii16 as chart
+from procedures.isu.calibration.kernels import Functional, band_nodes, cosine_gram, exp_gram
+from procedures.isu.calibration.reduce import reduce
+from station.config.isu import default_dict
 
 CFG = default_dict()
 AS = math.pi / (180 * 3600)  # rad per arcsec
@@ -197,7 +197,7 @@ class Geometry:
     averages N autocollimator and bubble readings, enters phi^0 as reading minus bubble
     correction and adds the base-azimuth step's result to phi2; every position re-commands
     phi1..phi4, and at 7-15 reads the bubbles once and re-commands phi1, phi3 corrected
-    (``procedures.common.set_position``).
+    (``procedures.isu.common.set_position``).
     """
 
     RES = 0.01 * AS  # resolver resolution: settings are commanded in its steps

@@ -8,9 +8,9 @@ import json
 import pytest
 from typer.testing import CliRunner
 
-import station.config as station_config
-from station.cli import app
-from station.config import SERIAL_INSTRUMENTS, ConfigError, default_dict, load_config
+import station.config.isu as station_config
+from laboratory.cli import app
+from station.config.isu import SERIAL_INSTRUMENTS, ConfigError, default_dict, load_config
 
 ALL_INSTRUMENTS = [*SERIAL_INSTRUMENTS, "ieu"]
 

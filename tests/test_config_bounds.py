@@ -13,24 +13,24 @@ import annotated_types as at
 import pytest
 from pydantic import BaseModel
 
-import sim.isu
-import sim.params
+import sim.isu.params
+import sim.isu.unit
+from laboratory.cigtf.gyrocompassing import run_gyrocompass_test
+from procedures.cigtf import procedure as gyrocompass_procedure
+from procedures.cigtf.scale import gsf_from_turn
 from procedures.esg.acquisition import EsgPlan
-from procedures.gyrocompass_test import procedure as gyrocompass_procedure
-from procedures.gyrocompass_test.scale import gsf_from_turn
-from procedures.plan import DayPlan
-from sim.cigtf_world import CigtfParams
-from sim.environment import Environment
+from procedures.isu.plan import DayPlan
+from sim.cigtf.world import CigtfParams
 from sim.esg.world import EsgParams
-from sim.params import DRIFT_KNOT_S, WANDER_KNOT_S
-from sim.trajectory import plan_move
-from station import cigtf_config
-from station.cigtf_cmd import run_gyrocompass_test
-from station.cigtf_config import CigtfConfig, load_cigtf_params, max_tan_latitude
-from station.config import ConfigError, StationConfig, default_dict, load_config
-from station.config_file import LABORATORIES
-from station.drivers.table import TableDriver
-from station.esg_config import EsgConfig, PatternConfig, SignalConfig
+from sim.isu.environment import Environment
+from sim.isu.params import DRIFT_KNOT_S, WANDER_KNOT_S
+from sim.isu.trajectory import plan_move
+from station.config import cigtf as cigtf_config
+from station.config.cigtf import CigtfConfig, load_cigtf_params, max_tan_latitude
+from station.config.esg import EsgConfig, PatternConfig, SignalConfig
+from station.config.file import LABORATORIES
+from station.config.isu import ConfigError, StationConfig, default_dict, load_config
+from station.drivers.isu.table import TableDriver
 
 MODELS = (StationConfig, CigtfConfig, EsgConfig)
 
@@ -97,10 +97,10 @@ def test_top_level_names_are_the_models_fields():
 
 
 def test_knot_steps_agree_with_the_simulation():
-    """The time-constant bounds (ten knots per tau) use the knot steps of sim.environment
-    and sim.isu."""
+    """The time-constant bounds (ten knots per tau) use the knot steps of sim.isu.environment
+    and sim.isu.unit."""
     assert WANDER_KNOT_S == Environment.WANDER_KNOT
-    assert DRIFT_KNOT_S == sim.isu.DRIFT_KNOT
+    assert DRIFT_KNOT_S == sim.isu.unit.DRIFT_KNOT
 
 
 def test_table_and_gyro_bounds_agree_with_the_day():
@@ -109,15 +109,15 @@ def test_table_and_gyro_bounds_agree_with_the_day():
     plan = DayPlan()
     top = max(plan.table_rate_deg_s, plan.j_rate_deg_s,
               *(abs(r) for r in plan.nonlinearity_rates_deg_s))
-    assert top <= sim.params.TOP_RATE_DEG_S
-    assert plan.j_accel_deg_s2 <= sim.params.RAMP_DEG_S2
+    assert top <= sim.isu.params.TOP_RATE_DEG_S
+    assert plan.j_accel_deg_s2 <= sim.isu.params.RAMP_DEG_S2
     wait = inspect.signature(TableDriver.wait_still).parameters["timeout"].default
-    assert wait == sim.params.MOVE_WAIT_S
+    assert wait == sim.isu.params.MOVE_WAIT_S
     _, t_done = plan_move(0.0, 0.0, 0.0, 1.0, 1.0, 0.0, 2.0)
-    assert t_done == pytest.approx(sim.params.SETTLE_TAUS * 2.0)
+    assert t_done == pytest.approx(sim.isu.params.SETTLE_TAUS * 2.0)
     cfg = load_config()
     for g in cfg.isu.gyros:
-        assert g.pulse_rate_hz * g.scale_factor_arcsec_per_pulse >= sim.params.MIN_RANGE_DEG_HR
+        assert g.pulse_rate_hz * g.scale_factor_arcsec_per_pulse >= sim.isu.params.MIN_RANGE_DEG_HR
 
 
 def test_a_table_that_cannot_settle_in_time_is_refused():

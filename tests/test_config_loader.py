@@ -11,11 +11,11 @@ from typing import Any
 import pytest
 from typer.testing import CliRunner
 
-from station.cigtf_config import load_cigtf_params
-from station.cli import app
-from station.config import ConfigError, load_config
-from station.config_file import LABORATORIES, MAX_BYTES, MAX_DEPTH
-from station.esg_config import load_esg_params
+from laboratory.cli import app
+from station.config.cigtf import load_cigtf_params
+from station.config.esg import load_esg_params
+from station.config.file import LABORATORIES, MAX_BYTES, MAX_DEPTH
+from station.config.isu import ConfigError, load_config
 
 LOADERS: dict[str, Callable[[Any], object]] = {
     "ISU": load_config, "CIGTF": load_cigtf_params, "ESG": load_esg_params}
@@ -210,7 +210,7 @@ def test_cigtf_noise_that_would_write_nan(tmp_path):
 @pytest.mark.parametrize("lat", [90.0, -90.0, 89.0, 88.5, -88.0])
 def test_cigtf_latitude_near_a_pole(tmp_path, lat):
     """Latitude 90 completed with a 29.7 deg azimuth 'result'; the limit is derived in
-    station/cigtf_config.py (87.98 deg for the default 3 arcsec level error)."""
+    station/config/cigtf.py (87.98 deg for the default 3 arcsec level error)."""
     p = tmp_path / "c.toml"
     p.write_text(f"[cigtf]\nlatitude_deg = {lat}\n")
     refused("CIGTF", p, "cigtf.latitude_deg: ")
@@ -263,8 +263,8 @@ def test_a_directory_as_config_for_every_command(tmp_path, command):
 def test_negative_zero_is_zero(tmp_path):
     """-0.0 passes 'ge=0' but numpy refuses it as a standard deviation ('scale < 0'); the
     fuzz bench found it building a CIGTF rack."""
-    from station.cigtf_rack import CigtfRack
-    from station.rack import SimulatedRack
+    from station.racks.cigtf import CigtfRack
+    from station.racks.isu import SimulatedRack
 
     p = tmp_path / "c.toml"
     p.write_text("[cigtf]\nperpendicular_sd_arcsec = -0.0\n")

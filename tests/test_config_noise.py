@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from sim.noise import _ar1, gauss_markov
-from station.config import ConfigError, default_dict, load_config
+from station.config.isu import ConfigError, default_dict, load_config
 
 N = 300_000  # knots per process
 K = 5.0  # standard deviations allowed

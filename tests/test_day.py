@@ -9,17 +9,17 @@ import pytest
 from rich.console import Console
 from typer.testing import CliRunner
 
-from procedures.calibration import NoiseSpec
-from procedures.computations import compute_calibration
-from procedures.day import DayData
+from laboratory.cli import app
+from laboratory.compare import differences
+from laboratory.isu.day import run_day, site_info
+from procedures.isu.calibration import NoiseSpec
+from procedures.isu.computations import compute_calibration
+from procedures.isu.day import DayData
+from procedures.isu.plan import DayPlan
 from procedures.journal import Journal
-from procedures.plan import DayPlan
 from procedures.runner import ProcedureError, Run
-from station.cli import app
 from station.clock import VirtualClock
-from station.compare import differences
-from station.config import load_config
-from station.day_cmd import run_day, site_info
+from station.config.isu import load_config
 
 QUIET = Console(quiet=True)
 ROWS = 3 * 16 + 3 * 7  # Chart II-5: 16 gyro rows, 7 accelerometer rows, three instruments

@@ -27,26 +27,24 @@ from reply_specs import (
     run_one,
 )
 
-import instruments.counter as inst_counter
 import instruments.esg as inst_esg
+import instruments.isu.counter as inst_counter
 from sim.esg.mount import MountSpec
 from sim.timebase import ticks
-from station.drivers import (
+from station.drivers import cigtf, esg, replies
+from station.drivers.isu import (
     autocollimator,
     bubble_level,
-    cigtf,
     counter,
-    esg,
     oscillator,
     patch_panel,
-    replies,
     table,
 )
-from station.drivers.bubble_level import BubbleLevelDriver
-from station.drivers.counter import CounterDriver
-from station.drivers.oscillator import OscillatorDriver
+from station.drivers.isu.bubble_level import BubbleLevelDriver
+from station.drivers.isu.counter import CounterDriver
+from station.drivers.isu.oscillator import OscillatorDriver
+from station.drivers.isu.table import TableDriver
 from station.drivers.serial_base import SerialDriver
-from station.drivers.table import TableDriver
 from station.errors import (
     DriverError,
     InstrumentRefused,

@@ -10,12 +10,12 @@ from pathlib import Path
 import pytest
 from typer.testing import CliRunner
 
+from laboratory.cli import app
+from laboratory.esg.calibration import run_esg_calibration
 from procedures.runner import ProcedureError
 from sim.esg.world import EsgParams
-from station.cli import app
-from station.config import ConfigError
-from station.esg_cmd import run_esg_calibration
-from station.esg_config import load_esg_params
+from station.config.esg import load_esg_params
+from station.config.isu import ConfigError
 
 GOAL = 15.0
 

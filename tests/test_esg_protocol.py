@@ -17,7 +17,7 @@ import pytest
 from sim.timebase import ticks
 from station.drivers.esg import BadLine, DataLine, LineChecker
 from station.errors import DriverError, InstrumentRefused, LinkTimeout
-from station.esg_rack import LATENCY_S, EsgRack, open_esg_station
+from station.racks.esg import LATENCY_S, EsgRack, open_esg_station
 
 SEED = 11
 IDENT = {

@@ -10,18 +10,18 @@ import numpy as np
 import pytest
 from rich.console import Console
 
-from procedures.alignment.sampling import collect, sample_outliers
-from procedures.calibration.noise_spec import NoiseSpec
+from laboratory.isu.day import run_day
+from procedures.isu.alignment.sampling import collect, sample_outliers
+from procedures.isu.calibration.noise_spec import NoiseSpec
+from procedures.isu.turn_on import turn_on
 from procedures.journal import Journal
 from procedures.runner import ProcedureError, Run
-from procedures.turn_on import turn_on
 from sim.timebase import ticks
-from station.config import ConfigError, load_config
-from station.day_cmd import run_day
-from station.drivers.ieu import PARTS
+from station.config.isu import ConfigError, load_config
+from station.drivers.isu.ieu import PARTS
 from station.errors import DriverError, LinkTimeout
 from station.hil.realtime import RealtimeEnv
-from station.rack import SimulatedRack, open_station
+from station.racks.isu import SimulatedRack, open_station
 
 QUIET = Console(quiet=True)
 IDN_COUNTER4 = b"ISU-LAB,FC-1,C4,1.0\n"

@@ -7,8 +7,8 @@ import math
 import numpy as np
 import pytest
 
-from procedures.gyrocompass_test.analysis import orientation_values, phase_values, run_values
-from procedures.gyrocompass_test.scale import (
+from procedures.cigtf.analysis import orientation_values, phase_values, run_values
+from procedures.cigtf.scale import (
     ARCSEC_PER_RAD,
     REPORT_LATITUDE_DEG,
     gsf_constant,
@@ -16,7 +16,7 @@ from procedures.gyrocompass_test.scale import (
     gsf_from_turn,
     horizontal_earth_rate,
 )
-from procedures.gyrocompass_test.significance import (
+from procedures.cigtf.significance import (
     f_threshold,
     judge,
     mean_t_test,

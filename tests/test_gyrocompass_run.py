@@ -6,10 +6,10 @@ import json
 
 import pytest
 
+from laboratory.cigtf.gyrocompassing import run_gyrocompass_test
 from procedures.runner import ProcedureError
-from station.cigtf_cmd import run_gyrocompass_test
-from station.cigtf_rack import CigtfRack, open_cigtf_station
 from station.errors import InstrumentRefused
+from station.racks.cigtf import CigtfRack, open_cigtf_station
 
 
 def test_whole_test_recovers_truth_and_writes_record(tmp_path):
@@ -75,8 +75,8 @@ def test_analysis_recomputed_from_the_journal(tmp_path):
     """`station gyrocompass-test --analyse DIR` gives the run's own phase analysis back."""
     from typer.testing import CliRunner
 
-    from station.cigtf_cmd import analyse_journal, run_gyrocompass_test
-    from station.cli import app
+    from laboratory.cigtf.gyrocompassing import analyse_journal, run_gyrocompass_test
+    from laboratory.cli import app
 
     res = run_gyrocompass_test(5, tmp_path)
     again = analyse_journal(tmp_path)
@@ -91,9 +91,9 @@ def test_fixture_failing_mid_test_stops_and_keeps_completed_runs(tmp_path):
     """A drive fault some hours in ends the test naming the fixture and the step."""
     import json
 
+    from laboratory.cigtf.gyrocompassing import run_gyrocompass_test
     from procedures.runner import ProcedureError
     from sim.timebase import ticks
-    from station.cigtf_cmd import run_gyrocompass_test
 
     def fail_later(rack):
         env = rack.world.env
@@ -116,8 +116,8 @@ def test_fixture_failing_mid_test_stops_and_keeps_completed_runs(tmp_path):
 def test_config_sets_latitude_and_refuses_bad_fields(tmp_path):
     import math
 
-    from station.cigtf_config import load_cigtf_params
-    from station.config import ConfigError
+    from station.config.cigtf import load_cigtf_params
+    from station.config.isu import ConfigError
 
     f = tmp_path / "c.toml"
     f.write_text("[cigtf]\nlatitude_deg = 45.0\n")

@@ -6,14 +6,14 @@ import math
 
 import pytest
 
-from procedures.gyrocompass_test.analysis import run_values
-from procedures.gyrocompass_test.scale import (
+from procedures.cigtf.analysis import run_values
+from procedures.cigtf.scale import (
     ARCSEC_PER_RAD,
     REPORT_LATITUDE_DEG,
     gsf_from_turn,
 )
-from sim.gyrocompass_fixture import GyrocompassFixture, Misalignments, q_ge
-from sim.sdf_gyro import DriftModel, Dynamics, SdfGyro, steady_current
+from sim.cigtf.fixture import GyrocompassFixture, Misalignments, q_ge
+from sim.cigtf.sdf_gyro import DriftModel, Dynamics, SdfGyro, steady_current
 from sim.units import ARCSEC, EARTH_RATE, deg_per_hr
 
 LAT = math.radians(REPORT_LATITUDE_DEG)

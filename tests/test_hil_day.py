@@ -20,8 +20,8 @@ from pathlib import Path
 import pytest
 from hil_helpers import start, stop, text
 
-from station.config import StationConfig, load_config
-from station.day_cmd import run_day
+from laboratory.isu.day import run_day
+from station.config.isu import StationConfig, load_config
 from station.hil.twin import compare_rehearsal
 
 SPEED = 500.0
@@ -37,7 +37,7 @@ def _serve(base: Path, extra: tuple[str, ...] = ()) -> tuple[Path, subprocess.Po
 
 def _station(*args: str, timeout: float = RUN_DEADLINE_S) -> subprocess.CompletedProcess:
     env = {**os.environ, "COLUMNS": "200"}
-    return subprocess.run([sys.executable, "-m", "station.cli", *args], capture_output=True,
+    return subprocess.run([sys.executable, "-m", "laboratory.cli", *args], capture_output=True,
                           text=True, timeout=timeout, env=env, stdin=subprocess.DEVNULL)
 
 
@@ -170,7 +170,7 @@ def test_server_stop_fails_naming_the_link_then_resume_finishes(tmp_path):
     run = tmp_path / "run"
     links, server = _serve(tmp_path / "server1")
     client = subprocess.Popen(
-        [sys.executable, "-m", "station.cli", "day", "--links", str(links), "--seed",
+        [sys.executable, "-m", "laboratory.cli", "day", "--links", str(links), "--seed",
          str(SEED), *DAY, "--out", str(run), "--quiet"],
         stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
         env={**os.environ, "COLUMNS": "300"})

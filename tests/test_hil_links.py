@@ -20,7 +20,7 @@ import serial
 from hil_helpers import serving
 
 from station.clock import WallClock
-from station.drivers import IeuDriver, TableDriver
+from station.drivers.isu import IeuDriver, TableDriver
 from station.hil import link_map
 from station.hil.pty_port import PtyPort
 

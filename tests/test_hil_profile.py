@@ -12,9 +12,9 @@ from pathlib import Path
 
 import pytest
 
-from station.check import check_all, needs_simulation
-from station.config import ConfigError, load_config
-from station.connect import connect
+from laboratory.check import check_all, needs_simulation
+from laboratory.connect import connect
+from station.config.isu import ConfigError, load_config
 from station.errors import DriverError
 
 DOC = Path(__file__).resolve().parents[1] / "docs" / "hil.md"

@@ -17,7 +17,7 @@ import pytest
 import serial
 from hil_helpers import serving
 
-from station.config import load_config
+from station.config.isu import load_config
 from station.hil import link_map, session
 from station.hil.links_dir import LOCK, LinksDir, LinksDirError
 from station.hil.server import HilServer

@@ -29,19 +29,19 @@ from hil_helpers import serving, slipped_s
 from rich.console import Console
 from typer.testing import CliRunner
 
-from procedures.gyrocompass_test.procedure import TestPlan as Plan
-from procedures.gyrocompass_test.procedure import scale_factor
+from laboratory.cli import app
+from laboratory.esg.calibration import run_esg_calibration
+from procedures.cigtf.procedure import TestPlan as Plan
+from procedures.cigtf.procedure import scale_factor
 from procedures.journal import Journal
 from procedures.runner import Run
-from sim.cigtf_world import CigtfParams
-from station.cigtf_rack import CigtfRack, open_cigtf_station
-from station.cli import app
+from sim.cigtf.world import CigtfParams
 from station.drivers.cigtf import FixtureDriver
-from station.esg_cmd import run_esg_calibration
 from station.hil import session, status
 from station.hil.profile import NoServedRack, WrongStation, attach, served
 from station.hil.server import HilServer, cigtf_station
 from station.hil.session import params_digest
+from station.racks.cigtf import CigtfRack, open_cigtf_station
 
 CIGTF_SEED, CIGTF_SPEED = 3, 50.0
 ESG_SEED, ESG_SPEED = 2, 500.0
@@ -236,8 +236,8 @@ def test_status_counts_what_each_link_carries(tmp_path):
 def test_status_counts_can_traffic(tmp_path):
     """In process: the ISU rack's IEU over socketcand; clients and frames are counted, and a
     client's counts stay in the totals after it leaves."""
-    from station.config import load_config
-    from station.drivers import IeuDriver
+    from station.config.isu import load_config
+    from station.drivers.isu import IeuDriver
     from station.hil import link_map
 
     server = HilServer(load_config(), 20.0, tmp_path / "links", only=["ieu"])

@@ -21,8 +21,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from instruments.ieu import frame_crc8, load_dbc, sample_crc, sample_frames, seal
-from station.drivers.ieu import (
+from instruments.isu.ieu import frame_crc8, load_dbc, sample_crc, sample_frames, seal
+from station.drivers.isu.ieu import (
     MAX_RESENDS,
     PARTS,
     DriverError,

@@ -9,7 +9,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from instruments.ieu import (
+from instruments.isu.ieu import (
     SAMPLE_FRAMES,
     bus_bit_rate,
     can_frame_bits,
@@ -17,9 +17,9 @@ from instruments.ieu import (
     min_period_s,
 )
 from sim.timebase import ticks
-from station.config import load_config
+from station.config.isu import load_config
 from station.errors import InstrumentRefused
-from station.rack import SimulatedRack
+from station.racks.isu import SimulatedRack
 
 DB = load_dbc()
 COMMAND = DB.get_message_by_name("IEU_COMMAND")

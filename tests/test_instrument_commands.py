@@ -18,12 +18,12 @@ from hypothesis import strategies as st
 from instrument_grammar import GRAMMARS, Grammar
 
 from instruments.base import MAX_REPLIES, ByteInstrument, Deferred
-from instruments.counter import PRINT_S
+from instruments.isu.counter import PRINT_S
 from sim.timebase import ticks
-from station.cigtf_rack import CigtfRack
-from station.config import load_config
-from station.esg_rack import EsgRack
-from station.rack import SimulatedRack
+from station.config.isu import load_config
+from station.racks.cigtf import CigtfRack
+from station.racks.esg import EsgRack
+from station.racks.isu import SimulatedRack
 
 PROPERTY = settings(max_examples=150, deadline=None,
                     suppress_health_check=[HealthCheck.function_scoped_fixture])

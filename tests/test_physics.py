@@ -10,9 +10,10 @@ import numpy as np
 import pytest
 from scipy.integrate import simpson
 
-from sim import reference, units
-from station.config import load_config
-from station.rack import SimulatedRack, open_station
+from sim import units
+from sim.isu import reference
+from station.config.isu import load_config
+from station.racks.isu import SimulatedRack, open_station
 
 
 @pytest.fixture
@@ -209,7 +210,7 @@ def test_autocollimator_reads_true_mirror_normal(lab):
     rack, st = lab
     w = rack.world
     _position(st, (0.0, 90.0, 90.0, 0.0))  # survey position: B1 east, B2 north
-    from instruments.autocollimator import angles
+    from instruments.isu.autocollimator import angles
 
     ac_noise = units.arcsec(rack.cfg.instruments.autocollimator.noise_arcsec)
     for i in (1, 2):

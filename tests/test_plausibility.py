@@ -1,4 +1,4 @@
-"""Plausibility of readings and results (procedures/plausibility.py, docs/faults.md):
+"""Plausibility of readings and results (procedures/isu/plausibility.py, docs/faults.md):
 
 (a) the agreement check: an outlier among repeated readings is read again (bounded,
     recorded), readings that never agree stop naming the instrument; readings within their
@@ -23,15 +23,15 @@ from hypothesis import given, settings
 from hypothesis import strategies as hs
 from rich.console import Console
 
-from procedures import plausibility as pl
-from procedures.common import set_position
+from laboratory.isu.day import run_day, site_info
+from procedures.isu import plausibility as pl
+from procedures.isu.common import set_position
+from procedures.isu.system_survey import system_survey
+from procedures.isu.turn_on import oscillator_periods, turn_on
 from procedures.journal import Journal
 from procedures.runner import ProcedureError, Run
-from procedures.system_survey import system_survey
-from procedures.turn_on import oscillator_periods, turn_on
-from station.config import load_config
-from station.day_cmd import run_day, site_info
-from station.rack import SimulatedRack, open_station
+from station.config.isu import load_config
+from station.racks.isu import SimulatedRack, open_station
 
 QUIET = Console(quiet=True)
 
@@ -207,7 +207,7 @@ def test_a_seized_trunnion_under_a_small_correction_is_reported_as_the_tables():
 def test_a_reply_the_driver_cannot_parse_is_read_again(tmp_path):
     """Defence in depth: a driver that lets float() fail on a garbled resolver reply
     ('3\x159.9998250') gets asked again, and the step names the table if it persists."""
-    from procedures.readings import resolver
+    from procedures.isu.readings import resolver
 
     with rig() as (_, _, st):
         replies(st.table, "position", lambda ax: float("3\x159.99"))

@@ -1,4 +1,4 @@
-"""The calibration's own checks (procedures/calibration/checks.py) on synthetic days
+"""The calibration's own checks (procedures/isu/calibration/checks.py) on synthetic days
 (tests/test_calibration_math.make_data: the instrument models with the lab's noise):
 nothing judged off on a normal day, and one garbled count found and named, whether it sits
 in a redundant datum (a turning position's gyro count) or in a vertical accelerometer
@@ -10,10 +10,10 @@ import numpy as np
 import pytest
 from test_calibration_math import TRUTH, make_data
 
-from procedures.calibration import NoiseSpec, calibrate
-from procedures.calibration.checks import K_RESULT, check_residuals, check_string_sums
-from procedures.calibration.inputs import AccelPosition, GyroPosition
-from procedures.plausibility import Implausible
+from procedures.isu.calibration import NoiseSpec, calibrate
+from procedures.isu.calibration.checks import K_RESULT, check_residuals, check_string_sums
+from procedures.isu.calibration.inputs import AccelPosition, GyroPosition
+from procedures.isu.plausibility import Implausible
 
 SPEC = NoiseSpec()
 

@@ -9,9 +9,9 @@ import math
 import can
 import pytest
 
-from instruments.autocollimator import angles
-from instruments.ieu import load_dbc
-from station.config import SERIAL_INSTRUMENTS
+from instruments.isu.autocollimator import angles
+from instruments.isu.ieu import load_dbc
+from station.config.isu import SERIAL_INSTRUMENTS
 from station.errors import DriverError, InstrumentRefused, LinkTimeout, current_step
 
 IDENT = {

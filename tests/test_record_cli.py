@@ -17,11 +17,11 @@ import pytest
 from rich.console import Console
 from typer.testing import CliRunner
 
-from station.cli import app
-from station.compare import differences
-from station.config import load_config
-from station.day_cmd import run_day
-from station.rundir import fresh
+from laboratory.cli import app
+from laboratory.compare import differences
+from laboratory.isu.day import run_day
+from laboratory.rundir import fresh
+from station.config.isu import load_config
 
 REPO = Path(__file__).resolve().parents[1]
 QUIET = Console(quiet=True)
@@ -208,13 +208,13 @@ def test_fresh_directories_are_unique_within_a_second(tmp_path):
 
 
 def _station(*args: str, cwd: Path) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "station.cli", *args], capture_output=True,
+    return subprocess.run([sys.executable, "-m", "laboratory.cli", *args], capture_output=True,
                           text=True, cwd=cwd, timeout=120,
                           env={**os.environ, "PYTHONPATH": str(REPO)})
 
 
 def test_the_station_command_itself_gives_one_line_errors_and_its_version(tmp_path):
-    """Through `python -m station.cli` (the `station` entry point): the parser's own
+    """Through `python -m laboratory.cli` (the `station` entry point): the parser's own
     mistakes (a bad number, an unknown option) are one line too."""
     from importlib.metadata import version
 
@@ -234,7 +234,7 @@ def test_gyrocompass_alignment_near_a_pole_is_refused_or_skipped(cli, tmp_path):
     """At latitude 89 (beyond the 88.1 deg where the gyros' noise alone leaves a 1 deg
     azimuth sigma) `station align --method gyrocompass` is refused up front and the day
     skips that alignment, saying why in results.json; mirror and level still run."""
-    from station.align_cmd import gyrocompass_latitude_limit_deg
+    from laboratory.isu.align import gyrocompass_latitude_limit_deg
 
     cfg = tmp_path / "pole.toml"
     cfg.write_text("[site]\nlatitude_deg = 89.0\n")
@@ -274,7 +274,7 @@ def test_resume_with_another_config_is_refused_at_the_first_differing_step(finis
 
 
 def test_a_run_directory_being_recorded_is_not_resumed_twice(finished, cli, tmp_path):
-    from station.rundir import recording
+    from laboratory.rundir import recording
 
     d = _unfinished(finished, tmp_path / "busy")
     before = tree(d)

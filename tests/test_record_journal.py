@@ -13,11 +13,11 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as hs
 
+from laboratory.record import sheet_path, write_json, write_sheets
 from procedures.journal import Journal, JournalError, dumps, scan
 from procedures.runner import Run
 from station.clock import VirtualClock
 from station.files import atomic_path
-from station.record import sheet_path, write_json, write_sheets
 
 
 def sha(p: Path) -> str:

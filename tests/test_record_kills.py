@@ -1,6 +1,6 @@
 """SIGKILL at random moments, then --resume: the record equals the uninterrupted run's.
 
-Each kill is a real `python -m station.cli ... --quiet` process killed with SIGKILL as soon
+Each kill is a real `python -m laboratory.cli ... --quiet` process killed with SIGKILL as soon
 as its journal holds a number of records drawn (stratified, seeded) over the run, so what
 the campaign covers does not depend on the machine's speed: turn-on, survey, the position
 charts, the computations, the alignments and the final writes of sheets, plots and
@@ -27,12 +27,12 @@ import pytest
 from rich.console import Console
 from typer.testing import CliRunner
 
-from station.cigtf_cmd import analyse_journal, run_gyrocompass_test
-from station.cli import app
-from station.compare import differences
-from station.config import load_config
-from station.day_cmd import run_day
-from station.esg_cmd import run_esg_calibration
+from laboratory.cigtf.gyrocompassing import analyse_journal, run_gyrocompass_test
+from laboratory.cli import app
+from laboratory.compare import differences
+from laboratory.esg.calibration import run_esg_calibration
+from laboratory.isu.day import run_day
+from station.config.isu import load_config
 
 REPO = Path(__file__).resolve().parents[1]
 QUIET = Console(quiet=True)
@@ -58,7 +58,7 @@ def kill_at(args: list[str], journal: Path, at: int | tuple[str, int]) -> bytes:
 
     err = journal.parent.parent / f"{journal.parent.name}.stderr"
     with open(err, "wb") as stderr:
-        proc = subprocess.Popen([sys.executable, "-m", "station.cli", *args], cwd=REPO,
+        proc = subprocess.Popen([sys.executable, "-m", "laboratory.cli", *args], cwd=REPO,
                                 stdout=subprocess.DEVNULL, stderr=stderr)
     pos, n = 0, 0
     end = time.monotonic() + HANG_GUARD_S

@@ -14,15 +14,15 @@ import math
 import numpy as np
 import pytest
 
-from procedures import survey_math as sm
+from procedures.isu import survey_math as sm
+from procedures.isu.system_survey import N_READINGS, TRUNNION_TILT_DEG, system_survey
+from procedures.isu.turn_on import turn_on
 from procedures.journal import Journal
 from procedures.runner import ProcedureError, Run
-from procedures.system_survey import N_READINGS, TRUNNION_TILT_DEG, system_survey
-from procedures.turn_on import turn_on
 from sim.frames import gimbal as sim_gimbal
 from sim.frames import transform_of_rotated
-from station.config import load_config
-from station.rack import SimulatedRack, open_station
+from station.config.isu import load_config
+from station.racks.isu import SimulatedRack, open_station
 
 ARCSEC = math.pi / (180 * 3600)
 WARMUP_S = 120.0  # keeps the tests short; the default warm-up is half an hour

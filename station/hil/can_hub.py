@@ -12,7 +12,7 @@ import threading
 from collections.abc import Callable
 from typing import Protocol
 
-from instruments.ieu import Ieu
+from instruments.isu.ieu import Ieu
 from station.hil.realtime import RealtimeEnv
 
 

@@ -31,7 +31,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from station.config import ConfigError, StationConfig, load_config
+from station.config.isu import ConfigError, StationConfig, load_config
 from station.hil import link_map, session, status
 from station.hil.can_hub import CanHub
 from station.hil.link_map import LinkEntry
@@ -68,15 +68,15 @@ class ServedStation:
 
 
 def isu_station(cfg: StationConfig) -> ServedStation:
-    from station.rack import SimulatedRack
+    from station.racks.isu import SimulatedRack
 
     return ServedStation("isu", cfg.seed, session.config_digest(cfg),
                          lambda env: SimulatedRack(cfg, env=env))
 
 
 def cigtf_station(seed: int, params=None) -> ServedStation:
-    from sim.cigtf_world import CigtfParams
-    from station.cigtf_rack import CigtfRack
+    from sim.cigtf.world import CigtfParams
+    from station.racks.cigtf import CigtfRack
 
     params = params if params is not None else CigtfParams()
     return ServedStation("cigtf", int(seed), session.params_digest("cigtf", params),
@@ -85,7 +85,7 @@ def cigtf_station(seed: int, params=None) -> ServedStation:
 
 def esg_station(seed: int, params=None) -> ServedStation:
     from sim.esg.world import EsgParams
-    from station.esg_rack import EsgRack
+    from station.racks.esg import EsgRack
 
     params = params if params is not None else EsgParams()
     return ServedStation("esg", int(seed), session.params_digest("esg", params),
@@ -101,11 +101,11 @@ def load_station(station: str, config: Path | None = None,
         return isu_station(load_config(config, seed=seed))
     seed = DEFAULT_SEED if seed is None else seed
     if station == "cigtf":
-        from station.cigtf_config import load_cigtf_params
+        from station.config.cigtf import load_cigtf_params
 
         return cigtf_station(seed, load_cigtf_params(config))
     if station == "esg":
-        from station.esg_config import load_esg_params
+        from station.config.esg import load_esg_params
 
         return esg_station(seed, load_esg_params(config))
     raise ValueError(f"unknown station {station!r}: {', '.join(STATIONS)}")

@@ -1,0 +1,1 @@
+"""The CIGTF gyrocompassing test's command and record."""

@@ -1,0 +1,249 @@
+"""`station gyrocompass-test`: the CIGTF gyrocompassing accuracy test (report 001) in
+virtual time, its journal, sheets (run table, phase table, conclusions), gyrocompass.json
+and a plot of theta per run.
+
+With ``links`` (``--links DIR``) the same procedure and drivers run against a rack served
+by ``station serve --station cigtf --links DIR``, over its ptys and on a WallClock on the
+rack's time. The truth (eq. 26) comes from a rack built here with the run's seed and
+params and never run; it is left out (None) unless the served session has that seed and
+config digest."""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from pathlib import Path
+
+from laboratory.connect import connect_rack, journaled_run
+from laboratory.record import write_json, write_sheets
+from laboratory.rundir import JOURNAL, RunDirError, prepare
+from procedures.cigtf.analysis import phase_values, run_values
+from procedures.cigtf.procedure import TestData, TestPlan, gyrocompass_test
+from procedures.cigtf.significance import TestOutcome, judge_phase, shutdown_f_test
+from procedures.journal import JournalError, scan
+from sim.cigtf.world import CigtfParams
+from station.files import atomic_path
+from station.hil.session import params_digest
+from station.racks.cigtf import CigtfRack, open_cigtf_station
+
+PHASES = ("operating", "shutdown")
+RENEW = ("4.0",)  # a restarted served rack powered the gyro off: its warm-up again
+
+
+def _test(name: str, t: TestOutcome) -> dict:
+    return {"name": name, "statistic": t.statistic, "threshold": t.threshold,
+            "dof": list(t.dof), "significant": t.significant}
+
+
+def theta_plot(res: dict, path: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(8, 4))
+    n = 0
+    for ph, colour in zip(PHASES, ("tab:blue", "tab:orange"), strict=True):
+        rows = [r for r in res["runs"] if r["phase"] == ph]
+        x = list(range(n + 1, n + len(rows) + 1))
+        n += len(rows)
+        ax.errorbar(x, [r["theta_arcsec"] for r in rows], [r["sigma_arcsec"] for r in rows],
+                    fmt="o", color=colour, capsize=2, label=f"{ph} runs")
+        p = next((q for q in res["phases"] if q["phase"] == ph), None)
+        if p is not None and x:
+            ax.hlines(p["theta_arcsec"], x[0], x[-1], colors=colour, linestyles="--")
+    if res["truth"]["theta_arcsec"] is not None:
+        ax.axhline(res["truth"]["theta_arcsec"], color="k", lw=0.8, label="truth (eq. 26)")
+    ax.set_xlabel("run")
+    ax.set_ylabel("gyrocompassing error theta (arcsec)")
+    ax.set_title("CIGTF gyrocompassing accuracy test")
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+TEST_NAMES = {
+    "operating": ("5.4.2 operating F (delta^2 / s1^2)", "5.4.1 operating t |theta1 / se|"),
+    "shutdown": ("5.4.3 shutdown F (Delta^2 / s2^2)", "5.4.1 shutdown t |theta2 / se|"),
+}
+
+
+def analyse(data: TestData) -> tuple[list[dict], list[dict], list[dict], dict]:
+    """Section 5: run table, phase table, significance tests and conclusions of a test.
+
+    A phase with fewer than two completed runs (a test stopped early) has no phase values
+    and no tests; the shutdown-versus-operating test needs both phases."""
+    runs = [{"phase": ph, "run": i, "theta_arcsec": r.theta, "sigma_arcsec": r.sigma}
+            for ph in PHASES for i, r in enumerate(data.runs[ph], start=1)]
+    pv = {ph: phase_values(data.runs[ph]) for ph in PHASES if len(data.runs[ph]) >= 2}
+    phases = [{"phase": ph, "theta_arcsec": p.theta, "sigma_arcsec": p.sigma,
+               "s_arcsec": p.s, "n": p.n, "instability_arcsec": p.instability}
+              for ph, p in pv.items()]
+    verdicts = {ph: judge_phase(p) for ph, p in pv.items()}
+    tests = []
+    for ph, v in verdicts.items():
+        tests += [_test(TEST_NAMES[ph][0], v.noise_test), _test(TEST_NAMES[ph][1], v.mean_test)]
+    conclusions: dict = {"gsf_arcsec_per_ma": data.gsf}
+    for ph, v in verdicts.items():
+        conclusions[ph] = {"theta_arcsec": v.phase.theta,
+                           "standard_error_arcsec": v.standard_error,
+                           "bias_significant": v.mean_test.significant,
+                           "instability_exceeds_noise": v.noise_test.significant}
+        conclusions[f"{ph}_instability_arcsec"] = v.phase.instability
+    if len(pv) == 2:
+        both = shutdown_f_test(pv["operating"], pv["shutdown"])
+        tests.append(_test("5.4.4 shutdown vs operating F (Delta^2 / delta^2)", both))
+        conclusions["shutdown_adds_instability"] = both.significant
+    return runs, phases, tests, conclusions
+
+
+def data_from_records(records: list[dict]) -> tuple[TestData, dict | None]:
+    """The test data of a journal's records: every completed run (its step 5.2 recorded
+    after its four orientations); and the run's start note."""
+    data = TestData()
+    start = None
+    currents: dict[str, dict[int, list[float]]] = {}
+    for rec in records:
+        if start is None and rec["kind"] == "note" and rec["event"] == "start":
+            start = rec
+        if rec["kind"] != "step":
+            continue
+        chart, step, reading = rec["chart"], rec["step"], rec.get("reading")
+        reading = reading if isinstance(reading, dict) else {}
+        if "gsf_arcsec_per_ma" in reading:
+            data.gsf = float(reading["gsf_arcsec_per_ma"])
+        if "orientation" in reading and "-R" in chart:
+            if step == "4.2.1":  # a run (re)started: earlier partial orientations are void
+                currents[chart] = {}
+            currents.setdefault(chart, {})[int(reading["orientation"])] = reading["currents_ma"]
+        if step == "5.2" and len(currents.get(chart, {})) == 4:
+            phase = "operating" if chart.startswith("4.3") else "shutdown"
+            samples = [currents[chart][k] for k in (1, 2, 3, 4)]
+            data.runs[phase].append(run_values(samples, data.gsf))
+    return data, start
+
+
+def data_from_journal(path: Path) -> tuple[TestData, int | None]:
+    """Rebuild the test data from a journal (checked; a torn last line is left out)."""
+    data, start = data_from_records(scan(Path(path)).records)
+    return data, None if start is None else start.get("seed")
+
+
+def analyse_journal(d: Path, params: CigtfParams | None = None) -> dict:
+    """`station gyrocompass-test --analyse DIR`: the analysis of every run the journal
+    completed, however the test ended; written to DIR/gyrocompass_analysis.json.
+
+    The truth (eq. 26) is given when the journal's start note names the ``params``
+    (default: the default fixture) by digest, and its run was virtual or served with truth.
+    """
+    d = Path(d)
+    if not d.is_dir():
+        raise RunDirError(f"--analyse {d}: no such directory")
+    path = d / JOURNAL
+    try:
+        records = scan(path).records
+        data, start = data_from_records(records)
+    except (KeyError, TypeError, ValueError) as e:  # a step reading that is not the test's
+        raise JournalError(f"{path}: a step reading is not this test's: {e!r}") from None
+    params = params or CigtfParams()
+    seed = None if start is None else start.get("seed")
+    served = (start or {}).get("served")
+    truthful = (isinstance(seed, int) and (start or {}).get("params_digest")
+                == params_digest("cigtf", params)
+                and (served is None or bool(served.get("truth"))))
+    runs, phases, tests, conclusions = analyse(data)
+    truth = None
+    if truthful and isinstance(seed, int):
+        with CigtfRack(seed, params) as twin:
+            truth = twin.world.truth_theta_arcsec()
+    missing = [f"{ph}: {len(data.runs[ph])} completed run(s), a phase needs 2"
+               for ph in PHASES if len(data.runs[ph]) < 2]
+    res = {
+        "seed": seed, "gsf": data.gsf or None, "runs": runs, "phases": phases,
+        "delta_arcsec": conclusions.get("operating_instability_arcsec"),
+        "Delta_arcsec": conclusions.get("shutdown_instability_arcsec"), "tests": tests,
+        "truth": {"theta_arcsec": truth},
+        "from_journal": True, "complete": any(r["kind"] == "note" and r["event"] == "end"
+                                              for r in records),
+        "incomplete_phases": missing,
+    }
+    write_json(d / "gyrocompass_analysis.json", res)
+    return res
+
+
+def render_tables(console, res: dict) -> None:
+    """Run table, phase table and the section 5.4 tests, with rich."""
+    from rich import box
+    from rich.table import Table
+
+    t = Table(title="Runs: theta and its standard error (arcsec)", box=box.SIMPLE_HEAD)
+    for c in ("phase", "run", "theta", "sigma"):
+        t.add_column(c, justify="right")
+    for r in res["runs"]:
+        t.add_row(r["phase"], str(r["run"]), f"{r['theta_arcsec']:+.2f}",
+                  f"{r['sigma_arcsec']:.2f}")
+    console.print(t)
+    p = Table(title="Phases (eqs. 20-25)", box=box.SIMPLE_HEAD)
+    for c in ("phase", "n", "theta", "sigma", "s", "instability"):
+        p.add_column(c, justify="right")
+    for ph in res["phases"]:
+        p.add_row(ph["phase"], str(ph["n"]), f"{ph['theta_arcsec']:+.2f}",
+                  f"{ph['sigma_arcsec']:.2f}", f"{ph['s_arcsec']:.2f}",
+                  f"{ph['instability_arcsec']:.2f}")
+    console.print(p)
+    q = Table(title="Significance tests (section 5.4)", box=box.SIMPLE_HEAD)
+    for c in ("test", "statistic", "threshold", "dof", "significant"):
+        q.add_column(c, justify="left" if c == "test" else "right")
+    for x in res["tests"]:
+        q.add_row(x["name"], f"{x['statistic']:.3f}", f"{x['threshold']:.3f}",
+                  str(x["dof"]), "yes" if x["significant"] else "no")
+    console.print(q)
+
+
+def run_gyrocompass_test(seed: int, out: Path, params: CigtfParams | None = None,
+                         plan: TestPlan | None = None,
+                         rack_hook: Callable[[CigtfRack], None] | None = None,
+                         links: Path | None = None, resume: bool = False) -> dict:
+    """Run the whole test into ``out``; ``rack_hook`` may inject faults into the rack.
+
+    ``links``: run against the CIGTF rack served there instead (see the module doc);
+    raises ``NoServedRack`` or ``WrongStation`` (both OSError/ValueError) if it is not.
+    ``resume``: continue the interrupted test in ``out`` (replayed and checked against its
+    journal in virtual time); ``out`` must hold no record otherwise (RunDirError).
+    """
+    out = Path(out)
+    params = params or CigtfParams()
+    prepare(out, resume, links)
+    wall0 = time.perf_counter()
+    digest = params_digest("cigtf", params)
+    st, rack, served = connect_rack(
+        "cigtf", seed, digest, lambda: CigtfRack(seed, params), open_cigtf_station, links,
+        rack_hook)
+    with journaled_run(out, st, rack, served, resume, renew=RENEW, seed=seed,
+                       test="gyrocompass", params_digest=digest) as (run, extra, t_start):
+        data = gyrocompass_test(st, run, plan)
+        runs, phases, tests, conclusions = analyse(data)
+        run.save_sheet("gyrocompass_runs", runs)
+        run.save_sheet("gyrocompass_phases", phases)
+        run.save_sheet("gyrocompass_conclusions", conclusions)
+        write_sheets(out, run)
+        res = {
+            "seed": seed,
+            "gsf": data.gsf,
+            "runs": runs,
+            "phases": phases,
+            "delta_arcsec": conclusions.get("operating_instability_arcsec"),
+            "Delta_arcsec": conclusions.get("shutdown_instability_arcsec"),
+            "tests": tests,
+            "truth": {"theta_arcsec": rack.world.truth_theta_arcsec()
+                      if rack is not None else None},
+            "sim_seconds": st.clock.now() - t_start,
+            "wall_seconds": time.perf_counter() - wall0,
+            **extra,
+        }
+        write_json(out / "gyrocompass.json", res)
+        with atomic_path(out / "gyrocompass.png") as tmp:
+            theta_plot(res, tmp)
+        run.note(event="end", sim_seconds=st.clock.now() - t_start)
+        return res

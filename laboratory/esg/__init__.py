@@ -1,0 +1,1 @@
+"""The ESG readout laboratory's calibration command and record."""

@@ -1,0 +1,257 @@
+"""`station esg-calibration`: the ESG readout laboratory (report 004) in virtual time.
+
+Runs the acquisition (steps 1-13), reduces it under the report's two calibration
+schedules, adds what only the simulator knows (the true colatitude of pickoff 2 at every
+reading), runs the readout strategy study (Figure 2) and writes journal, sheets, tables,
+plots and esg.json.
+
+With ``links`` (``--links DIR``) the same procedure and drivers run against a rack served
+by ``station serve --station esg --links DIR``, over its ptys and on a WallClock on the
+rack's time. The true colatitude at each reading depends on the path the served rotor and
+mount took, which only the server knows: those columns are None in a served run. The one
+static truth, pickoff 1's coning in the case, comes from a rack built here with the run's
+seed and params (never run), and only when the served session has that seed and config
+digest.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+
+from laboratory.connect import connect_rack, journaled_run
+from laboratory.record import write_json, write_sheets
+from laboratory.rundir import prepare
+from procedures.esg import strategy
+from procedures.esg.acquisition import RENEW, Acquisition, EsgPlan, acquire
+from procedures.esg.calibration import SCHEDULES, ScheduleResult, assign, calibrate, nominal
+from sim.esg.world import EsgParams, EsgWorld
+from station.files import atomic_path
+from station.hil.session import params_digest
+from station.racks.esg import EsgRack, open_esg_station
+
+GOAL_ARCSEC = 15.0
+STUDY_RANGES = tuple(range(35, 48))
+STUDY_POINTS = 6000
+REPORT_POINTS = (("great_circle", 43.0), ("cosine", 37.0))
+
+
+def _rms(v) -> float:
+    v = [x for x in v if x is not None]
+    return math.sqrt(sum(x * x for x in v) / len(v)) if v else float("nan")
+
+
+def add_truth(rows: list[dict], world: EsgWorld, acq: Acquisition,
+              times: dict[tuple[str, float], list[float]]) -> None:
+    """True colatitude of pickoff 2 (mean over the reading's lines) and the true error."""
+    for r in rows:
+        ts = times[(r["scan"], r["offset_deg"])]
+        th = [math.degrees(float(world.true_colatitudes(t + acq.t_zero_s)[1])) for t in ts]
+        r["true_colatitude_deg"] = sum(th) / len(th)
+        r["true_error_arcsec"] = (r["compensated_deg"] - r["true_colatitude_deg"]) * 3600.0
+        r["assignment_error_arcsec"] = (r["colatitude_deg"] - r["true_colatitude_deg"]) * 3600
+
+
+def no_truth(rows: list[dict]) -> None:
+    """The truth columns, absent (a served run: the served world's path is not known here)."""
+    for r in rows:
+        r["true_colatitude_deg"] = None
+        r["true_error_arcsec"] = None
+        r["assignment_error_arcsec"] = None
+
+
+def _rms_known(v) -> float | None:
+    """rms of the values present; None if there are none (truth absent)."""
+    v = [x for x in v if x is not None]
+    return _rms(v) if v else None
+
+
+def true_pickoff1_coning_arcsec(world: EsgWorld) -> float:
+    """Angle between pickoff 1 and the spindle axis in the case (what ESG-PA measures)."""
+    u = world.case.mounting.T @ np.array([1.0, 0.0, 0.0])
+    p1 = world.case.pickoffs[0]
+    return math.degrees(math.acos(min(1.0, float(p1 @ u) / float(np.linalg.norm(p1))))) * 3600
+
+
+def schedule_summary(res: ScheduleResult) -> dict:
+    cal, rd = res.calibration, res.readout
+    return {
+        "name": res.name, "order": res.fit.order,
+        "calibration_rms_arcsec": _rms([r["error_arcsec"] for r in cal]),
+        "readout_rms_arcsec": _rms([r["error_arcsec"] for r in rd]),
+        "true_calibration_rms_arcsec": _rms_known([r["true_error_arcsec"] for r in cal]),
+        "true_readout_rms_arcsec": _rms_known([r["true_error_arcsec"] for r in rd]),
+        "assignment_rms_arcsec": _rms_known([r["assignment_error_arcsec"] for r in cal + rd]),
+        "predicted_assignment_rms_arcsec": _rms([r["sigma_assign_arcsec"] for r in cal + rd]),
+        "max_readout_error_arcsec": max((abs(r["error_arcsec"]) for r in rd), default=None),
+        "n_fit": len(cal), "n_readout": len(rd),
+        "chebyshev": [float(c) for c in res.fit.coef],
+        "power_p0_p7": [float(c) for c in res.fit.power],
+    }
+
+
+def study() -> tuple[list[dict], list[dict], dict]:
+    """Figure 2 curves, the report's two points (both conventions) and edge resolutions."""
+    curve = strategy.figure2_table(STUDY_RANGES, points=STUDY_POINTS)
+    points, chart = [], []
+    for pattern, rng in REPORT_POINTS:
+        for strat in ("two_pickoff", "mixed"):
+            f = strategy.amplification(pattern, strat, rng)
+            points.append({"pattern": pattern, "range_deg": rng, "strategy": strat,
+                           "factor": f})
+            fc = strategy.amplification(pattern, strat, rng, convention="chart")
+            chart.append({"pattern": pattern, "range_deg": rng, "strategy": strat,
+                          "factor": fc})
+    gc = next(p["factor"] for p in points
+              if p["pattern"] == "great_circle" and p["strategy"] == "mixed")
+    co = next(p["factor"] for p in points
+              if p["pattern"] == "cosine" and p["strategy"] == "mixed")
+    edge = {"great_circle_43_microinch": strategy.edge_resolution_microinch(GOAL_ARCSEC, gc),
+            "cosine_37_microinch": strategy.edge_resolution_microinch(GOAL_ARCSEC, co),
+            "report_factors": {"great_circle_43": 1.55, "cosine_37": 1.20},
+            "chart_convention": chart,
+            "cosine_mixed_minimum_deg": strategy.cosine_mixed_minimum()}
+    return curve, points, edge
+
+
+def render_tables(console, res: dict) -> None:
+    """Schedules (Table 4 of the report) and the strategy study's report points, with rich."""
+    from rich import box
+    from rich.table import Table
+
+    def f1(x) -> str:
+        return "-" if x is None else f"{x:.1f}"
+
+    t = Table(title="Pattern calibration and readout (arcsec rms; true = against the "
+              "simulator's colatitude)", box=box.SIMPLE_HEAD)
+    for c in ("schedule", "n fit", "calibration", "true", "n readout", "readout", "true",
+              "assignment", "predicted"):
+        t.add_column(c, justify="right")
+    for s in res["schedules"]:
+        t.add_row(s["name"], str(s["n_fit"]), f1(s["calibration_rms_arcsec"]),
+                  f1(s["true_calibration_rms_arcsec"]), str(s["n_readout"]),
+                  f1(s["readout_rms_arcsec"]), f1(s["true_readout_rms_arcsec"]),
+                  f1(s["assignment_rms_arcsec"]), f1(s["predicted_assignment_rms_arcsec"]))
+    console.print(t)
+    if "amplification" in res:
+        a = Table(title="Edge-error amplification (Figure 2 points)", box=box.SIMPLE_HEAD)
+        for c in ("pattern", "range", "strategy", "factor", "report"):
+            a.add_column(c, justify="right")
+        rep = {("great_circle", 43.0): "1.55", ("cosine", 37.0): "1.20"}
+        for r in res["amplification"]:
+            a.add_row(r["pattern"], f"{r['range_deg']:g}", r["strategy"],
+                      f"{r['factor']:.3f}", rep[(r["pattern"], r["range_deg"])]
+                      if r["strategy"] == "mixed" else "")
+        console.print(a)
+
+
+def calibration_plot(results: list[ScheduleResult], path: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(len(results), 1, figsize=(8, 3.2 * len(results)), sharex=True)
+    for ax, res in zip(np.atleast_1d(axes), results, strict=True):
+        for rows, mark, what in ((res.calibration, "o", "fit"), (res.readout, "s", "readout")):
+            x = [r["colatitude_deg"] for r in rows]
+            ax.plot(x, [r["error_arcsec"] for r in rows], mark, ms=4, mfc="none",
+                    label=f"{what}: measured")
+            if all(r["true_error_arcsec"] is not None for r in rows):
+                ax.plot(x, [r["true_error_arcsec"] for r in rows], mark, ms=3,
+                        label=f"{what}: true")
+        ax.axhline(GOAL_ARCSEC, color="k", lw=0.6, ls="--")
+        ax.axhline(-GOAL_ARCSEC, color="k", lw=0.6, ls="--")
+        ax.set_ylabel("error (arcsec)")
+        ax.set_title(f"schedule {res.name}: compensated minus assigned / true colatitude")
+        ax.legend(fontsize=7, ncol=4)
+    np.atleast_1d(axes)[-1].set_xlabel("colatitude of pickoff 2 (deg)")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def run_esg_calibration(seed: int, out: Path, params: EsgParams | None = None,
+                        plan: EsgPlan | None = None,
+                        rack_hook: Callable[[EsgRack], None] | None = None,
+                        with_study: bool = True, links: Path | None = None,
+                        resume: bool = False) -> dict:
+    """The whole ESG calibration into ``out``; ``rack_hook`` may inject faults.
+
+    ``links``: run against the ESG rack served there instead (see the module doc);
+    raises ``NoServedRack`` or ``WrongStation`` (both OSError/ValueError) if it is not.
+    ``resume``: continue the interrupted calibration in ``out`` (replayed and checked
+    against its journal in virtual time); ``out`` must hold no record otherwise.
+    """
+    out = Path(out)
+    params = params or EsgParams()
+    plan = plan or EsgPlan()
+    plan = replace(plan, latitude_deg=params.latitude_deg)
+    prepare(out, resume, links)
+    wall0 = time.perf_counter()
+    st, rack, served = connect_rack(
+        "esg", seed, params_digest("esg", params),
+        lambda: EsgRack(seed, params), open_esg_station, links, rack_hook)
+    with journaled_run(out, st, rack, served, resume, renew=RENEW, seed=seed,
+                       test="esg-calibration") as (
+            run, extra, t_start):
+        acq = acquire(st, run, plan)
+        points, bud = assign(acq, plan, plan.lines_per_setting)
+        times = {(p.scan, p.offset_deg): p.times_s for p in points}
+        nom = nominal(acq, plan)
+        results = [calibrate(points, nom, s) for s in SCHEDULES]
+        for res in results:
+            if served is None:
+                add_truth(res.calibration, rack.world, acq, times)
+                add_truth(res.readout, rack.world, acq, times)
+            else:
+                no_truth(res.calibration)
+                no_truth(res.readout)
+            run.save_sheet(f"esg_calibration_{res.name}", res.calibration)
+            run.save_sheet(f"esg_readout_{res.name}", res.readout)
+        schedules = [schedule_summary(r) for r in results]
+        run.save_sheet("esg_schedules", schedules)
+        res_json = {
+            "seed": seed,
+            "schedules": schedules,
+            "nominal": {"b": nom.b, "c": nom.c, "dbar": nom.dbar,
+                        "inclination_deg": nom.inclination_deg},
+            "acquisition": {
+                "cr_a": acq.cr_a, "cr_b": acq.cr_b, "cr_eq": acq.cr_eq,
+                "theta_star_deg": acq.theta_star_deg,
+                "equal_points_separation_deg": acq.gamma_b_deg - acq.gamma_a_deg,
+                "unbalance_k_deg_hr": acq.unbalance_k_deg_hr,
+                "residual_drift_deg_hr": acq.residual_drift_deg_hr,
+                "mount_coning_arcsec": acq.mount_coning_arcsec,
+                "pickoff_coning_arcsec": acq.pickoff_coning_arcsec,
+                "true_pickoff_coning_arcsec": true_pickoff1_coning_arcsec(rack.world)
+                if rack is not None else None,
+                "scans": len(acq.scans), "points": len(points)},
+            "budget": {"slope_per_deg": bud.slope_per_deg, "line_sigma": bud.line_sigma,
+                       "equator_arcsec": bud.equator_deg * 3600.0,
+                       "head_arcsec": bud.head_deg * 3600.0,
+                       "drift_bound_deg_hr": bud.drift_bound_deg_s * 3600.0},
+            "goal_arcsec": GOAL_ARCSEC,
+            **extra,
+        }
+        if with_study:
+            curve, amp, edge = study()
+            res_json["amplification"] = amp
+            res_json["amplification_curve"] = curve
+            res_json["edge_resolution"] = edge
+            with atomic_path(out / "esg_strategy.png") as tmp:
+                strategy.figure2_plot(curve, tmp)
+            run.save_sheet("esg_strategy", curve)
+        with atomic_path(out / "esg_calibration.png") as tmp:
+            calibration_plot(results, tmp)
+        write_sheets(out, run)
+        res_json["sim_seconds"] = st.clock.now() - t_start
+        res_json["wall_seconds"] = time.perf_counter() - wall0
+        write_json(out / "esg.json", res_json)
+        run.note(event="end", sim_seconds=st.clock.now() - t_start)
+        return res_json

@@ -1,0 +1,303 @@
+"""`station align`: the alignments of Part III on the simulated laboratory, and their record.
+
+``run_align`` runs one alignment (method and estimation technique) after a calibration,
+either the calibration of an earlier run directory (``calibration_dir``: its Calibration
+Results and Survey Results sheets) or a full calibration day measured first in the same run,
+and writes ``DIR/results.json`` with an ``alignment`` list, ``DIR/sheets/*.json``, the tapes
+of the parameter evaluation in ``DIR/tapes`` and the journal.
+
+``day_alignments`` is what ``station day`` calls after its calibration: all three methods,
+level and gyrocompass alignment each processed by both techniques.
+
+Errors are taken against the simulator's true attitude at the time each alignment refers to
+(``Outcome.t_ref``): the small rotation between the estimated and the true T in earth axes,
+about east and north (level errors) and about up (azimuth error). Only this module and
+``laboratory.isu.truth`` look at the simulator; the predicted sigmas come from the procedures.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable
+from pathlib import Path
+from typing import TypeVar
+
+from pydantic import BaseModel, ValidationError
+from rich import box
+from rich.console import Console
+from rich.table import Table
+
+from laboratory.connect import connect
+from laboratory.record import write_results, write_sheets
+from laboratory.rundir import opened_journal, prepare, resume_note
+from procedures.isu.alignment.align_math import rotation_error_arcsec
+from procedures.isu.alignment.common import Outcome, canonical_estimator
+from procedures.isu.alignment.parameter_sheet import Tape
+from procedures.isu.alignment.preprocess import Constants, MissingConstants
+from procedures.isu.alignment.results_sheet import AlignPlan
+from procedures.isu.alignment.run import DAY_ESTIMATORS, run_alignments
+from procedures.isu.sheets import ISU_SHEETS, CalibrationResults, SurveyResults
+from procedures.isu.turn_on import turn_on
+from procedures.runner import Run
+from station.config.isu import StationConfig
+from station.racks.isu import SimulatedRack
+
+T = TypeVar("T", bound=BaseModel)
+# The largest azimuth sigma (1 sigma, from the gyros' noise alone) at which a gyrocompass
+# alignment is still reported: beyond it the mirror alignment is the laboratory's way.
+AZIMUTH_SIGMA_LIMIT_DEG = 1.0
+
+
+def alignment_entries(outcomes: list[Outcome], world) -> list[dict]:
+    """results.json entries: estimate against the true attitude at each ``t_ref``
+    (``world`` None, over links: the attitude is the server's, errors are absent)."""
+    out = []
+    for o in outcomes:
+        sig = o.predicted_sigma_arcsec
+        if world is None:
+            t_true, level, az, z = None, [None, None], None, [None, None, None]
+        else:
+            t_true = world.attitude(o.t_ref).T  # world.attitude is T^BE; T = T^EB
+            err = rotation_error_arcsec(o.t, t_true)
+            level, az = [err["east"], err["north"]], err["azimuth"]
+            z = [level[0] / sig[0], level[1] / sig[1], az / sig[2]]
+            t_true = t_true.tolist()
+        out.append({
+            "method": o.method,
+            "estimator": o.estimator,
+            "K": int(o.K),
+            "dt": float(o.dt),
+            "level_error_arcsec": level,
+            "azimuth_error_arcsec": az,
+            "predicted_sigma_arcsec": list(sig),
+            "physical_limit_arcsec": list(o.physical_limit_arcsec),
+            "error_over_sigma": z,
+            "t_ref_s": o.t_ref,
+            "T": o.t.tolist(),
+            "T_true": t_true,
+        })
+    return out
+
+
+def day_methods(calib: CalibrationResults) -> dict[str, tuple[str, ...]]:
+    """The day's alignments that ``calib`` allows: mirror always, level with every
+    accelerometer constant, gyrocompass with every gyro constant too (a partial day,
+    ``station day --only``, leaves some out instead of stopping)."""
+    est = dict(DAY_ESTIMATORS)
+    for method, gyros in (("level", False), ("gyrocompass", True)):
+        try:
+            Constants.from_sheet(calib, gyros)
+        except MissingConstants:
+            est.pop(method)
+    return est
+
+
+def gyrocompass_latitude_limit_deg(cfg: StationConfig, plan: AlignPlan | None = None) -> float:
+    """The highest |latitude| at which the gyrocompass alignment gives an azimuth.
+
+    Its azimuth comes from the horizontal Earth rate Omega cos(latitude) against the gyros'
+    rate noise over the record (angle random walk over K dt and the random drift; Chart
+    III-11's limit, ``gyro_error_model``): sigma_az = noise / (Omega cos(latitude)). Where
+    that floor alone passes AZIMUTH_SIGMA_LIMIT_DEG the small-angle error model behind
+    the reported sigma no longer holds, and the result would be no alignment at all."""
+    from laboratory.isu.day import noise_spec
+
+    plan = plan or AlignPlan()
+    noise = noise_spec(cfg)
+    span_h = plan.gyro_K * plan.gyro_dt_s / 3600.0
+    rate = math.sqrt(noise.gyro_arw_deg_rt_hr**2 / span_h + noise.gyro_drift_sigma_deg_hr**2)
+    ratio = rate / (cfg.site.earth_rate_deg_per_hr * math.radians(AZIMUTH_SIGMA_LIMIT_DEG))
+    return math.degrees(math.acos(min(1.0, ratio)))
+
+
+def gyrocompass_refusal(cfg: StationConfig, plan: AlignPlan | None = None) -> str | None:
+    """Why the gyrocompass alignment is meaningless at the site's latitude (None: it is not)."""
+    lim = gyrocompass_latitude_limit_deg(cfg, plan)
+    lat = cfg.site.latitude_deg
+    if abs(lat) <= lim:
+        return None
+    return (f"site.latitude_deg = {lat:g}: gyrocompass alignment is refused beyond "
+            f"|latitude| {lim:.2f} deg, where the horizontal Earth rate leaves the gyros' "
+            f"noise an azimuth sigma above {AZIMUTH_SIGMA_LIMIT_DEG:g} deg (use the mirror "
+            "alignment)")
+
+
+def day_alignments(st, run: Run, calib: CalibrationResults, cfg: StationConfig, world,
+                   tape_dir: Path | None = None, plan: AlignPlan | None = None) -> list[dict]:
+    """After the calibration of ``station day``: the three alignments (those the
+    calibration allows, ``day_methods``), as results entries. The gyrocompass alignment
+    is skipped near a pole (``gyrocompass_refusal``), its entry saying why."""
+    from laboratory.isu.day import noise_spec, site_info  # (day_cmd may import this module)
+
+    methods = day_methods(calib)
+    skipped = []
+    why = gyrocompass_refusal(cfg, plan)
+    if "gyrocompass" in methods and why is not None:
+        methods.pop("gyrocompass")
+        skipped.append({"method": "gyrocompass", "skipped": why})
+    outcomes = run_alignments(st, run, noise_spec(cfg), calib, None, site_info(cfg), plan,
+                              estimators=methods, tape_dir=tape_dir,
+                              calibration_id="this run (Chart II-15)")
+    return alignment_entries(outcomes, world) + skipped
+
+
+def _sheet(f: Path, model: type[T]) -> T:
+    try:
+        return model.model_validate_json(f.read_bytes())
+    except OSError as e:
+        raise ValueError(f"{f}: cannot read it ({e.strerror})") from None
+    except ValidationError as e:
+        err = e.errors()[0]
+        where = ".".join(str(x) for x in err["loc"]) or "(top)"
+        raise ValueError(f"{f}: not a {model.__name__} sheet: {where}: {err['msg']}") from None
+
+
+def load_calibration(d: Path) -> tuple[CalibrationResults, SurveyResults | None]:
+    """Calibration Results (and Survey Results) sheets of an earlier run directory."""
+    d = Path(d)
+    if not d.is_dir():
+        raise FileNotFoundError(f"--calibration {d}: no such directory")
+    sheets = d / "sheets"
+    f = sheets / "calibration_results.json"
+    if not f.is_file():
+        raise FileNotFoundError(f"--calibration {d}: no Calibration Results Sheet in "
+                                f"{sheets} (run station day)")
+    calib = _sheet(f, CalibrationResults)
+    s = sheets / "survey_results.json"
+    survey = _sheet(s, SurveyResults) if s.is_file() else None
+    return calib, survey
+
+
+def load_tape(path: Path) -> Tape:
+    """A parameter tape file; ValueError naming it when it is not one."""
+    path = Path(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"tape {path}: no such file")
+    return _sheet(path, Tape)
+
+
+def render_alignment(console: Console, entries: list[dict]) -> None:
+    t = Table(title="Alignment Results (Chart III-1): error vs truth, predicted sigma, "
+              "physical limit (arcsec)", box=box.SIMPLE_HEAD, pad_edge=False)
+    for c in ("method", "technique", "K x dt", "about E", "about N", "azimuth",
+              "sigma E/N/az", "limit E/N/az"):
+        t.add_column(c, justify="left" if c in ("method", "technique") else "right",
+                     no_wrap=True)
+    skipped = [e for e in entries if "skipped" in e]
+    for e in entries:
+        if "skipped" in e:
+            continue
+        z = e["error_over_sigma"]
+
+        def f(x, zz):
+            if x is None:
+                return "-"
+            s = f"{x:+.2f}"
+            return f"[red]{s}[/]" if abs(zz) > 4 else s
+
+        t.add_row(e["method"], e["estimator"], f"{e['K']} x {e['dt']:g} s",
+                  f(e["level_error_arcsec"][0], z[0]), f(e["level_error_arcsec"][1], z[1]),
+                  f(e["azimuth_error_arcsec"], z[2]),
+                  "/".join(f"{x:.2f}" for x in e["predicted_sigma_arcsec"]),
+                  "/".join(f"{x:.2f}" for x in e["physical_limit_arcsec"]))
+    console.print(t)
+    for e in skipped:
+        console.print(f"{e['method']} alignment skipped: {e['skipped']}", markup=False)
+
+
+def run_align(
+    cfg: StationConfig,
+    out: Path,
+    method: str,
+    estimator: str,
+    calibration_dir: Path | None = None,
+    tape: Path | None = None,
+    plan: AlignPlan | None = None,
+    console: Console | None = None,
+    quiet: bool = False,
+    warmup_s: float | None = None,
+    rack_hook: Callable[[SimulatedRack], None] | None = None,
+    links: Path | None = None,
+    resume: bool = False,
+) -> dict:
+    """One alignment into ``out``; returns the results dict (also ``out/results.json``).
+
+    ``method``: mirror | level | gyrocompass; ``estimator``: average | posterior | hybrid
+    (level's hybrid is its posterior mean, the gyrocompass's posterior mean its hybrid).
+    ``tape``: a parameter tape to use instead of producing one (checked against the
+    experiment: a mismatch stops Chart III-4 step 8 / III-8 step 7 naming the parameter).
+    ``rack_hook`` may inject faults into the simulated rack before anything runs.
+    ``links``: run over the links of a rack served under that directory (real time).
+    ``resume``: continue the interrupted alignment in ``out``. Every argument, the sheets
+    and the tape are checked before anything is written (ValueError, FileNotFoundError,
+    RunDirError); a gyrocompass alignment near a pole is refused (``gyrocompass_refusal``).
+    """
+    from laboratory.isu.day import DayDisplay, noise_spec, site_info
+    from procedures.isu.computations import compute_calibration
+    from procedures.isu.day import measure_day
+    from procedures.isu.plan import DayPlan
+
+    est = canonical_estimator(method, estimator)
+    if method == "gyrocompass" and (why := gyrocompass_refusal(cfg, plan)) is not None:
+        raise ValueError(why)
+    console = console or Console()
+    out = Path(out)
+    day_plan = DayPlan()
+    calib = survey = None
+    if calibration_dir is not None:
+        calib, survey = load_calibration(calibration_dir)
+    tapes = None
+    if tape is not None:
+        tapes = {method: load_tape(tape)}
+    prepare(out, resume, links)
+    wall0 = time.perf_counter()
+    conn = connect(cfg, links, rack_hook)
+    st = conn.station
+    site = site_info(cfg)
+    noise = noise_spec(cfg)
+    try:
+        with opened_journal(out, resume) as journal:
+            with DayDisplay(console, quiet) as display:
+                run = Run(st.clock, journal, listener=display,
+                          resume="replay" if conn.rack is not None else "skip",
+                          sheet_models=ISU_SHEETS)
+                if resume:
+                    resume_note(run)
+                run.note(event="start", seed=cfg.seed, command="align", method=method,
+                         estimator=est, estimator_requested=estimator,
+                         calibration=str(calibration_dir) if calibration_dir else None,
+                         session=conn.session.session if conn.session else None)
+                if calib is None:
+                    data = measure_day(st, run, day_plan, site, cfg.isu.accels[0].f0_hz,
+                                       noise=noise)
+                    calib = compute_calibration(run, data, day_plan, noise, site)
+                    survey = data.survey
+                    cal_id = "this run (Chart II-15)"
+                else:
+                    turn_on(st, run, day_plan.warmup_s if warmup_s is None else warmup_s)
+                    cal_id = str(calibration_dir)
+                outcomes = run_alignments(st, run, noise, calib, survey, site, plan,
+                                          estimators={method: (est,)}, tapes=tapes,
+                                          tape_dir=out / "tapes", calibration_id=cal_id)
+            write_sheets(out, run)
+            entries = alignment_entries(outcomes, conn.attitude_world)
+            res = {
+                "seed": cfg.seed,
+                "sim_seconds": st.clock.now(),
+                "wall_seconds": time.perf_counter() - wall0,
+                "calibration": cal_id,
+                "estimator_requested": estimator,
+                "alignment": entries,
+                "links": None if links is None else str(links),
+            }
+            write_results(out, res)
+            run.note(event="end", sim_seconds=st.clock.now())
+        if not quiet:
+            render_alignment(console, entries)
+            if est != estimator:
+                console.print(f"note: {method} alignment with the {estimator} technique is "
+                              f"the {est} technique (Charts III-6, III-10)")
+        return res
+    finally:
+        conn.close()

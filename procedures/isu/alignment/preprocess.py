@@ -1,0 +1,134 @@
+"""Preprocessing of the IEU data (Charts III-5 and III-9): counts to body-axis integrals.
+
+Inputs per interval of Delta t (K intervals, each the sum of several IEU samples): the net
+gyro pulses (Sigma delta)_k, the string counts (Sigma gamma)_k1, (Sigma gamma)_k2 and the
+timer count (Sigma n2^T). Outputs: int a.B_k dt (g s) and int omega.B_k dt (arcsec; an
+arcsec per second is a deg/hr, so a rate in deg/hr times seconds is arcsec).
+
+Where the printed charts and the instrument models disagree (Charts IV-1 and IV-2 as the
+calibration uses them), the model wins and the line says so:
+
+* Chart III-9 divides the gyro pulses by (Delta Phi)_k; Delta Phi is the angle per pulse
+  (arcsec/pulse on the Calibration Results Sheet), so the angle is P^G x Delta Phi.
+* Chart III-9 prints the Q_IS term as Q_IS (w.G)(a.S); Chart IV-2's model (and the
+  simulated gyro) has Q_IS (w.G)(w.S). The model's is used, with w.S from the gyros'
+  first-pass rates and the nominal S axes (gyro 1: -B2, gyro 2: -B3, gyro 3: +B2). At rest
+  it is about 1e-7 deg/hr either way.
+* Q^A and Q^G: the charts print the first-order inverse of the matrix of (A_k.B_j)
+  ((G_k.B_j)) that the calibration determines; here that matrix is inverted exactly (the
+  difference is of second order in the misalignments, about 0.05 arcsec).
+* The J term (J d(w.O)/dt) is not in Chart III-9; on a table at rest it integrates to zero
+  over an interval and is left out as the chart leaves it out.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from procedures.isu.sheets import CalibrationResults
+
+GYRO_PARAMS = (
+    "DeltaPhi", "G.B1", "G.B2", "G.B3", "R", "B_I", "B_O", "B_S", "C_II", "C_SS", "C_IS",
+    "C_OS", "C_IO", "Q_II", "Q_IS",
+)
+ACCEL_PARAMS = ("D1", "A.B1", "A.B2", "A.B3", "D0", "D2", "D3")
+# Nominal gyro output and spin axes in body axes (Chart III-9; DOMAIN.md): rows pick a.A_l.
+O_MAP = np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [1.0, 0.0, 0.0]])
+S_MAP = np.array([[0.0, -1.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]])
+
+
+class MissingConstants(ValueError):
+    """The Calibration Results Sheet lacks constants the alignment needs."""
+
+
+@dataclass
+class Constants:
+    """Calibration constants the preprocessing uses, keyed (instrument, parameter)."""
+
+    values: dict[tuple[str, str], float]
+    sigmas: dict[tuple[str, str], float] = field(default_factory=dict)
+
+    @classmethod
+    def from_sheet(cls, sheet: CalibrationResults, gyros: bool) -> Constants:
+        """Constants of the accelerometers (and of the gyros if ``gyros``) from Chart II-5.
+
+        Raises MissingConstants naming every row that has no estimate.
+        """
+        want = [(f"accel{k}", p) for k in (1, 2, 3) for p in ACCEL_PARAMS]
+        if gyros:
+            want += [(f"gyro{k}", p) for k in (1, 2, 3) for p in GYRO_PARAMS]
+        rows = {(r.instrument, r.parameter): r for r in sheet.rows}
+        missing = [f"{i} {p}" for i, p in want if rows.get((i, p)) is None
+                   or rows[(i, p)].estimate is None]
+        if missing:
+            raise MissingConstants(
+                "Calibration Results Sheet lacks " + ", ".join(missing)
+                + " (a full calibration, Chart II-16, determines them)"
+            )
+        values = {k: float(rows[k].estimate) for k in want}  # type: ignore[arg-type]
+        sigmas = {k: float(rows[k].sigma or 0.0) for k in want}
+        return cls(values, sigmas)
+
+    def perturbed(self, key: tuple[str, str], delta: float) -> Constants:
+        v = dict(self.values)
+        v[key] += delta
+        return Constants(v, self.sigmas)
+
+    def get(self, inst: str, k: int, par: str) -> float:
+        return self.values[(f"{inst}{k}", par)]
+
+    def vector(self, inst: str, par: str) -> np.ndarray:
+        return np.array([self.get(inst, k, par) for k in (1, 2, 3)])
+
+    def matrix(self, inst: str, prefix: str) -> np.ndarray:
+        """[X_k . B_j] (rows k = instrument, columns j = body axis): (Q^X)^-1."""
+        return np.array(
+            [[self.get(inst, k, f"{prefix}.B{j}") for j in (1, 2, 3)] for k in (1, 2, 3)]
+        )
+
+
+def string_differences(strings: np.ndarray) -> np.ndarray:
+    """P_k^A = (Sigma gamma)_k2 - (Sigma gamma)_k1 from columns A1S1, A1S2, ..., A3S2."""
+    s = np.asarray(strings, dtype=float)
+    return s[:, 1::2] - s[:, 0::2]
+
+
+def accel_integrals(p_a: np.ndarray, dt: np.ndarray, c: Constants) -> tuple[np.ndarray, ...]:
+    """Chart III-5: (int a.B_k dt, int a.A_k dt, mean a.A_k before D2, D3), K x 3, g s / g.
+
+    ``p_a``: P_k^A (K x 3 counts); ``dt``: interval lengths S2^T (Sigma n2^T) (K,), s.
+    """
+    dt = np.asarray(dt, dtype=float)[:, None]
+    d1, d0 = c.vector("accel", "D1"), c.vector("accel", "D0")
+    d2, d3 = c.vector("accel", "D2"), c.vector("accel", "D3")
+    raw = np.asarray(p_a, dtype=float) / d1 - d0 * dt  # [(a.A_k) dt]
+    u = raw / dt  # (a.A_k)
+    int_a = raw - d2 * u * u * dt - d3 * u**3 * dt
+    q_a = np.linalg.inv(c.matrix("accel", "A"))  # Q^A
+    return int_a @ q_a.T, int_a, u
+
+
+def gyro_integrals(p_g: np.ndarray, dt: np.ndarray, a_a: np.ndarray, c: Constants) -> np.ndarray:
+    """Chart III-9: int omega.B_k dt (K x 3, arcsec) from the net pulses ``p_g`` (K x 3).
+
+    ``a_a``: the mean a.A_k of each interval (g), from ``accel_integrals``.
+    """
+    dt = np.asarray(dt, dtype=float)[:, None]
+    g = {p: c.vector("gyro", p) for p in GYRO_PARAMS if not p.startswith("G.")}
+    raw = np.asarray(p_g, dtype=float) * g["DeltaPhi"] - g["R"] * dt  # [(w.G_k) dt], arcsec
+    w_g = raw / dt  # (w.G_k), deg/hr
+    a_g = a_a  # (a.G_k) = (a.A_k)
+    a_o = a_a @ O_MAP.T
+    a_s = a_a @ S_MAP.T
+    w_s = w_g @ S_MAP.T  # Chart IV-2's (w.S_k), from the gyros' first-pass rates
+    rate = (
+        g["B_I"] * a_g + g["B_O"] * a_o + g["B_S"] * a_s
+        + g["C_II"] * a_g**2 + g["C_SS"] * a_s**2
+        + g["C_IS"] * a_g * a_s + g["C_OS"] * a_o * a_s + g["C_IO"] * a_g * a_o
+        + g["Q_II"] * w_g**2 + g["Q_IS"] * w_g * w_s  # Chart III-9 prints (w.G)(a.S): see top
+    )
+    int_w = raw - rate * dt
+    q_g = np.linalg.inv(c.matrix("gyro", "G"))  # Q^G
+    return int_w @ q_g.T

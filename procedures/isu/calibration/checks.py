@@ -1,0 +1,209 @@
+"""Chart II-15's constants against the counter data they did not need.
+
+The closed forms of II-4.2 and II-4.3 use part of the data only (``check_residuals``). The
+rest is redundant: the pair sums of the turning positions 1-6 (each gyro's bias and even
+terms over whole turns, which the static positions 7-15 and the nonlinearity experiment
+already fix) and each accelerometer's second horizontal pair (a second D1 D0). With the
+constants computed, the forward model (``forward``) predicts every datum; a datum's
+residual, in units of the residual's own sigma, must stay within ``K_RESULT``. That sigma
+is the data covariance (``covariance``: noise, pier tilt, table errors) carried through the
+residual's Jacobian (a datum the constants were solved from has none and is not judged),
+plus Q_II and Q_IS (special experiments) at their sigmas. A disagreement names the counters
+whose readings make the datum, the position and the chart.
+
+The accelerometer charts count each string on its own counter, and the constants use only
+the difference f2 - f1. The sum f1 + f2 (the strings' common frequency) is even in the
+input, 2 f0 + 2 kappa u^2 for push-pull strings, so over the positions it must follow
+a + b u + c u^2 (b allows for a mismatch of the strings) within the strings' noise
+(``check_string_sums``): a garbled string count breaks it even where the difference has no
+redundancy (the vertical pairs that fix D1, D2 and D3).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+
+import numpy as np
+
+from procedures.isu.calibration.accel_equations import ACCEL_PARAMS
+from procedures.isu.calibration.compute import Row, data_covariance, estimate
+from procedures.isu.calibration.forward import AccelModel, GyroModel
+from procedures.isu.calibration.geometry import FIRST_COLUMN, t_br
+from procedures.isu.calibration.gyro_equations import GYRO_PARAMS
+from procedures.isu.calibration.inputs import TURNING_POSITIONS, CalibrationData, Constants
+from procedures.isu.calibration.noise_spec import NoiseSpec
+from procedures.isu.calibration.reduce import Key, reduce
+from procedures.isu.plausibility import Implausible
+from procedures.isu.sheets import ResultRow
+
+K_RESULT = 6.0  # a residual this many of its sigmas off stops the computation
+REDUNDANT = 0.3  # judged only where the residual keeps this fraction of the datum's sigma
+SPECIAL = ("Q_II", "Q_IS")  # from the special experiments, not from these data
+
+
+def _chart(kind: str, m: int) -> str:
+    if kind == "F":
+        return "II-13" if m <= 12 else "II-14"
+    return "II-6" if m <= 6 else ("II-11" if m <= 12 else "II-12")
+
+
+def counters_of(key: Key) -> str:
+    """The counters whose readings make a datum (the patch of its chart, Chart II-2)."""
+    kind, k, m = key
+    if kind == "F":
+        return f"counter{2 * k - 1} and counter{2 * k} (accelerometer {k}'s strings)"
+    if m in TURNING_POSITIONS:
+        return f"counter{k + 1} (gyro {k}) or counter1 (the gate's clock count)"
+    return f"counter{k + 1} (gyro {k})"
+
+
+def predictions(z: Mapping[Key, float], c: Constants, keys: list[Key],
+                special: Mapping[Row, float]) -> np.ndarray:
+    """Each datum in ``keys`` as the constants computed from ``z`` predict it."""
+    est = estimate(z, c)
+    est = {**est, **special}
+
+    def sub(prefix: str) -> dict[str, float | None]:
+        return {p: v for (inst, p), v in est.items() if inst == prefix}
+
+    gyros = {k: GyroModel.from_estimates(k, sub(f"gyro{k}")) for k in (1, 2, 3)}
+    accels = {k: AccelModel.from_estimates(k, sub(f"accel{k}")) for k in (1, 2, 3)}
+    out = []
+    for kind, k, m in keys:
+        if kind == "G" and m in TURNING_POSITIONS:
+            out.append(gyros[k].turning_rate(FIRST_COLUMN[m], z[("w", 0, m)], c))
+        elif kind == "G":
+            t = t_br(m, c)
+            out.append(gyros[k].static_rate(t[:, 0], t[:, 1], c))
+        else:
+            out.append(accels[k].difference(t_br(m, c)[:, 0] if m > 12 else FIRST_COLUMN[m],
+                                            c))
+    return np.array(out)
+
+
+def check_residuals(data: CalibrationData, rows: list[ResultRow],
+                    noise: NoiseSpec | None = None, k: float = K_RESULT) -> dict:
+    """Residuals of the redundant data (``z`` in sigma); Implausible beyond ``k``."""
+    noise = noise or NoiseSpec.model_validate({})
+    c = data.constants
+    red = reduce(data)
+    keys = list(red.values)
+    special = {(r.instrument, r.parameter): r.estimate for r in rows
+               if r.parameter in SPECIAL and r.estimate is not None}
+    est0 = {**estimate(red.values, c), **special}
+
+    def complete(kind: str, k: int, m: int) -> bool:
+        """The forward model of this datum has every constant it needs (a partial day,
+        Chart II-16, leaves some out: those data are not judged)."""
+        if kind == "F":
+            return all(est0.get((f"accel{k}", p)) is not None for p in ACCEL_PARAMS)
+        need = [p for p in GYRO_PARAMS if p not in ("Q_II", "Q_IS", "J")]
+        if m in TURNING_POSITIONS:
+            need += list(SPECIAL)  # (w.G)^2 at the turning rate: several deg/hr
+        return all(est0.get((f"gyro{k}", p)) is not None for p in need)
+
+    judged = [key for key in keys if key[0] in ("G", "F") and complete(*key)]
+    if not judged:
+        return {"judged": 0, "residuals": {}}
+    sp_sigma = {(r.instrument, r.parameter): r.sigma or 0.0 for r in rows
+                if r.parameter in SPECIAL and r.estimate is not None}
+    try:
+        pred = predictions(red.values, c, judged, special)
+    except (ValueError, KeyError):
+        return {"judged": 0, "note": "too few positions for a prediction"}
+    z0 = np.array([red.values[key] for key in keys])
+    resid0 = np.array([red.values[key] for key in judged]) - pred
+    cov = data_covariance(red, keys, data, noise, estimate(red.values, c))
+    steps = np.sqrt(np.maximum(np.diag(cov), 0.0))
+    steps = np.where(steps > 0, steps, 1e-9 * np.maximum(np.abs(z0), 1.0))
+    jac = np.zeros((len(judged), len(keys)))
+    for i, h in enumerate(steps):
+        zp, zm = dict(red.values), dict(red.values)
+        zp[keys[i]] = z0[i] + h
+        zm[keys[i]] = z0[i] - h
+        rp = np.array([zp[key] for key in judged]) - predictions(zp, c, judged, special)
+        rm = np.array([zm[key] for key in judged]) - predictions(zm, c, judged, special)
+        jac[:, i] = (rp - rm) / (2.0 * h)
+    var = np.einsum("ij,jk,ik->i", jac, cov, jac)
+    for row, s in sp_sigma.items():  # Q_II, Q_IS at their sigmas (special experiments)
+        if s:
+            up = predictions(red.values, c, judged, {**special, row: special[row] + s})
+            dn = predictions(red.values, c, judged, {**special, row: special[row] - s})
+            var += (0.5 * (up - dn)) ** 2
+    own = np.array([cov[keys.index(key), keys.index(key)] for key in judged])
+    out: dict[str, dict] = {}
+    worst = None
+    for key, r, v, o in zip(judged, resid0, var, own, strict=True):
+        if not (v > (REDUNDANT**2) * o and v > 0):
+            continue  # the constants were solved from this datum: nothing to judge
+        zz = float(r / math.sqrt(v))
+        kind, kk, m = key
+        name = f"{'gyro' if kind == 'G' else 'accel'}{kk} position {m}"
+        out[name] = {"residual": float(r), "sigma": float(math.sqrt(v)), "z": zz}
+        if worst is None or abs(zz) > abs(worst[1]):
+            worst = (key, zz, float(r), float(math.sqrt(v)))
+    if worst is not None and abs(worst[1]) > k:
+        key, zz, r, s = worst
+        kind, kk, m = key
+        what = f"rate of gyro {kk}" if kind == "G" else f"f2 - f1 of accelerometer {kk}"
+        raise Implausible(
+            counters_of(key),
+            f"Chart {_chart(kind, m)} position {m}: the {what} is {r:+.4g} pulses/s off what "
+            f"the other positions' constants predict ({zz:+.1f} sigma, sigma {s:.3g} "
+            f"pulses/s, limit {k:g}): a wrong count")
+    return {"judged": len(out), "residuals": out}
+
+
+def _up(m: int, c: Constants) -> np.ndarray:
+    """Body components of up at accelerometer position m (nominal for 7-12)."""
+    return t_br(m, c)[:, 0] if m > 12 else FIRST_COLUMN[m]
+
+
+def check_string_sums(data: CalibrationData, rows: list[ResultRow],
+                      noise: NoiseSpec | None = None, k_lim: float = K_RESULT) -> dict:
+    """Each accelerometer's f1 + f2 over its positions against a + b u + c u^2; the residual
+    of each position in units of its own sigma (the strings' white noise over each gate,
+    taken independent per string, and the clock count's quantization); beyond ``k_lim`` an
+    Implausible naming the two counters."""
+    noise = noise or NoiseSpec.model_validate({})
+    c = data.constants
+    est = {(r.instrument, r.parameter): r.estimate for r in rows}
+    q = (noise.accel_white_micro_g_rt_hz * 1e-6) ** 2
+    out: dict[str, float] = {}
+    for k in (1, 2, 3):
+        ab = [est.get((f"accel{k}", f"A.B{j}")) for j in (1, 2, 3)]
+        a_vec = np.array(ab, dtype=float) if None not in ab else np.eye(3)[k - 1]
+        d1 = float(est.get((f"accel{k}", "D1")) or 2000.0)
+        ms, u, sums, var = [], [], [], []
+        for m, p in sorted(data.accel.items()):
+            if (k, 1) not in p.gamma or (k, 2) not in p.gamma:
+                continue
+            f = [p.gamma[(k, ell)] / (p.n1[(k, ell)] * c.s1_t) for ell in (1, 2)]
+            gates = [p.n1[(k, ell)] * c.s1_t for ell in (1, 2)]
+            ms.append(m)
+            u.append(c.g * float(a_vec @ _up(m, c)))
+            sums.append(f[0] + f[1])
+            var.append(sum((0.5 * d1) ** 2 * q / t + noise.clock_quantization_var
+                           * (fi / (t / c.s1_t)) ** 2 for fi, t in zip(f, gates, strict=True))
+                       + 2.0 * noise.string_common_drift_hz**2)
+        if len(ms) < 4:
+            continue  # three coefficients: nothing left to judge
+        x = np.column_stack([np.ones(len(u)), u, np.square(u)])
+        w = 1.0 / np.array(var)
+        h = np.linalg.inv(x.T @ (x * w[:, None]))
+        beta = h @ (x.T @ (w * np.array(sums)))
+        resid = np.array(sums) - x @ beta
+        cov_r = np.array(var) - np.einsum("ij,jk,ik->i", x, h, x)
+        for m, r, v, v0 in zip(ms, resid, cov_r, var, strict=True):
+            if v <= (REDUNDANT**2) * v0:
+                continue
+            z = float(r / math.sqrt(v))
+            out[f"accel{k} position {m}"] = z
+            if abs(z) > k_lim:
+                raise Implausible(
+                    f"counter{2 * k - 1} and counter{2 * k} (accelerometer {k}'s strings)",
+                    f"Chart {_chart('F', m)} position {m}: the strings' common frequency "
+                    f"f1 + f2 is {r:+.4g} Hz off the other positions' ({z:+.1f} sigma, sigma "
+                    f"{math.sqrt(v):.3g} Hz, limit {k_lim:g}): a wrong count")
+    return out

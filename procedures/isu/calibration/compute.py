@@ -1,0 +1,151 @@
+"""Chart II-15 step 8: compute the constants, their predicted standard errors, and the rows of
+the Calibration Results Sheet (Chart II-5).
+
+Predicted standard error: every estimate is a function of the reduced counter data z and,
+through them, of the true orientation at each setting. With J the numerical Jacobian of the
+estimator (central differences, one standard error per step) and Sigma_z the data
+covariance of ``covariance.DataCovariance`` (noise, pier tilt, orientation errors carried
+by the forward model), sigma = sqrt(diag(J Sigma_z J^T)).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+import numpy as np
+
+from procedures.isu.calibration import chart_ii16
+from procedures.isu.calibration.accel_equations import ACCEL_PARAMS, accel_estimates
+from procedures.isu.calibration.covariance import DataCovariance, setting_of
+from procedures.isu.calibration.forward import AccelModel, GyroModel
+from procedures.isu.calibration.geometry import FIRST_COLUMN, TableErrorModel, t_br
+from procedures.isu.calibration.gyro_equations import GYRO_PARAMS, gyro_estimates
+from procedures.isu.calibration.inputs import CalibrationData, Constants
+from procedures.isu.calibration.noise_spec import NoiseSpec
+from procedures.isu.calibration.reduce import Key, Reduced, reduce
+from procedures.isu.sheets import ResultRow
+
+Row = tuple[str, str]  # (instrument, parameter)
+
+
+def estimate(z: Mapping[Key, float], c: Constants) -> dict[Row, float | None]:
+    """All Chart II-5 constants from reduced data (None where not determined)."""
+    out: dict[Row, float | None] = {}
+    for k in (1, 2, 3):
+        for p, v in gyro_estimates(z, c, k).items():
+            out[(f"gyro{k}", p)] = v
+    for k in (1, 2, 3):
+        for p, v in accel_estimates(z, c.g, k).items():
+            out[(f"accel{k}", p)] = v
+    return out
+
+
+def _nominal_t_br(m: int, c: Constants) -> np.ndarray:
+    """T^BRm from the survey, or (column missing) any frame with the nominal first column."""
+    try:
+        return t_br(m, c)
+    except ValueError:
+        c1 = FIRST_COLUMN[m]
+        c2 = np.cross(c1, [0.0, 0.0, 1.0] if abs(c1[2]) < 0.9 else [1.0, 0.0, 0.0])
+        c2 = c2 / np.linalg.norm(c2)
+        return np.column_stack((c1, c2, np.cross(c1, c2)))
+
+
+def data_covariance(
+    red: Reduced,
+    keys: list[Key],
+    data: CalibrationData,
+    noise: NoiseSpec,
+    est: Mapping[Row, float | None],
+) -> np.ndarray:
+    c = data.constants
+
+    def sub(prefix: str) -> dict[str, float | None]:
+        return {p: v for (inst, p), v in est.items() if inst == prefix}
+
+    gyros = {k: GyroModel.from_estimates(k, sub(f"gyro{k}")) for k in (1, 2, 3)}
+    accels = {k: AccelModel.from_estimates(k, sub(f"accel{k}")) for k in (1, 2, 3)}
+    settings = {s for key in keys if (s := setting_of(key)) is not None}
+    tbr = {s: _nominal_t_br(s[1], c) for s in settings}
+    table = TableErrorModel(data.geometry, noise)
+    return DataCovariance(red, keys, c, noise, gyros, accels, table, tbr).matrix()
+
+
+def predicted_sigmas(
+    data: CalibrationData, noise: NoiseSpec | None = None
+) -> tuple[dict[Row, float | None], dict[Row, float | None]]:
+    """(estimates, predicted standard errors) of every Chart II-5 constant."""
+    noise = noise or NoiseSpec()
+    c = data.constants
+    red = reduce(data)
+    est = estimate(red.values, c)
+    keys = list(red.values)
+    cov = data_covariance(red, keys, data, noise, est)
+    z0 = np.array([red.values[k] for k in keys])
+    steps = np.sqrt(np.maximum(np.diag(cov), 0.0))
+    steps = np.where(steps > 0, steps, 1e-9 * np.maximum(np.abs(z0), 1.0))
+    rows = [r for r, v in est.items() if v is not None]
+    jac = np.zeros((len(rows), len(keys)))
+    for i, h in enumerate(steps):
+        zp, zm = dict(red.values), dict(red.values)
+        zp[keys[i]] = z0[i] + h
+        zm[keys[i]] = z0[i] - h
+        ep, em = estimate(zp, c), estimate(zm, c)
+        jac[:, i] = [(ep[r] - em[r]) / (2 * h) for r in rows]  # type: ignore[operator]
+    var = np.einsum("ij,jk,ik->i", jac, cov, jac)
+    sig: dict[Row, float | None] = {r: None for r in est}
+    for r, v in zip(rows, var, strict=True):
+        sig[r] = float(np.sqrt(max(v, 0.0)))
+    return est, sig
+
+
+def calibrate(data: CalibrationData, noise: NoiseSpec | None = None) -> list[ResultRow]:
+    """Calibration Results Sheet rows (Chart II-5), one per instrument and parameter."""
+    est, sig = predicted_sigmas(data, noise)
+    rows: list[ResultRow] = []
+    for k in (1, 2, 3):
+        for p in GYRO_PARAMS:
+            v = est[(f"gyro{k}", p)]
+            text = chart_ii16.GYRO[p][k - 1]
+            if text == chart_ii16.SPECIAL:
+                note = "separate experiment (Chart II-16): not computed here"
+            elif v is None:
+                note = "not determined by the given positions (Chart II-16)"
+            else:
+                note = ""
+            rows.append(
+                ResultRow(
+                    instrument=f"gyro{k}",
+                    parameter=p,
+                    units=chart_ii16.GYRO_UNITS[p],
+                    estimate=v,
+                    sigma=sig[(f"gyro{k}", p)],
+                    positions=text,
+                    note=note,
+                )
+            )
+    for k in (1, 2, 3):
+        step7 = k in data.last_d1d3
+        for p in ACCEL_PARAMS:
+            v = est[(f"accel{k}", p)]
+            note = "" if v is not None else "not determined by the given positions (Chart II-16)"
+            d3_measured = est[(f"accel{k}", "D3")] is not None
+            if v is not None and step7 and not d3_measured and p != "D3":
+                note = "uses the supplied last (D1 D3) (Chart II-15 step 7)"
+            if p == "D3" and v is None and step7:
+                note = (
+                    f"not measured; last (D1 D3) = {data.last_d1d3[k]:.6g} (pulses/s)/g^3 "
+                    "supplied (Chart II-15 step 7)"
+                )
+            rows.append(
+                ResultRow(
+                    instrument=f"accel{k}",
+                    parameter=p,
+                    units=chart_ii16.ACCEL_UNITS[p],
+                    estimate=v,
+                    sigma=sig[(f"accel{k}", p)],
+                    positions=chart_ii16.ACCEL[p][k - 1],
+                    note=note,
+                )
+            )
+    return rows

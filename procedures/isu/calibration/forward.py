@@ -1,0 +1,140 @@
+"""Expected reduced data (rates) from instrument coefficients and position geometry.
+
+Used to carry orientation errors into the data (the error propagation's d(data)/d(rotation));
+the estimator itself never calls it.
+
+Gyro k (Chart IV-2), deg/hr: w.G + R + B_I a.G + B_O a.O + B_S a.S + C_II (a.G)^2
++ C_SS (a.S)^2 + C_IS (a.G)(a.S) + C_OS (a.O)(a.S) + C_IO (a.G)(a.O) + Q_II (w.G)^2
++ Q_IS (w.G)(w.S), a in g and w in deg/hr; pulses/s = that / 3600 / DeltaPhi(deg/pulse). The
+J term vanishes at rest and over whole turns.
+
+Static (positions 7-15): a = g u, w = W cos(lambda) u + W sin(lambda) n, u and n the body
+components of up and north.
+
+Turning (positions 1-6), averaged over whole turns about r = R1 (body): the inertial rate
+along r is w_R = 3600 w_T - W sin(lambda) (R1 points south); gravity and the vertical Earth
+rate W cos(lambda) turn about r together, so <x.a> = 0, <(a.X)(a.Y)> = (g^2/2)(X.Y - (X.r)(Y.r)),
+<(w.X)(w.Y)> = w_R^2 (X.r)(Y.r) + (W cos^2/2)(X.Y - (X.r)(Y.r)).
+
+Accelerometer k (Chart IV-1): f2 - f1 = D1 (u + D0 + D2 u^2 + D3 u^3), u = g A.up.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from procedures.isu.calibration.inputs import Constants
+
+E3 = np.eye(3)
+NOMINAL_AXES = (  # (G, O, S) of gyros 1, 2, 3 in body components (DOMAIN.md, Chart III-9)
+    (E3[0], E3[2], -E3[1]),
+    (E3[1], E3[0], -E3[2]),
+    (E3[2], E3[0], E3[1]),
+)
+GYRO_TERMS = ("R", "B_I", "B_O", "B_S", "C_II", "C_SS", "C_IS", "C_OS", "C_IO", "Q_II", "Q_IS")
+
+
+@dataclass
+class GyroModel:
+    dphi_deg: float  # deg/pulse
+    G: np.ndarray
+    O: np.ndarray  # noqa: E741 - the report's symbol
+    S: np.ndarray
+    coef: dict[str, float]  # GYRO_TERMS, lab units
+
+    @staticmethod
+    def from_estimates(k: int, est: dict[str, float | None]) -> GyroModel:
+        """Linearization point: estimated axis G (nominal if unknown), O and S squared up."""
+        g0, o0, _ = NOMINAL_AXES[k - 1]
+        gb = [est.get(f"G.B{j}") for j in (1, 2, 3)]
+        G = np.array(gb, dtype=float) if None not in gb else g0.copy()
+        G = G / np.linalg.norm(G)
+        O = o0 - (o0 @ G) * G  # noqa: E741
+        O = O / np.linalg.norm(O)  # noqa: E741
+        S = np.cross(G, O)
+        dphi = est.get("DeltaPhi")
+        coef = {t: float(est.get(t) or 0.0) for t in GYRO_TERMS}
+        return GyroModel(float(dphi or 3.0) / 3600.0, G, O, S, coef)
+
+    def _deg_hr(self, ag, ao, as_, wg, ws, agg, ass, ags, aos, ago, wgg, wgs) -> float:
+        c = self.coef
+        return (
+            wg
+            + c["R"]
+            + c["B_I"] * ag
+            + c["B_O"] * ao
+            + c["B_S"] * as_
+            + c["C_II"] * agg
+            + c["C_SS"] * ass
+            + c["C_IS"] * ags
+            + c["C_OS"] * aos
+            + c["C_IO"] * ago
+            + c["Q_II"] * wgg
+            + c["Q_IS"] * wgs
+        )
+
+    def static_rate(self, u: np.ndarray, n: np.ndarray, c: Constants) -> float:
+        """Pulses/s at rest with up u and north n (body components)."""
+        a = c.g * u
+        w = c.w_cos_lambda * u + c.w_sin_lambda * n
+        ag, ao, as_ = a @ self.G, a @ self.O, a @ self.S
+        wg, ws = w @ self.G, w @ self.S
+        r = self._deg_hr(
+            ag, ao, as_, wg, ws, ag * ag, as_ * as_, ag * as_, ao * as_, ag * ao, wg * wg, wg * ws
+        )
+        return r / 3600.0 / self.dphi_deg
+
+    def turning_rate(self, r: np.ndarray, w_t_deg_s: float, c: Constants) -> float:
+        """Pulses/s averaged over whole turns of the table about r (body), w_T in deg/s."""
+        wr = 3600.0 * w_t_deg_s - c.w_sin_lambda
+        g2h, w2h = 0.5 * c.g**2, 0.5 * c.w_cos_lambda**2
+        G, O, S = self.G, self.O, self.S  # noqa: E741
+        gr, orr, sr = G @ r, O @ r, S @ r
+
+        def aa(x, y, xr, yr):
+            return g2h * (x @ y - xr * yr)
+
+        r_deg_hr = self._deg_hr(
+            0.0,
+            0.0,
+            0.0,
+            wr * gr,
+            wr * sr,
+            aa(G, G, gr, gr),
+            aa(S, S, sr, sr),
+            aa(G, S, gr, sr),
+            aa(O, S, orr, sr),
+            aa(G, O, gr, orr),
+            wr * wr * gr * gr + w2h * (1.0 - gr * gr),
+            wr * wr * gr * sr + w2h * (G @ S - gr * sr),
+        )
+        return r_deg_hr / 3600.0 / self.dphi_deg
+
+
+@dataclass
+class AccelModel:
+    D1: float
+    A: np.ndarray
+    D0: float
+    D2: float
+    D3: float
+
+    @staticmethod
+    def from_estimates(k: int, est: dict[str, float | None]) -> AccelModel:
+        ab = [est.get(f"A.B{j}") for j in (1, 2, 3)]
+        A = np.array(ab, dtype=float) if None not in ab else E3[k - 1].copy()
+        A = A / np.linalg.norm(A)
+        return AccelModel(
+            float(est.get("D1") or 2000.0),
+            A,
+            float(est.get("D0") or 0.0),
+            float(est.get("D2") or 0.0),
+            float(est.get("D3") or 0.0),
+        )
+
+    def difference(self, u: np.ndarray, c: Constants) -> float:
+        """f2 - f1, pulses/s, with up u (body components)."""
+        x = c.g * (self.A @ u)
+        return self.D1 * (x + self.D0 + self.D2 * x * x + self.D3 * x**3)

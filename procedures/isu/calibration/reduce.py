@@ -1,0 +1,72 @@
+"""Counter outputs to the rates the calibration equations use (the "special routine" of II-4.2
+and II-4.3): each term (Sigma delta)/(Sigma n1^T) or (Sigma gamma)/(Sigma n1^T), over S1^T.
+
+Keys (kind, k, m):
+* ("w", 0, m): table rate over the whole turns of position m = 1..6, deg/s,
+  S^phi (Sigma n^phi) / ((Sigma n1^T) S1^T);
+* ("G", k, m): gyro k's pulse rate at position m, pulses/s, (Sigma delta) / ((Sigma n1^T) S1^T);
+* ("F", k, m): accelerometer k's f2 - f1 at position m, pulses/s, each string's
+  (Sigma gamma) / ((Sigma n1^T) S1^T) counted separately;
+* ("X", k, 0): the supplied last (D1 D3) of accelerometer k (Chart II-15 step 7).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+from procedures.isu.calibration.inputs import TURNING_POSITIONS, CalibrationData
+
+Key = tuple[str, int, int]
+
+
+@dataclass(frozen=True)
+class Record:
+    """What the error model needs to know about one reduced datum."""
+
+    key: Key
+    t0: float = 0.0
+    length: float = 0.0  # gate, s
+    n1: float = 0.0  # clock ticks of the gate (gyro and table-rate data)
+    strings: tuple[tuple[float, float, float], ...] = ()  # (f, n1, gate s) of strings 1, 2
+    t_level: float = 0.0
+    sigma: float = 0.0  # supplied data only
+
+
+@dataclass
+class Reduced:
+    values: dict[Key, float] = field(default_factory=dict)
+    records: dict[Key, Record] = field(default_factory=dict)
+
+    def add(self, rec: Record, value: float) -> None:
+        self.values[rec.key] = float(value)
+        self.records[rec.key] = rec
+
+
+def reduce(data: CalibrationData) -> Reduced:
+    s1 = data.constants.s1_t
+    out = Reduced()
+    for m, p in sorted(data.gyro.items()):
+        t = p.n1 * s1
+        # the gate ends at the print-out; it may open after the switch to operate (positions
+        # 1-6 wait for the next rotation pulse), so it is placed against t1 when t1 allows
+        start = max(p.t0, p.t1 - t)
+        if m in TURNING_POSITIONS:
+            rec = Record(("w", 0, m), start, t, p.n1)
+            out.add(rec, data.constants.s_phi * float(p.n_phi) / t)  # type: ignore[arg-type]
+        for k in (1, 2, 3):
+            out.add(Record(("G", k, m), start, t, p.n1), p.delta[k - 1] / t)
+    for m, p in sorted(data.accel.items()):
+        for k in (1, 2, 3):
+            if (k, 1) not in p.gamma or (k, 2) not in p.gamma:
+                continue
+            strings = []
+            for ell in (1, 2):
+                n1 = p.n1[(k, ell)]
+                strings.append((p.gamma[(k, ell)] / (n1 * s1), n1, n1 * s1))
+            rec = Record(
+                ("F", k, m), p.t0, max(s[2] for s in strings), 0.0, tuple(strings), p.t_level
+            )
+            out.add(rec, strings[1][0] - strings[0][0])
+    for k, x in sorted(data.last_d1d3.items()):
+        out.add(Record(("X", k, 0), sigma=data.last_d1d3_sigma.get(k, 0.0)), x)
+    return out

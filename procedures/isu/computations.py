@@ -1,0 +1,204 @@
+"""II-4 (Chart II-15): the calibration computations as a check-sheet.
+
+Gathers the survey's constants, the counter settings and outputs of every position
+measured, computes the constants Chart II-16 allows (procedures.isu.calibration), fills Q_II
+from the nonlinearity fits (II-1.2) and J from the designed J experiment (II-1.3, Chart II-10), and
+records the Calibration Results Sheet (Chart II-5).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from procedures.isu import survey_math as sm
+from procedures.isu.calibration import (
+    AccelPosition,
+    CalibrationData,
+    Constants,
+    GyroPosition,
+    NoiseSpec,
+    TableGeometry,
+    calibrate,
+)
+from procedures.isu.calibration.checks import K_RESULT, check_residuals, check_string_sums
+from procedures.isu.day import DayData
+from procedures.isu.j_term import j_estimate, j_pairs
+from procedures.isu.nonlinearity import fit_nonlinearity, q_is_from_fit
+from procedures.isu.plan import DayPlan
+from procedures.isu.plausibility import Implausible
+from procedures.isu.settings import STRINGS
+from procedures.isu.sheets import CalibrationResults, ResultRow
+from procedures.runner import Run
+
+TITLE = "Calibration computations"
+STRING_KEY = {c: (int(name[1]), int(name[3])) for c, name in STRINGS.items()}
+J_COUNTERS = {7: {3: 2, 4: 3}, 11: {2: 1}}  # position -> counter -> gyro
+
+
+def calibration_data(data: DayData, plan: DayPlan, site: dict,
+                     last_d1d3: dict[int, float] | None = None) -> CalibrationData:
+    sv = data.survey
+    const = Constants(
+        g=site["g"],
+        w_sin_lambda=site["omega_sin_lambda"],
+        w_cos_lambda=site["omega_cos_lambda"],
+        s1_t=data.s1,
+        s_phi=360.0 / plan.rotation_pulses_per_rev,
+        t_br_column2={int(m): tuple(v) for m, v in sv.t_br_column2.items()},
+    )
+    gyro = {m: GyroPosition(**d) for m, d in data.gyro.items()}
+    accel = {
+        m: AccelPosition(
+            gamma={STRING_KEY[int(c)]: v for c, v in d["gamma"].items()},
+            n1={STRING_KEY[int(c)]: v for c, v in d["n1"].items()},
+            t0=d["t0"], t1=d["t1"], t_level=d["t_level"],
+        )
+        for m, d in data.accel.items()
+    }
+    geometry = TableGeometry(
+        t_bi=tuple(tuple(r) for r in sv.t_bi),
+        phi0_deg=sv.position0_deg,
+        settings_deg={int(m): v for m, v in sv.settings_deg.items()},
+    )
+    return CalibrationData(constants=const, gyro=gyro, accel=accel,
+                           last_d1d3=last_d1d3 or {}, geometry=geometry)
+
+
+def _row(rows: list[ResultRow], inst: str, par: str) -> ResultRow:
+    return next(r for r in rows if r.instrument == inst and r.parameter == par)
+
+
+def _count_sigma(noise: NoiseSpec, gate_s: float, dphi_arcsec: float) -> float:
+    """One gyro count's standard error (pulses) over a gate: quantization, ARW, drift."""
+    arw = noise.gyro_arw_deg_rt_hr * 3600.0 / 60.0 * math.sqrt(gate_s)  # arcsec
+    drift = noise.gyro_drift_sigma_deg_hr * gate_s  # arcsec (deg/hr = arcsec/s)
+    return math.sqrt(noise.count_quantization_var + (arw**2 + drift**2) / dphi_arcsec**2)
+
+
+def _tilt_change_sigma_arcsec(noise: NoiseSpec, gate_s: float) -> float:
+    """Pier-tilt change over a gate about a horizontal axis of random azimuth, arcsec.
+
+    A gyro whose input axis is horizontal sees it as an angle (wobble: about 1.2 arcsec in
+    20 s); var = (ee(0) - ee(T)) + (nn(0) - nn(T)) from the tilt covariance.
+    """
+    ee0, nn0, _ = noise.tilt_covariance(0.0)
+    ee1, nn1, _ = noise.tilt_covariance(gate_s)
+    var = float(ee0 - ee1 + nn0 - nn1)
+    return math.sqrt(max(var, 0.0)) * 180.0 / math.pi * 3600.0
+
+
+def _check_speeds(chart: str, k: int, pts: list[dict], fit: dict) -> list[float]:
+    """Each speed of a nonlinearity series off the quadratic through the others (sigma)."""
+    for p, z in zip(pts, fit["residual_z"], strict=True):
+        if abs(z) > K_RESULT:
+            raise Implausible(
+                f"counter1 or counter{k + 1} (gyro {k})",
+                f"Chart {chart} at {p['rate_deg_s']:+g} deg/s: the output frequency is "
+                f"{z:+.1f} sigma off the quadratic through the other speeds (limit "
+                f"{K_RESULT:g}): a wrong count")
+    return fit["residual_z"]
+
+
+def special_experiments(rows: list[ResultRow], data: DayData, plan: DayPlan, site: dict,
+                        noise: NoiseSpec) -> dict[str, list[float]]:
+    """Q_II from II-1.2 and J from II-1.3, in place (Chart II-16: special experiments); the
+    z of each speed and gate pair against the others (a wrong count stops the step)."""
+    checks: dict[str, list[float]] = {}
+    for k, pts in data.nonlinearity.items():
+        dphi = _row(rows, f"gyro{k}", "DeltaPhi").estimate or 3.0
+        gates = np.array([abs(p["counts"] / p["p_dot"]) for p in pts])
+        sig = np.array([_count_sigma(noise, g, dphi) for g in gates])
+        fit = fit_nonlinearity(pts, sig)
+        checks[f"II-7 gyro{k}"] = _check_speeds("II-7", k, pts, fit)
+        r = _row(rows, f"gyro{k}", "Q_II")
+        r.estimate, r.sigma = fit["Q_II"], fit["sigma"]
+        r.note = "II-1.2 nonlinearity fit (positions 1, 3, 5 at several speeds)"
+    for k, pts in data.q_is.items():
+        rq = _row(rows, f"gyro{k}", "Q_II")
+        dphi = _row(rows, f"gyro{k}", "DeltaPhi").estimate or 3.0
+        gb = [_row(rows, f"gyro{k}", f"G.B{j}").estimate for j in (1, 2, 3)]
+        if rq.estimate is None or any(x is None for x in gb):
+            continue  # needs Q_II (II-7) and (Q^G)^-1 (positions 1-6)
+        gates = np.array([abs(p["counts"] / p["p_dot"]) for p in pts])
+        fit = fit_nonlinearity(pts, np.array([_count_sigma(noise, g, dphi) for g in gates]))
+        checks[f"II-7Q gyro{k}"] = _check_speeds("II-7Q", k, pts, fit)
+        q, sq = q_is_from_fit(fit["Q_II"], fit["sigma"], rq.estimate, rq.sigma, np.array(gb), k)
+        r = _row(rows, f"gyro{k}", "Q_IS")
+        r.estimate, r.sigma = q, sq
+        r.note = "designed speed series along (G + S)/sqrt2 (docs/special-experiments.md)"
+    if not data.j_term:
+        return checks
+    sv = data.survey
+    for m, counters in J_COUNTERS.items():
+        recs = data.j_term.get(m)
+        if not recs:
+            continue
+        phi3, phi4 = sv.settings_deg["1" if m == 7 else "5"]
+        t_br = sm.t_br(np.array(sv.t_bi), phi3, phi4)
+        for c, k in counters.items():
+            rdp = _row(rows, f"gyro{k}", "DeltaPhi")
+            gb = [_row(rows, f"gyro{k}", f"G.B{j}").estimate for j in (1, 2, 3)]
+            if rdp.estimate is None or any(x is None for x in gb):
+                continue  # J needs the scale factor and (Q^G)^-1 (positions 1-6)
+            g_r = np.array(gb) @ t_br
+            gate = recs[0]["gate_s"]
+            # count noise, and the pier's tilt change seen by the horizontal input axis
+            sig_c = math.hypot(_count_sigma(noise, gate, rdp.estimate),
+                               _tilt_change_sigma_arcsec(noise, gate) / rdp.estimate)
+            j, sj = j_estimate(recs, c, rdp.estimate, g_r, site["omega_sin_lambda"],
+                               plan.j_accel_deg_s2, sig_c)
+            zs = j_pairs(recs, c, rdp.estimate, g_r, site["omega_sin_lambda"],
+                         plan.j_accel_deg_s2, sig_c)
+            checks[f"II-10 gyro{k}"] = zs
+            for i, z in enumerate(zs):
+                if abs(z) > K_RESULT:
+                    raise Implausible(
+                        f"counter{c} (gyro {k})", f"Chart II-10 position {m}, gate pair {i + 1}: "
+                        f"J {z:+.1f} sigma off the other pairs' (limit {K_RESULT:g}): a wrong "
+                        "count, or the table did not ramp as commanded")
+            r = _row(rows, f"gyro{k}", "J")
+            r.estimate, r.sigma = j, sj
+            r.note = (f"Chart II-10 designed experiment, position {m} "
+                      "(docs/special-experiments.md)")
+    return checks
+
+
+def compute_calibration(run: Run, data: DayData, plan: DayPlan, noise: NoiseSpec,
+                        site: dict, last_d1d3: dict[int, float] | None = None
+                        ) -> CalibrationResults:
+    with run.sheet("II-15", TITLE) as sheet:
+        with sheet.step("1", "Prepare the data for entry") as s:
+            if data.survey is None:
+                raise RuntimeError("no Survey Results Sheet (Chart I-3): the constants of "
+                                   "steps 3-4 come from the system survey (Chart I-2)")
+            cd = calibration_data(data, plan, site, last_d1d3)
+            s.reading = {"gyro_positions": sorted(cd.gyro), "accel_positions": sorted(cd.accel)}
+        sheet.done("2", "Load the calibration program")
+        sheet.done("3", "Enter g and the Earth-rate components (Survey Results Sheet)",
+                   cd.constants.model_dump(exclude={"t_br_column2"}))
+        sheet.done("4", "Enter T12, T22, T32 of T^BRm for m = 1, 3, 5, 13, 14, 15",
+                   {str(m): v for m, v in cd.constants.t_br_column2.items()})
+        sheet.done("5", "Enter the counter settings", {"positions": len(cd.gyro) + len(cd.accel)})
+        sheet.done("6", "Enter the counter outputs")
+        sheet.done("7", "Last (D1 D3) for accelerometers without positions 13, 14",
+                   {str(k): v for k, v in (last_d1d3 or {}).items()} or None)
+        with sheet.step("8", "Compute the constants") as s:
+            rows = calibrate(cd, noise)
+            special = special_experiments(rows, data, plan, site, noise)
+            # the data the constants did not need must agree with them (calibration.checks)
+            checked = check_residuals(cd, rows, noise)
+            sums = check_string_sums(cd, rows, noise)
+            s.reading = {"determined": sum(r.estimate is not None for r in rows),
+                         "rows": len(rows),
+                         "residual_z": {k: v["z"] for k, v in
+                                        checked.get("residuals", {}).items()},
+                         "string_sum_z": sums, "special_z": special}
+        with sheet.step("9", "Record the valid constants (Chart II-16) on the Calibration "
+                        "Results Sheet") as s:
+            used = sorted({*data.gyro, *data.accel})
+            results = CalibrationResults(rows=rows, positions_used=used)
+            s.reading = {"positions_used": used}
+    run.save_sheet("calibration_results", results)
+    return results

@@ -1,0 +1,139 @@
+"""The full calibration day of report 000, Parts I and II, in the laboratory's order.
+
+Turn-on (I-1), system survey (I-2), resolver and counter settings (II-6), the measurement
+check-sheets (II-6, II-7, II-7Q, II-10, II-11, II-12, II-13, II-14) and the calibration
+computations (II-15). ``only`` restricts the measurements to some charts (turn-on and survey
+always run: everything needs them); the computations then give exactly what Chart II-16
+allows from the positions measured.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+from procedures.isu import settings as st_settings
+from procedures.isu.accel_static import accel_positions_7_12, accel_positions_13_14
+from procedures.isu.calibration.noise_spec import NoiseSpec
+from procedures.isu.gyro_rotating import scale_factor_positions
+from procedures.isu.gyro_static import gyro_positions_7_12, gyro_positions_13_15
+from procedures.isu.j_term import j_experiment
+from procedures.isu.nonlinearity import nonlinearity_experiment, q_is_experiment
+from procedures.isu.plan import DayPlan
+from procedures.isu.positions import resolver_settings
+from procedures.isu.sheets import CounterOutputs, SurveyResults
+from procedures.isu.system_survey import system_survey
+from procedures.isu.turn_on import oscillator_periods, turn_on
+from procedures.runner import Run
+
+EXPERIMENTS = ("II-6", "II-7", "II-7Q", "II-10", "II-11", "II-12", "II-13", "II-14")
+
+
+@dataclass
+class DayData:
+    """Everything measured: the inputs of the calibration computations."""
+
+    survey: SurveyResults | None
+    s1: float
+    f0: float
+    gyro: dict[int, dict] = field(default_factory=dict)
+    accel: dict[int, dict] = field(default_factory=dict)
+    nonlinearity: dict[int, list[dict]] = field(default_factory=dict)
+    q_is: dict[int, list[dict]] = field(default_factory=dict)
+    j_term: dict[int, list[dict]] = field(default_factory=dict)
+
+
+def _by_position(d: dict) -> dict[int, Any]:
+    """A journaled {position: ...} mapping (JSON keys are strings) with integer keys again."""
+    return {int(k): v for k, v in d.items()}
+
+
+def _pairs(first: tuple[int, ...], positions: set[int] | None) -> tuple[int, ...]:
+    """The pairs (m, m + 1) that hold a wanted position: a pair is measured whole."""
+    return tuple(m for m in first if positions is None or {m, m + 1} & positions)
+
+
+def _singles(all_: tuple[int, ...], positions: set[int] | None) -> tuple[int, ...]:
+    return tuple(m for m in all_ if positions is None or m in positions)
+
+
+def measure_day(st, run: Run, plan: DayPlan, site: dict, f0: float,
+                only: tuple[str, ...] | None = None,
+                positions: tuple[int, ...] | None = None,
+                noise: NoiseSpec | None = None) -> DayData:
+    """Turn-on, survey, settings and the measurement check-sheets; returns the data.
+
+    ``positions`` restricts the position charts (II-6, II-11..II-14) to those positions; a
+    position of a pair (m, m + 1, the second reached by turning phi3) brings its pair.
+    Every chart is a journaled block (``Run.block``), so a resume over links restores the
+    charts already completed and repeats only the interrupted one. ``noise``: the lab's
+    specification, which the survey's agreement checks judge its readings by (default:
+    ``NoiseSpec``'s defaults, the default lab's).
+    """
+    wanted = set(EXPERIMENTS if not only else only)
+    unknown = wanted - set(EXPERIMENTS) - {"I-1", "I-2"}
+    if unknown:
+        raise ValueError(f"unknown chart(s) {sorted(unknown)}; choose from {EXPERIMENTS}")
+    pos = None if positions is None else set(positions)
+    if pos is not None and not pos <= set(range(1, 16)):
+        raise ValueError(f"unknown position(s) {sorted(pos - set(range(1, 16)))}; "
+                         "calibration positions are 1 to 15")
+    run.block("I-1", lambda: turn_on(st, run, plan.warmup_s), lambda _: None)
+    survey = run.block("I-2", lambda: system_survey(st, run, site, noise=noise),
+                       SurveyResults.model_validate)
+    s1, _ = oscillator_periods(run)  # as Chart I-1 step 3 read them (twice, agreeing)
+    settings = resolver_settings(survey)
+    run.save_sheet("resolver_settings", settings)
+    run.save_sheet("counter_connections", st_settings.counter_connections())
+    gyro_gate_s, acc_v_s, acc_h_s = 600.0, 600.0, 1800.0
+    basis = {
+        "gyro 1-6": f"{plan.min_turns} whole turns at {plan.table_rate_deg_s:g} deg/s "
+        f"(scale factor to {plan.gyro_scale_factor_rel:g} needs one turn, Chart II-18)",
+        "gyro 7-15": f"{gyro_gate_s / 60:g} min of S1^T ticks for "
+        f"{plan.gyro_drift_deg_hr:g} deg/hr (Chart II-19)",
+        "accelerometer 7-15": f"{acc_v_s / 60:g} min vertical, {acc_h_s / 60:g} min horizontal "
+        f"times the {f0:g} Hz basic frequency (Charts II-21..II-24)",
+    }
+    presets = st_settings.counter_settings(plan, s1, f0, gyro_gate_s, acc_v_s, acc_h_s, basis)
+    run.save_sheet("counter_settings", presets)
+    outputs = CounterOutputs()
+    data = DayData(survey=survey, s1=s1, f0=f0)
+
+    def chart(key: str, fn: Callable[[], Any]) -> Any:
+        """One measurement chart as a block: its data and its Counter Outputs rows."""
+        def measure() -> dict:
+            before = dict(outputs.outputs)
+            got = fn()
+            rows = {k: v for k, v in outputs.outputs.items() if before.get(k) != v}
+            return {"data": got, "outputs": rows}
+
+        value = run.block(key, measure, lambda v: v)
+        outputs.outputs.update(value["outputs"])
+        return _by_position(value["data"])
+
+    if "II-6" in wanted and (pairs := _pairs((1, 3, 5), pos)):
+        data.gyro.update(chart("II-6", lambda: scale_factor_positions(
+            st, run, settings, plan, outputs, pairs)))
+    if "II-7" in wanted:
+        data.nonlinearity = chart("II-7", lambda: nonlinearity_experiment(
+            st, run, settings, plan, s1, site["omega_sin_lambda"]))
+    if "II-7Q" in wanted:
+        data.q_is = chart("II-7Q", lambda: q_is_experiment(
+            st, run, survey.t_bi, plan, s1, site["omega_sin_lambda"]))
+    if "II-10" in wanted:
+        data.j_term = chart("II-10", lambda: j_experiment(st, run, settings, plan, s1))
+    if "II-11" in wanted and (pairs := _pairs((7, 9, 11), pos)):
+        data.gyro.update(chart("II-11", lambda: gyro_positions_7_12(
+            st, run, settings, presets, outputs, s1, pairs)))
+    if "II-12" in wanted and (singles := _singles((13, 14, 15), pos)):
+        data.gyro.update(chart("II-12", lambda: gyro_positions_13_15(
+            st, run, settings, presets, outputs, s1, singles)))
+    if "II-13" in wanted and (pairs := _pairs((7, 9, 11), pos)):
+        data.accel.update(chart("II-13", lambda: accel_positions_7_12(
+            st, run, settings, presets, outputs, s1, f0, pairs)))
+    if "II-14" in wanted and (singles := _singles((13, 14), pos)):
+        data.accel.update(chart("II-14", lambda: accel_positions_13_14(
+            st, run, settings, presets, outputs, s1, f0, singles)))
+    run.save_sheet("counter_outputs", outputs)
+    return data

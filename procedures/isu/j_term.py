@@ -1,0 +1,182 @@
+"""II-1.3 J term experiment (Chart II-10, left blank in report 000): designed here.
+
+Design (docs/special-experiments.md): with the rotary axis up and a gyro's output axis O along it
+(position 7 for gyros 2 and 3, whose O = B1; position 11 for gyro 1, O = B3), the J term
+adds J * delta(w.O) to the gyro's angle over a gate: J times the change of the table rate,
+whatever the acceleration profile. Two gates of equal length are taken back to back:
+"up" (from rest, ramp at a commanded acceleration to w1) and "down" (from w1 back to rest).
+Their difference keeps 2 J w1 and cancels every constant term (bias, g-terms). What remains
+is computed from the table's commanded motion: the table rate seen through the input-axis
+misalignment (G.R1)(theta_up - theta_down), and the Earth's horizontal rate seen by the
+turning input axis, W sin(lambda) [(G.R2) int sin(phi2) dt + (G.R3) int cos(phi2) dt]:
+the integrals of sin phi2 and cos phi2 that II-1.3 anticipates.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from scipy.integrate import quad
+
+from procedures.isu.common import patch, set_modes, set_position
+from procedures.isu.plan import DayPlan
+from procedures.isu.plausibility import Implausible, guarded, source_of
+from procedures.isu.readings import resolver
+from procedures.isu.settings import GYRO_STATIC, wiring
+from procedures.isu.sheets import ResolverSettings
+from procedures.runner import Run
+
+TITLE = "J term experiment (designed: commanded table acceleration, positions 7 and 11)"
+GYROS_OF_POSITION = {7: (2, 3), 11: (1,)}
+# the table's rotary angle after a gate against the commanded ramp: a few arcsec of
+# resolver error and servo lag on a good day, plus the turn during a link's delay when the
+# table still turns (a real-time link: up to PROFILE_DELAY_S); a stalled axis is far off
+PROFILE_TOLERANCE_DEG = 0.01
+PROFILE_DELAY_S = 0.05
+DEG = math.pi / 180.0
+
+
+def profile(phi0_deg: float, w0: float, w1: float, acc: float, t_cmd: float):
+    """phi2(t) in deg (t from the reading phi0) for a ramp from rate w0 to w1 (deg/s) at
+    |acc| commanded at t_cmd."""
+    a = math.copysign(acc, w1 - w0)
+    t_ramp = abs(w1 - w0) / acc
+
+    def phi(t: float) -> float:
+        if t <= t_cmd:
+            return phi0_deg + w0 * t
+        dt = t - t_cmd
+        if dt <= t_ramp:
+            return phi0_deg + w0 * t_cmd + w0 * dt + 0.5 * a * dt * dt
+        return phi0_deg + w0 * t_cmd + w0 * t_ramp + 0.5 * a * t_ramp**2 + w1 * (dt - t_ramp)
+
+    return phi
+
+
+def gate_integrals(phi, t0: float, t1: float) -> tuple[float, float, float]:
+    """theta (deg), int sin(phi2) dt, int cos(phi2) dt over [t0, t1] (times relative)."""
+    s = quad(lambda t: math.sin(phi(t) * DEG), t0, t1, limit=400, epsabs=1e-10)[0]
+    c = quad(lambda t: math.cos(phi(t) * DEG), t0, t1, limit=400, epsabs=1e-10)[0]
+    return phi(t1) - phi(t0), s, c
+
+
+def j_experiment(st, run: Run, settings: ResolverSettings, plan: DayPlan, s1: float,
+                 pairs: int = 4, gate_s: float = 20.0) -> dict:
+    """Run the up/down gates in positions 7 and 11; return the raw records per position.
+
+    The ramp starts at gate_s/2 - t_ramp/2 into each gate, so the two gates of a pair turn
+    the table through the same angle: the input-axis misalignment term (G.R1) theta then
+    cancels in the difference, and J does not depend on how well G.R1 is known.
+    """
+    w1, acc = plan.j_rate_deg_s, plan.j_accel_deg_s2
+    lead_s = 0.5 * (gate_s - w1 / acc)
+    n_ticks = int(round(gate_s / s1))
+    out: dict[int, list[dict]] = {}
+    with run.sheet("II-10", TITLE) as sheet:
+        sheet.done("1", "Scale factors and (Q^G)^-1 known (Chart II-6); survey done")
+        with sheet.step("2", "Patch gyros and master oscillator to counters 2-4 (positions "
+                        "7-15 wiring); measure Z"):
+            patch(st, wiring(GYRO_STATIC))
+            set_modes(st, (2, 3, 4), "measure Z")
+        for m, gyros in GYROS_OF_POSITION.items():
+            p = settings.positions[str(m)]
+            tag = f"/m{m}"
+            with sheet.step("3" + tag, f"Set position {m} with level correction; table at "
+                            "rest") as s:
+                ps = set_position(st, 0.0, 90.0, p.phi3, p.phi4, level=True)
+                s.reading = ps.reading()
+            counters = {k + 1: n_ticks for k in gyros}
+            recs = []
+            for i in range(pairs):
+                for direction in ("up", "down"):
+                    t_tag = f"{tag}/{i + 1}{direction}"
+                    with sheet.step("4" + t_tag, f"Gate '{direction}': operate, then after "
+                                    f"{lead_s:g} s ramp the rate at {acc:g} deg/s^2") as s:
+                        w_start = 0.0 if direction == "up" else w1
+                        w_end = w1 if direction == "up" else 0.0
+                        for c, n in counters.items():
+                            st.counters[c].set_preset(n)
+                            st.counters[c].discard_readings()
+                        t_pos = st.clock.now()  # the resolver is sampled when asked
+                        phi_start = resolver(st, 2)
+                        t_oper = {}
+                        for c in counters:
+                            t_oper[c] = st.clock.now() - t_pos
+                            st.counters[c].operate()
+                        st.clock.sleep(lead_s - (st.clock.now() - t_pos))
+                        t_cmd = st.clock.now() - t_pos
+                        st.table.ramp(2, acc, w_end)
+                        readings = {c: st.counters[c].read(timeout=gate_s * 3 + 30)
+                                    for c in counters}
+                        for c in counters:
+                            st.counters[c].standby()
+                        t_read = st.clock.now() - t_pos
+                        phi_read = resolver(st, 2)
+                        prof = profile(phi_start, w_start, w_end, acc, t_cmd)
+                        off = (prof(t_read) - phi_read + 180.0) % 360.0 - 180.0
+                        if abs(off) > PROFILE_TOLERANCE_DEG + abs(w_end) * PROFILE_DELAY_S:
+                            rate = guarded(st.table, "axis 2 rate", lambda: st.table.rate(2))
+                            raise Implausible(
+                                source_of(st.table),
+                                f"axis 2 did not follow the commanded ramp: it reads "
+                                f"{phi_read:.4f} deg where the ramp from {phi_start:.4f} deg "
+                                f"puts it at {prof(t_read) % 360.0:.4f} deg (RATE? "
+                                f"{rate:g} deg/s, commanded {w_end:g})")
+                        rec = {"direction": direction, "phi_start": phi_start,
+                               "w_start": w_start, "w_end": w_end, "t_cmd": t_cmd,
+                               "gate_s": n_ticks * s1,
+                               "t_oper": {str(c): v for c, v in t_oper.items()},
+                               "counts": {str(c): v for c, v in readings.items()},
+                               "phi_check_deg": off}
+                        recs.append(rec)
+                        s.reading = rec
+            with sheet.step("5" + tag, "Stop the table"):
+                st.table.stop(2)
+                st.table.wait_still()
+            out[m] = recs
+    return out
+
+
+def j_estimate(records: list[dict], counter: int, dphi_arcsec: float, g_r: np.ndarray,
+               omega_sin_lambda: float, accel: float, sigma_counts: float
+               ) -> tuple[float, float]:
+    """J (hours) and its sigma from the up/down gate pairs of one gyro.
+
+    g_r: the gyro's input axis in rotary-frame components (G.R1, G.R2, G.R3); the rotary
+    frame at phi2 has R2 = cos(phi2) E + sin(phi2) N, R3 = -sin(phi2) E + cos(phi2) N.
+    """
+    dphi = dphi_arcsec / 3600.0  # deg per pulse
+    w_sin = omega_sin_lambda / 3600.0  # deg/s
+    js = []
+    for up, down in zip(records[0::2], records[1::2], strict=True):
+        terms = []
+        for rec in (up, down):
+            prof = profile(rec["phi_start"], rec["w_start"], rec["w_end"], accel, rec["t_cmd"])
+            t0 = rec["t_oper"][str(counter)]  # the gate opens on the next clock tick
+            theta, s_int, c_int = gate_integrals(prof, t0, t0 + rec["gate_s"])
+            angle = rec["counts"][str(counter)] * dphi  # deg
+            # remove what is not J: table rate through G.R1, Earth's horizontal rate
+            known = g_r[0] * theta + w_sin * (g_r[1] * s_int + g_r[2] * c_int)
+            terms.append(angle - known)
+        dw = up["w_end"] - up["w_start"] - (down["w_end"] - down["w_start"])  # deg/s
+        js.append((terms[0] - terms[1]) / dw / 3600.0)  # deg / (deg/s) = s -> hours
+    j = float(np.mean(js))
+    # each pair: two counts with sigma_counts pulses, over 2 w1
+    sig_pair = math.sqrt(2.0) * sigma_counts * dphi / abs(dw) / 3600.0
+    return j, sig_pair / math.sqrt(len(js))
+
+
+def j_pairs(records: list[dict], counter: int, dphi_arcsec: float, g_r: np.ndarray,
+            omega_sin_lambda: float, accel: float, sigma_counts: float) -> list[float]:
+    """Each up/down pair's J against the others' mean, in units of its sigma (the pairs
+    are independent measurements of one J; a garbled count makes one pair stand out)."""
+    one = [j_estimate(records[i:i + 2], counter, dphi_arcsec, g_r, omega_sin_lambda, accel,
+                      sigma_counts) for i in range(0, len(records) - 1, 2)]
+    js = np.array([j for j, _ in one])
+    sig = one[0][1] if one else 0.0
+    n = len(js)
+    if n < 3 or not sig > 0:
+        return []
+    others = (js.sum() - js) / (n - 1)
+    return [float(x) for x in (js - others) / (sig * math.sqrt(1.0 + 1.0 / (n - 1)))]

@@ -1,0 +1,91 @@
+"""II-6: counter connections (Chart II-2) and counter settings from required accuracies.
+
+The report fixes each preset by (1) a required accuracy, (2) the data-collection time that
+reaches it (Charts II-18..II-24), (3) that time in counts. Here step (2) uses the lab's noise
+specification through procedures.isu.calibration's error model: the time is the laboratory's
+standard duration (10 turns; 10 min gyro; 10 min vertical / 30 min horizontal accelerometer,
+II-6.2) or longer if the prediction says the requirement needs more.
+"""
+
+from __future__ import annotations
+
+import math
+
+from procedures.isu.plan import DayPlan
+from procedures.isu.sheets import CounterConnection, CounterConnections, CounterSettings
+
+GYRO_ROTATING = "gyro 1-6"
+GYRO_STATIC = "gyro 7-15"
+ACCEL = "accelerometer 7-15"
+
+STRINGS = {1: "A1S1", 2: "A1S2", 3: "A2S1", 4: "A2S2", 5: "A3S1", 6: "A3S2"}
+# Positions 7-15 leave counters 5, 6 and 1 free: each counts a gyro again over the same
+# clock gate (the panel lets a line feed several inputs), so every gyro count is read twice
+# (project addition to Chart II-2: a count has no other repetition, procedures.isu.plausibility)
+GYRO_CHECK_COUNTERS = {5: 2, 6: 3, 1: 4}  # check counter -> counter it repeats
+# Positions 1-6 and the speed series leave counters 5 and 6 free: 5 counts again the gyro
+# whose input axis is along the rotary axis (re-patched per position pair or gyro), 6 the
+# clock, over the same rotation pulses
+TURNING_CHECK_COUNTERS = {6: 1}  # and 5 -> the counter of the gyro along the rotary axis
+ALONG_AXIS_CHECK = 5
+
+
+def turning_repeats(k: int) -> dict[int, int]:
+    """Check counter -> counter it repeats while gyro k's input axis is along the rotary
+    axis (counter k + 1 counts gyro k)."""
+    return {ALONG_AXIS_CHECK: k + 1, **TURNING_CHECK_COUNTERS}
+
+
+def counter_connections() -> CounterConnections:
+    """Chart II-2, as patched by the procedures."""
+    g = {
+        "1": CounterConnection(xy="OSC1", z="TROT", mode="measure Z"),
+        **{str(k + 1): CounterConnection(xy=f"G{k}+/G{k}-", z="TROT", mode="measure Z")
+           for k in (1, 2, 3)},
+        # counter 5: gyro 1 to begin with, then the gyro along the rotary axis
+        str(ALONG_AXIS_CHECK): CounterConnection(xy="G1+/G1-", z="TROT", mode="measure Z"),
+        "6": CounterConnection(xy="OSC1", z="TROT", mode="measure Z"),
+    }
+    s = {str(k + 1): CounterConnection(xy=f"G{k}+/G{k}-", z="OSC1", mode="measure Z")
+         for k in (1, 2, 3)}
+    s |= {str(c): s[str(main)] for c, main in GYRO_CHECK_COUNTERS.items()}
+    a = {str(c): CounterConnection(xy=line, z="OSC1", mode="measure X-Y")
+         for c, line in STRINGS.items()}
+    return CounterConnections(experiments={GYRO_ROTATING: g, GYRO_STATIC: s, ACCEL: a})
+
+
+def wiring(experiment: str) -> dict[int, tuple[str | None, str | None, str]]:
+    """Patch-panel wiring of an experiment: counter -> (X, Y, Z)."""
+    out = {}
+    for c, conn in counter_connections().experiments[experiment].items():
+        x, _, y = conn.xy.partition("/")
+        out[int(c)] = (x, y or None, conn.z)
+    return out
+
+
+def vertical_accelerometer(m: int) -> int | None:
+    """Accelerometer along the vertical in position m (7-12), else None."""
+    return {7: 1, 8: 1, 9: 2, 10: 2, 11: 3, 12: 3}.get(m)
+
+
+def counter_settings(
+    plan: DayPlan, s1: float, f0: float, gyro_gate_s: float, accel_vertical_s: float,
+    accel_horizontal_s: float, basis: dict[str, str],
+) -> CounterSettings:
+    """Chart II-20: presets for every position and counter."""
+    presets: dict[str, dict[str, int]] = {}
+    turns = plan.min_turns * plan.rotation_pulses_per_rev
+    for m in range(1, 7):
+        presets[f"gyro {m}"] = {str(c): turns for c in (1, 2, 3, 4, 5, 6)}
+    n_gyro = int(round(gyro_gate_s / s1))
+    for m in range(7, 16):
+        presets[f"gyro {m}"] = {str(c): n_gyro for c in (2, 3, 4, *GYRO_CHECK_COUNTERS)}
+    for m in range(7, 15):
+        vert = vertical_accelerometer(m)
+        row = {}
+        for c in STRINGS:
+            k = (c + 1) // 2
+            t = accel_vertical_s if vert == k else accel_horizontal_s
+            row[str(c)] = int(math.ceil(t * f0))  # the basic frequency converts time to counts
+        presets[f"accel {m}"] = row
+    return CounterSettings(presets=presets, basis=basis)

@@ -1,0 +1,96 @@
+"""The shape shared by Charts II-11..II-14: patch, set the mode, then at each position set
+the table with level corrections, preset the counters, run them, record.
+
+The gyro sheets (II-11, II-12) and the accelerometer sheets (II-13, II-14) differ only in
+what is patched, the counter mode, the presets and what a reading means (``StaticKind``).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+from procedures.isu.common import (
+    Gate,
+    PositionSet,
+    check_repeated_counts,
+    patch,
+    run_counters,
+    set_modes,
+    set_position,
+)
+from procedures.isu.readings import resolver
+from procedures.isu.settings import wiring
+from procedures.isu.sheets import CounterOutputs, CounterSettings, ResolverSettings
+from procedures.runner import Run
+
+
+@dataclass(frozen=True)
+class StaticKind:
+    experiment: str  # Counter Connections Sheet experiment (procedures.isu.settings)
+    counters: tuple[int, ...]
+    mode: str  # "measure Z" | "measure X-Y"
+    sheet_key: str  # "gyro" | "accel": row prefix on the settings and outputs sheets
+    patch_text: str
+    preset_text: str
+    operate_text: str
+    record_text: str
+    timeout: Callable[[dict[int, int]], float]
+    record: Callable[[dict[int, int], Gate, PositionSet], dict]
+    repeats: dict[int, int] = field(default_factory=dict)  # check counter -> counter
+    gate_s: Callable[[dict[int, int]], float] = lambda n: 0.0
+
+
+def pair_steps(pairs) -> list[tuple[int, str, str]]:
+    """Positions m, m + 1 for each m: set (step 6), then turn phi3 by 180 deg (step 10)."""
+    out = []
+    for m in pairs:
+        out.append((m, "6", f"Set phi3, phi4 to position {m} with level correction"))
+        out.append((m + 1, "10", f"Turn phi3 by 180 deg: position {m + 1} (level re-read)"))
+    return out
+
+
+def single_steps(positions) -> list[tuple[int, str, str]]:
+    return [(m, "6", f"Set phi3, phi4 to position {m} with level correction") for m in positions]
+
+
+def run_static(st, run: Run, chart: str, title: str, kind: StaticKind,
+               settings: ResolverSettings, presets: CounterSettings, outputs: CounterOutputs,
+               steps: list[tuple[int, str, str]]) -> dict[int, dict]:
+    data: dict[int, dict] = {}
+    with run.sheet(chart, title) as sheet:
+        sheet.done("1", "Resolver and counter settings available")
+        sheet.done("2", "Turn-on procedures complete (Chart I-1)")
+        with sheet.step("3", kind.patch_text):
+            patch(st, wiring(kind.experiment))
+        counters = f"{kind.counters[0]}-{kind.counters[-1]}"
+        every = (*kind.counters, *kind.repeats)
+        also = (f" (and {', '.join(str(c) for c in kind.repeats)} counting again)"
+                if kind.repeats else "")
+        with sheet.step("4", f"Set counters {counters} to {kind.mode}{also}"):
+            set_modes(st, every, kind.mode)
+        with sheet.step("5", "Set phi1 to 0 deg plus level correction, phi2 to 90 deg") as s:
+            ps = set_position(st, 0.0, 90.0, resolver(st, 3), resolver(st, 4), True)
+            s.reading = ps.reading()
+        for m, first, text in steps:
+            tag = f"/m{m}"
+            p = settings.positions[str(m)]
+            with sheet.step(first + tag, text) as s:
+                ps = set_position(st, 0.0, 90.0, p.phi3, p.phi4, level=True)
+                s.reading = {"phi1": ps.phi[0], "phi3": ps.phi[2], "phi4": ps.phi[3],
+                             **ps.reading()}
+            row = presets.presets[f"{kind.sheet_key} {m}"]
+            n = {c: int(row[str(c)]) for c in every}
+            with sheet.step("7" + tag, kind.preset_text) as s:
+                s.reading = {str(c): v for c, v in n.items()}
+            with sheet.step("8" + tag, kind.operate_text) as s:
+                gate = run_counters(st, n, kind.timeout(n))
+                check_repeated_counts(st, gate, kind.repeats, kind.gate_s(n))
+                s.reading = {str(c): v for c, v in gate.readings.items()}
+            with sheet.step("9" + tag, kind.record_text) as s:
+                outputs.outputs[f"{kind.sheet_key} {m}"] = {
+                    str(c): v for c, v in gate.readings.items()
+                }
+                data[m] = kind.record(n, gate, ps)
+                s.reading = data[m]
+    return data

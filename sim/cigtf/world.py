@@ -1,0 +1,140 @@
+"""The CIGTF gyrocompassing test station (report 001) on one simpy environment (integer ns).
+
+Holds the two-axis fixture (Appendix II) with the gyro on it (Appendix I, ``SdfGyro``) and
+what the averaging DVM adds to the torquer current. All random draws come from streams of
+the run seed (``sim.rng``).
+
+Magnitudes (our choice; the report's text gives none for the noise, only the dof: ten
+10-s averages per orientation, 9 dof each, 900 over 25 runs):
+  * S_T = 1 deg/hr per mA, so currents are a few mA and the GSF is about 4094 arcsec/mA.
+  * White noise of one 10-s averaged current: 0.002 mA (0.002 deg/hr), i.e. a run sigma
+    (eq. 19) of about GSF * sqrt(4 * 0.002^2 / 10) = 5.2 arcsec and phase sigmas (eq. 21)
+    of about 1.0 arcsec (25 runs) and 1.6 arcsec (10 runs).
+  * D_F random walk 2e-5 deg/hr/sqrt(s), turn-on shift 0.02 deg/hr (cancels in the
+    four-orientation sum), warm-up transient 0.05 deg/hr with 1200 s time constant
+    (e^-6 of it left after the 2-hour warm-up), loop settling 20 s.
+  * Misalignments: a, b, c of 3 arcsec (levelled, aligned north), d, e, f of 2 arcsec
+    (axes perpendicular within 5 arcsec), h, i, j of 30 arcsec (gyro in its mount).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+import simpy
+
+from sim.cigtf.fixture import FixtureSpec, GyrocompassFixture, Misalignments
+from sim.cigtf.sdf_gyro import DriftModel, Dynamics, SdfGyro
+from sim.rng import stream
+from sim.timebase import seconds, ticks
+from sim.units import ARCSEC, EARTH_RATE, deg_per_hr, to_arcsec
+
+MA = 1e-3  # A
+# the site latitude whose horizontal Earth rate is 12.59562 deg/sidereal hr (about 32.89 deg)
+REPORT_LATITUDE_DEG = math.degrees(math.acos(12.59562 / 15.0))
+
+
+def default_model() -> DriftModel:
+    """An SDF gyro with S_T = 1 deg/hr per mA and drift terms of tenths of deg/hr."""
+    return DriftModel(s_t=deg_per_hr(1.0) / MA, d_f=deg_per_hr(1.5), d_i=deg_per_hr(0.4),
+                      d_o=deg_per_hr(-0.7), d_s=deg_per_hr(0.3), d_ii=deg_per_hr(0.05),
+                      d_ss=deg_per_hr(0.02), d_io=deg_per_hr(0.1), d_is=deg_per_hr(0.03),
+                      d_os=deg_per_hr(0.25))
+
+
+def default_dynamics() -> Dynamics:
+    return Dynamics(settle_tau=20.0, warmup_amplitude=deg_per_hr(0.05), warmup_tau=1200.0,
+                    drift_walk=deg_per_hr(2e-5), turn_on_sd=deg_per_hr(0.02))
+
+
+@dataclass(frozen=True)
+class CigtfParams:
+    latitude_deg: float = REPORT_LATITUDE_DEG  # 12.59562 deg/sidereal hr horizontal rate
+    model: DriftModel = field(default_factory=default_model)
+    dynamics: Dynamics = field(default_factory=default_dynamics)
+    fixture: FixtureSpec = field(default_factory=FixtureSpec)
+    level_sd_arcsec: float = 3.0  # a, b, c
+    perpendicular_sd_arcsec: float = 2.0  # d, e, f
+    mount_sd_arcsec: float = 30.0  # h, i, j
+    slew_deg_s: float = 6.0  # fixture slew rate
+    current_noise_ma: float = 0.002  # 1-sigma white noise of one 10-s averaged current
+    average_s: float = 10.0
+
+
+def draw_misalignments(p: CigtfParams, seed: int) -> Misalignments:
+    rng = stream(seed, "cigtf", "misalignments")
+    sd = [p.level_sd_arcsec] * 3 + [p.perpendicular_sd_arcsec] * 3 + [p.mount_sd_arcsec] * 3
+    return Misalignments(*(float(rng.normal(0.0, s)) * ARCSEC for s in sd))
+
+
+class CigtfWorld:
+    """Fixture, gyro and the DVM's noise; axis moves take slew time, then the loop settles."""
+
+    def __init__(self, seed: int, params: CigtfParams | None = None,
+                 env: simpy.Environment | None = None) -> None:
+        self.seed = int(seed)
+        self.p = params or CigtfParams()
+        self.env = env if env is not None else simpy.Environment()
+        self.latitude = math.radians(self.p.latitude_deg)
+        self.misalignments = draw_misalignments(self.p, self.seed)
+        self.fixture = GyrocompassFixture(self.misalignments, self.seed, self.p.fixture)
+        self.gyro = SdfGyro(self.p.model, self.latitude, self.p.dynamics, self.seed)
+        self.moving_until = 0.0
+        self._readings = 0
+
+    @property
+    def now(self) -> float:
+        return seconds(self.env.now)
+
+    # ----- fixture -----
+    def start_move(self, vertical_deg: int, horizontal_deg: int, arrive: bool = True) -> float:
+        """Slew to whole-degree positions; returns the arrival time (s). ``arrive=False``:
+        the drive stops short (a fault) and the fixture stays where it was."""
+        dv = abs(vertical_deg - self.fixture.vertical_deg)
+        dh = abs(horizontal_deg - self.fixture.horizontal_deg)
+        dur = max(min(dv, 360 - dv % 360), min(dh, 360 - dh % 360)) / self.p.slew_deg_s
+        self.moving_until = self.now + dur
+        if arrive:
+            self.env.process(self._arrive(ticks(dur), vertical_deg % 360, horizontal_deg % 360))
+        return self.moving_until
+
+    def _arrive(self, dt: int, v: int, h: int):
+        yield self.env.timeout(dt)
+        self.fixture.move_to(v, h)
+        if self.gyro.on_since is not None:
+            self.gyro.moved(self.now, self.fixture.q_ge())
+
+    # ----- gyro -----
+    def power_on(self) -> None:
+        if self.gyro.on_since is None:
+            self.gyro.power_on(self.now, self.fixture.q_ge())
+
+    def power_off(self) -> None:
+        self.gyro.power_off()
+
+    def average_current_ma(self, t0: float, t1: float) -> float:
+        """Mean torquer current over [t0, t1] (Simpson, 21 nodes) plus the DVM's noise, mA."""
+        tt = np.linspace(t0, t1, 21)
+        i = np.array([self.gyro.current(float(t)) for t in tt])
+        w = np.ones(21)
+        w[1:-1:2], w[2:-1:2] = 4.0, 2.0
+        mean = float(w @ i) / (3.0 * 20)
+        self._readings += 1
+        noise = stream(self.seed, "cigtf", "dvm", self._readings).normal(
+            0.0, self.p.current_noise_ma)
+        return mean / MA + float(noise)
+
+    # ----- truth -----
+    def truth_theta_arcsec(self) -> float:
+        """Eq. 26: what the four-orientation sum leaves, from the true misalignments, drift
+        terms and the fixture's fixed detent errors (eps = error of the 180 deg vertical
+        detent, eta = -eps since orientation 4 returns to the 0 deg null; beta cancels)."""
+        m, d = self.misalignments, self.p.model
+        eps = self.fixture._detent("v", 180)
+        eta = -eps
+        ws, wc = EARTH_RATE * math.sin(self.latitude), EARTH_RATE * math.cos(self.latitude)
+        rhs = (-4 * m.b * d.d_i + 4 * m.c * d.d_os - 4 * m.b * ws + 4 * (m.a + m.d) * wc
+               + (3 * eps + eta) * wc)
+        return to_arcsec(-rhs / (4 * wc))

@@ -1,0 +1,77 @@
+"""Configuration of the ESG laboratory: a TOML file with an ``[esg]`` section.
+
+Scalars of the gyro and the site at the top of the section; ``[esg.pattern]`` and
+``[esg.signal]`` hold the pattern and the pickoff-signal magnitudes. A bad or unknown
+field is refused with a message naming it (esg.pattern.roughness_rms_in, ...).
+
+Bounds: the pattern's and the signal's keep the simulated processor's pulses countable;
+the rotor's come from the calibration's own timing (a test checks these figures against
+procedures.esg.acquisition.EsgPlan): it waits for 248 rps, so the rotor must spin up to
+at least 250 (the report's operating speed, usable to 500); over three hours (the longest
+calibration seen took 2.8 h) a rundown must leave it above the usable 200 rps, so
+tau >= 3 h / ln(250/200) = 13.4 h; the
+console damps for 900 s, so the damping time constant is at most a third of that, and at
+least two of the rotor's 5-s integration steps (RK4: accurate to 1e-4 per step there).
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+from pathlib import Path
+from typing import Literal
+
+from pydantic import BaseModel, ConfigDict, Field
+
+from sim.esg.world import EsgParams
+from station.config.isu import read_section
+
+_STRICT = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False, strict=True)
+
+
+class PatternConfig(BaseModel):
+    model_config = _STRICT
+    kind: Literal["great_circle", "cosine"] | None = None
+    inclination_deg: float | None = Field(None, gt=10.0, lt=80.0)
+    top_colatitude_deg: float | None = Field(None, ge=30.0, le=60.0)
+    application_in: float | None = Field(None, ge=0, le=0.002)
+    roughness_rms_in: float | None = Field(None, ge=0, le=0.001)
+    # the roughness is tabulated every corr/6 of arc: 1e-3 in is 2e4 points per edge
+    roughness_corr_in: float | None = Field(None, ge=0.001, le=0.1)
+    d0_sd_in: float | None = Field(None, ge=0, le=0.01)
+
+
+class SignalConfig(BaseModel):
+    model_config = _STRICT
+    jitter_ns: float | None = Field(None, ge=0, le=10000)
+    arc_rate_per_rev: float | None = Field(None, ge=0, le=10)
+    arc_wide_fraction: float | None = Field(None, ge=0, le=1)
+
+
+class EsgConfig(BaseModel):
+    model_config = _STRICT
+    latitude_deg: float | None = Field(None, ge=-89.0, le=89.0)
+    spin_rps: float | None = Field(None, ge=250.0, le=500.0)
+    rundown_tau_h: float | None = Field(None, ge=13.5, le=1e6)
+    unbalance_dyne_cm: float | None = Field(None, ge=0, le=100)
+    electric_deg_h: float | None = Field(None, ge=0, le=10)
+    damping_tau_s: float | None = Field(None, ge=10.0, le=300.0)
+    pattern: PatternConfig = PatternConfig.model_validate({})
+    signal: SignalConfig = SignalConfig.model_validate({})
+
+
+def _set(obj, model: BaseModel):
+    return replace(obj, **{k: v for k, v in model.model_dump().items()
+                           if v is not None and not isinstance(v, dict)})
+
+
+def params_from(cfg: EsgConfig) -> EsgParams:
+    p = _set(EsgParams(), cfg)
+    return replace(p, pattern=_set(p.pattern, cfg.pattern), signal=_set(p.signal, cfg.signal))
+
+
+def load_esg_params(path: str | Path | None) -> EsgParams:
+    """The default EsgParams with the file's [esg] settings applied."""
+    if path is None:
+        return EsgParams()
+    cfg = read_section(path, "esg", EsgConfig, "ESG")
+    return params_from(cfg)

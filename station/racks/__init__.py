@@ -1,0 +1,3 @@
+"""Rack assembly: each laboratory's simulated world and instruments registered for its links,
+and the drivers opened on them.
+"""

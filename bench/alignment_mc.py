@@ -34,13 +34,13 @@ def one(seed: int) -> dict:
     from procedures.journal import Journal
     from procedures.runner import Run
     from station.config.isu import load_config
-    from station.racks.isu import SimulatedRack, open_station
+    from station.racks.isu import SimulatedRack, open_isu_drivers
 
     cfg = load_config(seed=seed)
     out: dict = {"seed": seed}
     with tempfile.TemporaryDirectory() as d:
         rack = SimulatedRack(cfg)
-        st = open_station(cfg, rack)
+        st = open_isu_drivers(cfg, rack)
         try:
             run = Run(st.clock, Journal(Path(d) / "day.jsonl"))
             plan = DayPlan()
@@ -57,7 +57,7 @@ def one(seed: int) -> dict:
             st.close()
             rack.close()
         rack = SimulatedRack(cfg)
-        st = open_station(cfg, rack)
+        st = open_isu_drivers(cfg, rack)
         try:
             run = Run(st.clock, Journal(Path(d) / "exact.jsonl"))
             turn_on(st, run, 1800.0)

@@ -11,13 +11,13 @@ import statistics
 import time
 
 from station.config.isu import load_config
-from station.racks.isu import SimulatedRack, open_station
+from station.racks.isu import SimulatedRack, open_isu_drivers
 
 
 def _setup(seed: int):
     cfg = load_config(seed=seed)
     rack = SimulatedRack(cfg)
-    st = open_station(cfg, rack)
+    st = open_isu_drivers(cfg, rack)
     for ax, deg in zip((1, 2, 3, 4), (0.0, 90.0, 0.0, 0.0), strict=True):
         st.table.move(ax, deg)
     st.table.wait_still()

@@ -1,6 +1,6 @@
 """Real-time performance of a served rack: lateness of replies and IEU frames at speed 1.
 
-Starts ``station.hil.server`` as its own process at speed 1 and measures, from a client
+Starts ``station serve`` as its own process at speed 1 and measures, from a client
 process as any rehearsal would see it:
 
 * instrument replies: ``*IDN?`` to the oscillator over its pty, N times; lateness is the
@@ -112,7 +112,7 @@ def quiet_replies(urls: list[str], n: int, latency_s: float) -> list[float]:
 def frames(links: Path, seconds: float, period: int) -> list[float]:
     link = served(links)
     s = link.session
-    ieu = IeuDriver(link.can["ieu"], timeout=2.0)
+    ieu = IeuDriver("ieu", link.can["ieu"], timeout=2.0)
     out = []
     try:
         ieu.start(period)
@@ -225,7 +225,7 @@ def flooder(kind: str, links: Path, stop: threading.Event, least: int) -> None:
         what = _serial_flood(link.serial["counter1"], [b"READ?\n" * 64], stop)
         print(f"flood preset: PRESET {preset} on 1 MHz accepted in OPER; {what}", flush=True)
     elif kind == "ieu":
-        ieu = IeuDriver(link.can["ieu"], timeout=2.0)
+        ieu = IeuDriver("ieu", link.can["ieu"], timeout=2.0)
         accepted = None
         for period in (p for p in TRIES if p >= least):
             try:
@@ -327,7 +327,7 @@ def _start_server(d: Path, only: str | None, nice: int = 0) -> tuple[Path, subpr
                                                                      Path]:
     links = d / "links"
     out = d / "server.out"
-    cmd = [sys.executable, "-m", "station.hil.server", "--speed", "1", "--links", str(links)]
+    cmd = [sys.executable, "-m", "laboratory.cli", "serve", "--speed", "1", "--links", str(links)]
     if only:
         cmd += ["--only", only]
     with open(out, "w") as log:

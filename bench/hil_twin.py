@@ -38,7 +38,7 @@ def main(argv: list[str]) -> None:
         links = base / "links"
         log = open(base / "server.out", "w")
         server = subprocess.Popen(
-            [sys.executable, "-m", "station.hil.server", "--seed", str(seed), "--speed",
+            [sys.executable, "-m", "laboratory.cli", "serve", "--seed", str(seed), "--speed",
              str(speed), "--links", str(links)], stdout=log, stderr=subprocess.STDOUT)
         try:
             while not (links / link_map.FILENAME).exists():

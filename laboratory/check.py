@@ -1,14 +1,17 @@
-"""`station check`: talk to every instrument over its configured link and report who answers."""
+"""`station check`: talk to every instrument of a laboratory over its link and report who
+answers (the rack's local simulation, a served rack's links, or the configured hardware)."""
 
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import Any
 
-from station.config.isu import SERIAL_INSTRUMENTS, StationConfig
-from station.drivers.isu.ieu import IeuDriver
-from station.drivers.serial_base import SerialDriver
+from laboratory.connect import served_links
+from laboratory.registry import Laboratory
 from station.errors import StationError
-from station.racks.isu import SimulatedRack, _bind, can_config
+from station.hil.profile import attach
+from station.racks.base import Rack
 
 
 @dataclass
@@ -19,39 +22,43 @@ class CheckResult:
     identity: str
 
 
-def needs_simulation(cfg: StationConfig) -> bool:
-    return any(u.startswith("sim://") for u in cfg.links.serial.values()) or (
-        cfg.links.can.interface == "sim"
-    )
+def shown_link(link: Any) -> str:
+    """A link as the operator names it: a URL without its rack pin, a CAN bus as
+    ``interface:channel``."""
+    if isinstance(link, dict):
+        return f"{link.get('interface')}:{link.get('channel')}"
+    url = str(link)
+    base, _, query = url.partition("?")
+    rest = "&".join(q for q in query.split("&") if q and not q.startswith("rack="))
+    return f"{base}?{rest}" if rest else base
 
 
-def check_all(cfg: StationConfig, timeout: float = 2.0) -> list[CheckResult]:
-    rack = SimulatedRack(cfg) if needs_simulation(cfg) else None
-    rid = rack.rack_id if rack else None
+def check_all(lab: Laboratory, cfg: Any, links_dir: Path | None = None,
+              timeout: float = 2.0) -> list[CheckResult]:
+    """Open each instrument's driver alone on its link, ask its identity, close it."""
+    rack: Rack | None = None
+    if links_dir is not None:
+        links = served_links(lab, attach(links_dir, lab.name, lab.seed_of(cfg),
+                                         lab.digest(cfg)), links_dir)
+    elif lab.simulated(cfg):
+        rack = lab.build_rack(cfg, None)
+        links = lab.links(cfg, rack)
+    else:
+        links = lab.links(cfg, None)
     out: list[CheckResult] = []
     try:
-        for name in SERIAL_INSTRUMENTS:
-            url = cfg.links.serial[name]
+        for name, make in lab.drivers.items():
+            link = shown_link(links[name])
             try:
-                drv = SerialDriver(name, _bind(url, rid), timeout)
+                drv = make(name, links[name], None, timeout)
                 try:
-                    out.append(CheckResult(name, url, True, drv.identify()))
+                    out.append(CheckResult(name, link, True, drv.identify()))
                 finally:
                     drv.close()
             except StationError as e:
-                out.append(CheckResult(name, url, False, str(e)))
-        can_cfg = can_config(cfg, rid)
-        link = f"{cfg.links.can.interface}:{cfg.links.can.channel}"
-        try:
-            ieu = IeuDriver(can_cfg, timeout=timeout)
-            try:
-                out.append(CheckResult("ieu", link, True, ieu.identify()))
-            finally:
-                ieu.close()
-        except StationError as e:
-            out.append(CheckResult("ieu", link, False, str(e)))
+                out.append(CheckResult(name, link, False, str(e)))
     finally:
-        if rack:
+        if rack is not None:
             rack.close()
     return out
 

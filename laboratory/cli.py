@@ -160,6 +160,27 @@ def _release(d: Path, fresh_dir: bool) -> None:
             pass
 
 
+StationOpt = Annotated[str, typer.Option("--station", help="which laboratory: isu (default), "
+                      "cigtf or esg (station labs lists them)")]
+
+
+def _lab_config(station: str, config: Path | None, seed: int | None) -> tuple[Any, Any]:
+    """The laboratory of ``--station`` and its config read as its own commands read it."""
+    from laboratory import registry
+
+    _check_seed(seed)
+    try:
+        lab = registry.get(station)
+    except registry.UnknownLaboratory as e:
+        fail(e)
+    if station == "isu":
+        return lab, _load(config, seed)
+    try:
+        return lab, lab.load_config(config, seed)
+    except ConfigError as e:
+        fail(e if config is None else f"--config: {e}")
+
+
 @app.command()
 def check(
     config: ConfigOpt = None,
@@ -167,25 +188,20 @@ def check(
     timeout: Annotated[float, typer.Option(help="reply timeout per instrument, s")] = 2.0,
     links: Annotated[Path | None, typer.Option("--links", help="check the rack served under "
                      "this directory instead")] = None,
+    station: StationOpt = "isu",
 ) -> None:
-    """Talk to every instrument over its configured link; exit 1 naming any that does not answer."""
+    """Talk to every instrument over its link; exit 1 naming any that does not answer."""
     from laboratory.check import as_dicts, check_all
 
-    cfg = _load(config)
-    if links is not None:
-        from laboratory.connect import served_config
-        from station.hil.profile import attach
-        from station.hil.session import config_digest
-
-        try:
-            cfg = served_config(cfg, attach(links, "isu", cfg.seed, config_digest(cfg)))
-        except (ValueError, FileNotFoundError) as e:
-            fail(e)
-    results = check_all(cfg, timeout)
+    lab, cfg = _lab_config(station, config, None)
+    try:
+        results = check_all(lab, cfg, links, timeout)
+    except (ValueError, FileNotFoundError) as e:
+        fail(e)
     if as_json:
         typer.echo(json.dumps(as_dicts(results), indent=2))
     else:
-        t = Table(title="Instrument check")
+        t = Table(title=f"Instrument check: {lab.title}")
         for col in ("instrument", "link", "ok", "identity / error"):
             t.add_column(col)
         for r in results:
@@ -197,6 +213,18 @@ def check(
     if bad:
         typer.echo(f"not answering: {', '.join(bad)}", err=True)
         raise typer.Exit(1)
+
+
+@app.command()
+def labs() -> None:
+    """List the laboratories the station knows (the --station names)."""
+    from laboratory import registry
+
+    for name in registry.names():
+        try:
+            typer.echo(f"{name}\t{registry.get(name).title}")
+        except registry.UnknownLaboratory as e:
+            typer.echo(f"{name}\t(cannot load: {one_line(e)})")
 
 
 LinksOpt = Annotated[Path | None, typer.Option(
@@ -308,29 +336,28 @@ def serve(
     links: Annotated[Path, typer.Option("--links", help="directory for the pty symlinks "
                      "and links.json")] = Path("runs/links"),
     only: Annotated[list[str] | None, typer.Option("--only", help="serve only these "
-                    "instruments; repeatable")] = None,
+                    "instruments (repeatable, or comma-separated)")] = None,
     can_port: Annotated[int, typer.Option("--can-port", help="socketcand TCP port (0: any "
                         "free port)")] = 0,
-    station: Annotated[str, typer.Option("--station", help="which rack: isu (default), "
-                       "cigtf (gyrocompass fixture, [cigtf] config, seed 1 unless given) or "
-                       "esg ([esg] config, seed 1 unless given)")] = "isu",
+    station: Annotated[str, typer.Option("--station", help="which laboratory's rack: isu "
+                       "(default; its config carries the seed), cigtf ([cigtf] config) or "
+                       "esg ([esg] config; both seed 1 unless given)")] = "isu",
 ) -> None:
     """Serve a simulated rack in real time on ptys (the ISU's IEU also on socketcand and
     slcan), with a live status table; stop with Ctrl-C."""
-    from station.hil.server import STATIONS, load_station
+    import logging
+
+    from laboratory.connect import served_station
     from station.hil.server import serve as serve_rack
 
-    _check_seed(seed)
     if not speed > 0:
         fail(f"--speed must be > 0, got {speed:g}")
-    if station not in STATIONS:
-        fail(f"--station: unknown station {station!r}: {', '.join(STATIONS)}")
+    lab, cfg = _lab_config(station, config, seed)
+    target = served_station(lab, cfg)
+    names = [n for item in only or () for n in item.split(",") if n]
+    logging.basicConfig(level=logging.INFO, format="%(asctime)s %(name)s: %(message)s")
     try:
-        target = load_station(station, config, seed)
-    except ConfigError as e:
-        fail(e)
-    try:
-        serve_rack(target, speed, links, only or None, can_port=can_port)
+        serve_rack(target, speed, links, names or None, can_port=can_port)
     except (ValueError, OSError) as e:
         fail(e)
     except RuntimeError as e:

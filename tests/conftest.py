@@ -5,7 +5,7 @@ from __future__ import annotations
 import pytest
 
 from station.config.isu import load_config
-from station.racks.isu import SimulatedRack, open_station
+from station.racks.isu import SimulatedRack, open_isu_drivers
 
 
 @pytest.fixture
@@ -25,6 +25,6 @@ def rack(cfg):
 @pytest.fixture
 def station(cfg, rack):
     """Drivers for every instrument of ``rack`` and its virtual clock; closed afterwards."""
-    st = open_station(cfg, rack)
+    st = open_isu_drivers(cfg, rack)
     yield st
     st.close()

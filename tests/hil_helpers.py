@@ -1,4 +1,4 @@
-"""Starting and stopping a rack server (``python -m station.hil.server``) for a test module.
+"""Starting and stopping a rack server (``station serve``) for a test module.
 
 ``serving(base, args)`` starts the server as a subprocess with stdout/stderr to
 ``base/server.out``/``server.err`` and links under ``base/links``, waits for its
@@ -53,7 +53,7 @@ def slipped_s(base: Path) -> float | None:
 def start(base: Path, args: list[str]) -> tuple[Path, subprocess.Popen]:
     """Start a server with ``args`` (``--links base/links`` added); wait for its map."""
     links = base / "links"
-    cmd = [sys.executable, "-m", "station.hil.server", *args, "--links", str(links)]
+    cmd = [sys.executable, "-m", "laboratory.cli", "serve", *args, "--links", str(links)]
     with open(base / "server.out", "w") as out, open(base / "server.err", "w") as err:
         proc = subprocess.Popen(cmd, stdout=out, stderr=err, stdin=subprocess.DEVNULL)
     deadline = time.monotonic() + START_DEADLINE_S

@@ -108,7 +108,9 @@ class ScriptedPort:
 
 def on_script(cls: Callable[..., SerialDriver], ident: str, **kw: Any) -> SerialDriver:
     """A driver of ``cls`` whose link is a ScriptedPort answering with identity ``ident``."""
-    d = cls(url="loop://", **kw)
+    base = getattr(cls, "__name__", "Driver").removesuffix("Driver") or "driver"
+    name = kw.pop("name", re.sub(r"(?<!^)(?=[A-Z])", "_", base).lower())  # GyroPower: gyro_power
+    d = cls(name, "loop://", kw.pop("clock", None), **kw)
     d.port.close()
     d.port = ScriptedPort(ident)  # type: ignore[assignment]
     return d
@@ -500,11 +502,6 @@ PATCH_LINES = ("G1", "G1+", "G1-", "G2", "G2+", "G2-", "G3", "G3+", "G3-", "A1S1
 
 def _maker(cls: Any, **kw: Any) -> Callable[[], Any]:
     def make() -> Any:
-        if cls in (TableDriver, FixtureDriver, HeadDriver, TurntableDriver):
-            kw.setdefault("clock", None)
-        if cls in (CounterDriver, OscillatorDriver, PatchPanelDriver, AutocollimatorDriver,
-                   BubbleLevelDriver, SerialDriver):
-            kw.setdefault("name", cls.__name__.lower())
         return on_script(cls, IDENT[cls], **kw)
     return make
 

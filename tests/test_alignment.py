@@ -44,7 +44,7 @@ from procedures.journal import Journal
 from procedures.runner import ProcedureError, Run
 from sim import units
 from station.config.isu import load_config
-from station.racks.isu import SimulatedRack, open_station
+from station.racks.isu import SimulatedRack, open_isu_drivers
 
 QUIET = Console(quiet=True)
 SEED = 2024
@@ -132,7 +132,7 @@ def day(tmp_path_factory):
     out = tmp_path_factory.mktemp("align_day")
     cfg = load_config(seed=SEED)
     rack = SimulatedRack(cfg)
-    st = open_station(cfg, rack)
+    st = open_isu_drivers(cfg, rack)
     try:
         run = Run(st.clock, Journal(out / "journal.jsonl"))
         plan = DayPlan()
@@ -196,7 +196,7 @@ def _level_run(day, tmp_path, hook=None, plan=SHORT):
     rack = SimulatedRack(cfg)
     if hook:
         hook(rack)
-    st = open_station(cfg, rack)
+    st = open_isu_drivers(cfg, rack)
     try:
         run = Run(st.clock, Journal(tmp_path / "j.jsonl"))
         turn_on(st, run, 60.0)
@@ -250,7 +250,7 @@ def _shifted(calib: CalibrationResults, inst: str, par: str, n_sigma: float
 def _run_with(day, tmp_path, calib, estimators):
     cfg = day["cfg"]
     rack = SimulatedRack(cfg)
-    st = open_station(cfg, rack)
+    st = open_isu_drivers(cfg, rack)
     try:
         run = Run(st.clock, Journal(tmp_path / "j.jsonl"))
         turn_on(st, run, 60.0)
@@ -290,7 +290,7 @@ def test_a_wrong_constant_stops_the_alignment_against_the_mirror(day, tmp_path, 
 def test_tape_for_another_experiment_is_refused(day, tmp_path):
     cfg = day["cfg"]
     rack = SimulatedRack(cfg)
-    st = open_station(cfg, rack)
+    st = open_isu_drivers(cfg, rack)
     try:
         run = Run(st.clock, Journal(tmp_path / "j.jsonl"))
         turn_on(st, run, 60.0)
@@ -330,7 +330,7 @@ def test_missing_calibration_constants_stop_step_6(day, tmp_path):
     partial = _without(day["calib"], "accel2", "D0")
     cfg = day["cfg"]
     rack = SimulatedRack(cfg)
-    st = open_station(cfg, rack)
+    st = open_isu_drivers(cfg, rack)
     try:
         run = Run(st.clock, Journal(tmp_path / "j.jsonl"))
         turn_on(st, run, 60.0)
@@ -389,7 +389,7 @@ def _samples(cfg, n: int, hook=None) -> tuple[list, object]:
     rack = SimulatedRack(cfg)
     if hook:
         hook(rack)
-    st = open_station(cfg, rack)
+    st = open_isu_drivers(cfg, rack)
     try:
         st.ieu.start(1000, recover=True)
         got = [st.ieu.next_sample(timeout=1.0) for _ in range(n)]

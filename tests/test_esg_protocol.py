@@ -17,7 +17,7 @@ import pytest
 from sim.timebase import ticks
 from station.drivers.esg import BadLine, DataLine, LineChecker
 from station.errors import DriverError, InstrumentRefused, LinkTimeout
-from station.racks.esg import LATENCY_S, EsgRack, open_esg_station
+from station.racks.esg import LATENCY_S, EsgRack, open_esg_drivers
 
 SEED = 11
 IDENT = {
@@ -37,7 +37,7 @@ def rack():
 
 @pytest.fixture
 def st(rack):
-    s = open_esg_station(rack)
+    s = open_esg_drivers(rack)
     yield s
     s.close()
 
@@ -432,7 +432,7 @@ def test_corrupted_lines_become_badlines_and_clean_ones_match_truth(st, rack):
     check_truth(rack, good, (2, 3))
     # the corrupted lines were good before corruption: same seed, no corruption
     with EsgRack(SEED) as r2:
-        s2 = open_esg_station(r2)
+        s2 = open_esg_drivers(r2)
         try:
             spinning(s2, r2)
             s2.processor.select(3, 2)  # the same exchanges at the same simulated times

@@ -16,7 +16,7 @@ from procedures.esg.acquisition import RENEW, acquire
 from procedures.journal import Journal, scan
 from procedures.runner import ProcedureError, Run
 from sim.esg.world import EsgParams
-from station.racks.esg import EsgRack, open_esg_station
+from station.racks.esg import EsgRack, open_esg_drivers
 
 SEED = 11
 STOP_IN = "11+"  # the scan the link is lost in, after STOP_AFTER of its readings
@@ -25,7 +25,7 @@ STOP_AFTER = 12
 
 def _station(seed: int):
     rack = EsgRack(seed, EsgParams())
-    return rack, open_esg_station(rack)
+    return rack, open_esg_drivers(rack)
 
 
 @pytest.fixture(scope="module")

@@ -21,7 +21,7 @@ from station.config.isu import ConfigError, load_config
 from station.drivers.isu.ieu import PARTS
 from station.errors import DriverError, LinkTimeout
 from station.hil.realtime import RealtimeEnv
-from station.racks.isu import SimulatedRack, open_station
+from station.racks.isu import SimulatedRack, open_isu_drivers
 
 QUIET = Console(quiet=True)
 IDN_COUNTER4 = b"ISU-LAB,FC-1,C4,1.0\n"
@@ -36,7 +36,7 @@ def rig(faults: dict, seed: int | None = None):
     """A simulated rack with ``faults`` and the station bound to it."""
     cfg = faulty(faults, seed)
     rack = SimulatedRack(cfg)
-    st = open_station(cfg, rack)
+    st = open_isu_drivers(cfg, rack)
     try:
         yield rack, st
     finally:

@@ -9,7 +9,7 @@ import pytest
 from laboratory.cigtf.gyrocompassing import run_gyrocompass_test
 from procedures.runner import ProcedureError
 from station.errors import InstrumentRefused
-from station.racks.cigtf import CigtfRack, open_cigtf_station
+from station.racks.cigtf import CigtfRack, open_cigtf_drivers
 
 
 def test_whole_test_recovers_truth_and_writes_record(tmp_path):
@@ -57,7 +57,7 @@ def test_silent_dvm_stops_with_named_instrument_and_step(tmp_path):
 
 def test_fixture_refuses_bad_moves_and_reports_drive_fault():
     with CigtfRack(3) as rack:
-        st = open_cigtf_station(rack)
+        st = open_cigtf_drivers(rack)
         try:
             for cmd in ("MOVE V 1.5", "MOVE V 360", "TURN H 400", "MOVE X 10"):
                 with pytest.raises(InstrumentRefused):

@@ -1,6 +1,6 @@
 """The real-time OS-level links: the same drivers talk to a rack served by another process.
 
-A server process (``python -m station.hil.server``) runs the simulated rack in real time
+A server process (``station serve``) runs the simulated rack in real time
 (times 20) and serves the table on a pty and the IEU on socketcand and on slcan; this
 process reaches them only through pyserial and python-can, exactly as it would reach
 hardware. No assertion depends on wall-clock timing.
@@ -58,7 +58,7 @@ def test_link_map(served):
 
 def test_table_over_pty(served):
     _, entries, _ = served
-    table = TableDriver(_address(entries, "table", "serial"), WallClock(), timeout=10.0)
+    table = TableDriver("table", _address(entries, "table", "serial"), WallClock(), timeout=10.0)
     try:
         assert table.identify().startswith("ISU-LAB,TT-4AX")
         target = 37.25
@@ -91,7 +91,7 @@ def _check_samples(ieu: IeuDriver, n: int = 6) -> None:
 def test_ieu_over_can_link(served, kind, extra):
     _, entries, _ = served
     cfg = link_map.can_config(_address(entries, "ieu", "can", kind)) | extra
-    ieu = IeuDriver(cfg, timeout=10.0)
+    ieu = IeuDriver("ieu", cfg, timeout=10.0)
     try:
         assert ieu.identify().startswith("ISU-LAB,IEU")
         _check_samples(ieu)
@@ -104,7 +104,7 @@ def test_sniffer_sees_commands_and_samples(served):
     _, entries, _ = served
     cfg = link_map.can_config(_address(entries, "ieu", "can", "socketcand"))
     sniffer = can.Bus(**cfg)
-    ieu = IeuDriver(cfg, timeout=10.0)
+    ieu = IeuDriver("ieu", cfg, timeout=10.0)
     try:
         ieu.start(PERIOD)
         first = ieu.next_sample(timeout=10.0)

@@ -12,8 +12,9 @@ from pathlib import Path
 
 import pytest
 
-from laboratory.check import check_all, needs_simulation
+from laboratory.check import check_all
 from laboratory.connect import connect
+from laboratory.isu.lab import LAB, simulated
 from station.config.isu import ConfigError, load_config
 from station.errors import DriverError
 
@@ -33,7 +34,7 @@ def test_documented_profile_is_a_valid_config_for_hardware(lab_toml):
     cfg = load_config(lab_toml)
     assert cfg.links.can.interface == "socketcan" and cfg.links.can.channel == "can0"
     assert all(u.startswith("/dev/") for u in cfg.links.serial.values())
-    assert not needs_simulation(cfg)
+    assert not simulated(cfg)
 
 
 def test_profile_missing_an_instrument_is_refused(lab_toml, tmp_path):
@@ -48,9 +49,9 @@ def test_profile_missing_an_instrument_is_refused(lab_toml, tmp_path):
 def test_hardware_profile_fails_cleanly_naming_the_link(lab_toml):
     cfg = load_config(lab_toml)
     with pytest.raises(DriverError) as e:
-        connect(cfg)
+        connect(LAB, cfg)
     assert "/dev/ttyUSB0" in str(e.value) and "table" in str(e.value)
-    results = check_all(cfg, timeout=0.5)
+    results = check_all(LAB, cfg, timeout=0.5)
     assert not any(r.ok for r in results)
     ieu = next(r for r in results if r.instrument == "ieu")
     assert "socketcan:can0" in ieu.link and "cannot open CAN link" in ieu.identity

@@ -2,7 +2,7 @@
 following symlinks, taken over cleanly from a dead server.
 
 Servers run in this process (``HilServer``, the table only) except where a second
-``python -m station.hil.server`` must be refused with its exit status and message.
+``station serve`` must be refused with its exit status and message.
 """
 
 from __future__ import annotations
@@ -17,6 +17,8 @@ import pytest
 import serial
 from hil_helpers import serving
 
+from laboratory import registry
+from laboratory.connect import served_station
 from station.config.isu import load_config
 from station.hil import link_map, session
 from station.hil.links_dir import LOCK, LinksDir, LinksDirError
@@ -26,7 +28,8 @@ SECRET = "the victim's content\n"
 
 
 def _server(links: Path) -> HilServer:
-    return HilServer(load_config(), 10.0, links, only=["table"])
+    return HilServer(served_station(registry.get("isu"), load_config()), 10.0, links,
+                     only=["table"])
 
 
 def _ask(url: str, cmd: bytes = b"*IDN?\n") -> bytes:
@@ -67,7 +70,7 @@ def test_second_serve_process_exits_2_and_leaves_the_first_reachable(tmp_path):
     with serving(tmp_path, ["--only", "table", "--speed", "10"]) as (links, entries, proc):
         before = (links / "links.json").read_text()
         second = subprocess.run(
-            [sys.executable, "-m", "station.hil.server", "--only", "table", "--links",
+            [sys.executable, "-m", "laboratory.cli", "serve", "--only", "table", "--links",
              str(links)], capture_output=True, text=True, timeout=120, stdin=subprocess.DEVNULL)
         assert second.returncode == 2
         assert f"in use by a running server (pid {proc.pid})" in second.stderr

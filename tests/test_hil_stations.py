@@ -1,6 +1,6 @@
 """The CIGTF and ESG racks served in real time (``station serve --station cigtf|esg``).
 
-A server process (``python -m station.hil.server --station X``) runs the rack; this
+A server process (``station serve --station X``) runs the rack; this
 process reaches it only through the ptys named in its links.json, with the unchanged
 drivers and procedures on a WallClock on the rack's time (``attach``), exactly as
 ``station gyrocompass-test --links`` and ``station esg-calibration --links`` do.
@@ -29,8 +29,11 @@ from hil_helpers import serving, slipped_s
 from rich.console import Console
 from typer.testing import CliRunner
 
+from laboratory import registry
 from laboratory.cli import app
+from laboratory.connect import served_station
 from laboratory.esg.calibration import run_esg_calibration
+from laboratory.seeded import Seeded
 from procedures.cigtf.procedure import TestPlan as Plan
 from procedures.cigtf.procedure import scale_factor
 from procedures.journal import Journal
@@ -39,9 +42,9 @@ from sim.cigtf.world import CigtfParams
 from station.drivers.cigtf import FixtureDriver
 from station.hil import session, status
 from station.hil.profile import NoServedRack, WrongStation, attach, served
-from station.hil.server import HilServer, cigtf_station
+from station.hil.server import HilServer
 from station.hil.session import params_digest
-from station.racks.cigtf import CigtfRack, open_cigtf_station
+from station.racks.cigtf import CigtfRack, open_cigtf_drivers
 
 CIGTF_SEED, CIGTF_SPEED = 3, 50.0
 ESG_SEED, ESG_SPEED = 2, 500.0
@@ -93,7 +96,7 @@ def test_cigtf_scale_factor_over_links(cigtf_served, tmp_path):
     links, _, _ = cigtf_served
     served = attach(links, "cigtf", CIGTF_SEED, params_digest("cigtf", CigtfParams()))
     assert served.truth
-    st = open_cigtf_station(links=served.links, clock=served.clock)
+    st = open_cigtf_drivers(links=served.links, clock=served.clock)
     try:
         assert st.fixture.identify().startswith("CIGTF")
         t0 = st.clock.now()
@@ -107,7 +110,7 @@ def test_cigtf_scale_factor_over_links(cigtf_served, tmp_path):
     assert rack_seconds > 2 * PLAN.settle_s  # the procedure's waits ran on the rack's time
 
     rack = CigtfRack(CIGTF_SEED)
-    vst = open_cigtf_station(rack)
+    vst = open_cigtf_drivers(rack)
     try:
         vgsf, vi1, vi1t = _measure_scale_factor(vst, tmp_path / "virtual.jsonl")
     finally:
@@ -205,11 +208,12 @@ def test_esg_calibration_end_to_end_over_links(tmp_path):
 
 def test_status_counts_what_each_link_carries(tmp_path):
     """In process: a served CIGTF rack's counters and the live table after a few exchanges."""
-    server = HilServer(cigtf_station(CIGTF_SEED), 20.0, tmp_path / "links")
+    spec = served_station(registry.get("cigtf"), Seeded(CigtfParams(), CIGTF_SEED))
+    server = HilServer(spec, 20.0, tmp_path / "links")
     try:
         server.start()
         sv = served(tmp_path / "links")
-        fixture = FixtureDriver(sv.serial["fixture"], sv.clock())
+        fixture = FixtureDriver("fixture", sv.serial["fixture"], sv.clock())
         fixture.bind_clock(sv.clock())
         try:
             fixture.identify()
@@ -240,11 +244,12 @@ def test_status_counts_can_traffic(tmp_path):
     from station.drivers.isu import IeuDriver
     from station.hil import link_map
 
-    server = HilServer(load_config(), 20.0, tmp_path / "links", only=["ieu"])
+    server = HilServer(served_station(registry.get("isu"), load_config()), 20.0,
+                       tmp_path / "links", only=["ieu"])
     try:
         server.start()
         scd = next(e.address for e in server.entries() if e.address.startswith("socketcand"))
-        ieu = IeuDriver(link_map.can_config(scd), timeout=10.0)
+        ieu = IeuDriver("ieu", link_map.can_config(scd), timeout=10.0)
         try:
             assert ieu.identify().startswith("ISU-LAB,IEU")
             clients, c = server.socketcand.snapshot()

@@ -297,7 +297,7 @@ class ScriptedIeu:
 
 
 def driver_on(bus: ScriptedIeu) -> IeuDriver:
-    d = IeuDriver({"interface": "virtual", "channel": "ieu-scripted"})
+    d = IeuDriver("ieu", {"interface": "virtual", "channel": "ieu-scripted"})
     d.bus.shutdown()
     d.bus = bus  # type: ignore[assignment]
     return d

@@ -13,14 +13,14 @@ from scipy.integrate import simpson
 from sim import units
 from sim.isu import reference
 from station.config.isu import load_config
-from station.racks.isu import SimulatedRack, open_station
+from station.racks.isu import SimulatedRack, open_isu_drivers
 
 
 @pytest.fixture
 def lab():
     cfg = load_config(seed=11)
     rack = SimulatedRack(cfg)
-    st = open_station(cfg, rack)
+    st = open_isu_drivers(cfg, rack)
     yield rack, st
     st.close()
     rack.close()
@@ -251,7 +251,7 @@ def test_same_seed_same_readings_other_seed_differs():
     def run(seed):
         cfg = load_config(seed=seed)
         with SimulatedRack(cfg) as rack:
-            st = open_station(cfg, rack)
+            st = open_isu_drivers(cfg, rack)
             _position(st, (0.0, 90.0, 0.0, 0.0))
             st.patch_panel.connect("G1+", 2, "X")
             st.patch_panel.connect("G1-", 2, "Y")

@@ -31,7 +31,7 @@ from procedures.isu.turn_on import oscillator_periods, turn_on
 from procedures.journal import Journal
 from procedures.runner import ProcedureError, Run
 from station.config.isu import load_config
-from station.racks.isu import SimulatedRack, open_station
+from station.racks.isu import SimulatedRack, open_isu_drivers
 
 QUIET = Console(quiet=True)
 
@@ -93,7 +93,7 @@ def test_robust_scatter_widens_a_too_optimistic_sigma():
 def rig(seed: int | None = None, faults: dict | None = None):
     cfg = load_config(seed=seed, overrides={"faults": faults or {}})
     rack = SimulatedRack(cfg)
-    st = open_station(cfg, rack)
+    st = open_isu_drivers(cfg, rack)
     try:
         yield cfg, rack, st
     finally:

@@ -22,7 +22,7 @@ from procedures.runner import ProcedureError, Run
 from sim.frames import gimbal as sim_gimbal
 from sim.frames import transform_of_rotated
 from station.config.isu import load_config
-from station.racks.isu import SimulatedRack, open_station
+from station.racks.isu import SimulatedRack, open_isu_drivers
 
 ARCSEC = math.pi / (180 * 3600)
 WARMUP_S = 120.0  # keeps the tests short; the default warm-up is half an hour
@@ -109,7 +109,7 @@ class Lab:
                  cfg=None) -> None:
         self.cfg = cfg or load_config(seed=seed, overrides=overrides)
         self.rack = SimulatedRack(self.cfg)
-        self.st = open_station(self.cfg, self.rack)
+        self.st = open_isu_drivers(self.cfg, self.rack)
         self.path = tmp_path / "j.jsonl"
         self.run = Run(self.st.clock, Journal(self.path))
 

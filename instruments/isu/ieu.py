@@ -153,6 +153,13 @@ def parse_command(db: cantools.database.can.Database, arbitration_id: int, data:
     return Command(code, period, sig["Seq"])
 
 
+# served in real time: a sample's counts take about 0.8 ms of wall time (bench/hil_latency.py)
+LOOKAHEAD_WALL_S = 0.003
+# a served IEU refuses START below 200 S2^T pulses (20 ms): at the bus minimum (15) counting
+# one sample takes 63 % of the simulation thread and the rack slips (docs/hil.md)
+SERVED_MIN_PERIOD = 200
+
+
 class Ieu:
     ident = "ISU-LAB,IEU,0,1.0"
 
@@ -184,6 +191,14 @@ class Ieu:
         self.frame_fault: FrameFault | None = None  # fault injection: delayed, lost, altered frames
         self.history_len = HISTORY_LEN  # fault injection: 0 makes every RESEND fail
         self.history: deque[tuple[int, list[tuple[int, bytes]]]] = deque()
+
+    def serve_in_real_time(self, speed: float) -> None:
+        """Prepare to be served by a real-time server at ``speed``: count each sample a
+        little ahead so its frames leave at the latch instant, and refuse START below
+        ``SERVED_MIN_PERIOD`` (docs/hil.md)."""
+        self.lookahead_s = LOOKAHEAD_WALL_S * speed
+        lo, hi = self.periods
+        self.periods = (max(lo, SERVED_MIN_PERIOD), hi)
 
     # ----- frames in -----
     def receive_frame(self, arbitration_id: int, data: bytes) -> None:

@@ -14,9 +14,11 @@ import time
 from collections.abc import Callable
 from pathlib import Path
 
-from laboratory.connect import connect_rack, journaled_run
+from laboratory.cigtf.lab import LAB
+from laboratory.connect import connect, journaled_run
 from laboratory.record import write_json, write_sheets
 from laboratory.rundir import JOURNAL, RunDirError, prepare
+from laboratory.seeded import Seeded
 from procedures.cigtf.analysis import phase_values, run_values
 from procedures.cigtf.procedure import TestData, TestPlan, gyrocompass_test
 from procedures.cigtf.significance import TestOutcome, judge_phase, shutdown_f_test
@@ -24,7 +26,7 @@ from procedures.journal import JournalError, scan
 from sim.cigtf.world import CigtfParams
 from station.files import atomic_path
 from station.hil.session import params_digest
-from station.racks.cigtf import CigtfRack, open_cigtf_station
+from station.racks.cigtf import CigtfRack
 
 PHASES = ("operating", "shutdown")
 RENEW = ("4.0",)  # a restarted served rack powered the gyro off: its warm-up again
@@ -217,10 +219,9 @@ def run_gyrocompass_test(seed: int, out: Path, params: CigtfParams | None = None
     prepare(out, resume, links)
     wall0 = time.perf_counter()
     digest = params_digest("cigtf", params)
-    st, rack, served = connect_rack(
-        "cigtf", seed, digest, lambda: CigtfRack(seed, params), open_cigtf_station, links,
-        rack_hook)
-    with journaled_run(out, st, rack, served, resume, renew=RENEW, seed=seed,
+    conn = connect(LAB, Seeded(params, seed), links, rack_hook)
+    st, world = conn.drivers, conn.coefficient_world
+    with journaled_run(out, conn, resume, renew=RENEW, seed=seed,
                        test="gyrocompass", params_digest=digest) as (run, extra, t_start):
         data = gyrocompass_test(st, run, plan)
         runs, phases, tests, conclusions = analyse(data)
@@ -236,8 +237,8 @@ def run_gyrocompass_test(seed: int, out: Path, params: CigtfParams | None = None
             "delta_arcsec": conclusions.get("operating_instability_arcsec"),
             "Delta_arcsec": conclusions.get("shutdown_instability_arcsec"),
             "tests": tests,
-            "truth": {"theta_arcsec": rack.world.truth_theta_arcsec()
-                      if rack is not None else None},
+            "truth": {"theta_arcsec": world.truth_theta_arcsec()
+                      if world is not None else None},
             "sim_seconds": st.clock.now() - t_start,
             "wall_seconds": time.perf_counter() - wall0,
             **extra,

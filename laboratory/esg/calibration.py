@@ -24,16 +24,18 @@ from pathlib import Path
 
 import numpy as np
 
-from laboratory.connect import connect_rack, journaled_run
+from laboratory.connect import connect, journaled_run
+from laboratory.esg.lab import LAB
+from laboratory.esg.truth import true_pickoff1_coning_arcsec
 from laboratory.record import write_json, write_sheets
 from laboratory.rundir import prepare
+from laboratory.seeded import Seeded
 from procedures.esg import strategy
 from procedures.esg.acquisition import RENEW, Acquisition, EsgPlan, acquire
 from procedures.esg.calibration import SCHEDULES, ScheduleResult, assign, calibrate, nominal
 from sim.esg.world import EsgParams, EsgWorld
 from station.files import atomic_path
-from station.hil.session import params_digest
-from station.racks.esg import EsgRack, open_esg_station
+from station.racks.esg import EsgRack
 
 GOAL_ARCSEC = 15.0
 STUDY_RANGES = tuple(range(35, 48))
@@ -69,13 +71,6 @@ def _rms_known(v) -> float | None:
     """rms of the values present; None if there are none (truth absent)."""
     v = [x for x in v if x is not None]
     return _rms(v) if v else None
-
-
-def true_pickoff1_coning_arcsec(world: EsgWorld) -> float:
-    """Angle between pickoff 1 and the spindle axis in the case (what ESG-PA measures)."""
-    u = world.case.mounting.T @ np.array([1.0, 0.0, 0.0])
-    p1 = world.case.pickoffs[0]
-    return math.degrees(math.acos(min(1.0, float(p1 @ u) / float(np.linalg.norm(p1))))) * 3600
 
 
 def schedule_summary(res: ScheduleResult) -> dict:
@@ -194,10 +189,9 @@ def run_esg_calibration(seed: int, out: Path, params: EsgParams | None = None,
     plan = replace(plan, latitude_deg=params.latitude_deg)
     prepare(out, resume, links)
     wall0 = time.perf_counter()
-    st, rack, served = connect_rack(
-        "esg", seed, params_digest("esg", params),
-        lambda: EsgRack(seed, params), open_esg_station, links, rack_hook)
-    with journaled_run(out, st, rack, served, resume, renew=RENEW, seed=seed,
+    conn = connect(LAB, Seeded(params, seed), links, rack_hook)
+    st, served, world = conn.drivers, conn.served, conn.coefficient_world
+    with journaled_run(out, conn, resume, renew=RENEW, seed=seed,
                        test="esg-calibration") as (
             run, extra, t_start):
         acq = acquire(st, run, plan)
@@ -207,8 +201,8 @@ def run_esg_calibration(seed: int, out: Path, params: EsgParams | None = None,
         results = [calibrate(points, nom, s) for s in SCHEDULES]
         for res in results:
             if served is None:
-                add_truth(res.calibration, rack.world, acq, times)
-                add_truth(res.readout, rack.world, acq, times)
+                add_truth(res.calibration, world, acq, times)
+                add_truth(res.readout, world, acq, times)
             else:
                 no_truth(res.calibration)
                 no_truth(res.readout)
@@ -229,8 +223,8 @@ def run_esg_calibration(seed: int, out: Path, params: EsgParams | None = None,
                 "residual_drift_deg_hr": acq.residual_drift_deg_hr,
                 "mount_coning_arcsec": acq.mount_coning_arcsec,
                 "pickoff_coning_arcsec": acq.pickoff_coning_arcsec,
-                "true_pickoff_coning_arcsec": true_pickoff1_coning_arcsec(rack.world)
-                if rack is not None else None,
+                "true_pickoff_coning_arcsec": true_pickoff1_coning_arcsec(world)
+                if world is not None else None,
                 "scans": len(acq.scans), "points": len(points)},
             "budget": {"slope_per_deg": bud.slope_per_deg, "line_sigma": bud.line_sigma,
                        "equator_arcsec": bud.equator_deg * 3600.0,

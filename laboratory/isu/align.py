@@ -29,6 +29,7 @@ from rich.console import Console
 from rich.table import Table
 
 from laboratory.connect import connect
+from laboratory.isu.lab import LAB
 from laboratory.record import write_results, write_sheets
 from laboratory.rundir import opened_journal, prepare, resume_note
 from procedures.isu.alignment.align_math import rotation_error_arcsec
@@ -252,7 +253,7 @@ def run_align(
         tapes = {method: load_tape(tape)}
     prepare(out, resume, links)
     wall0 = time.perf_counter()
-    conn = connect(cfg, links, rack_hook)
+    conn = connect(LAB, cfg, links, rack_hook)
     st = conn.station
     site = site_info(cfg)
     noise = noise_spec(cfg)

@@ -18,6 +18,7 @@ from rich.progress import BarColumn, Progress, TextColumn
 from rich.table import Table
 
 from laboratory.connect import Connection, connect
+from laboratory.isu.lab import LAB
 from laboratory.isu.plots import nonlinearity_plot
 from laboratory.isu.truth import calibration_truth
 from laboratory.record import write_results, write_sheets
@@ -158,7 +159,7 @@ def run_day(cfg: StationConfig, out: Path, only: tuple[str, ...] | None = None,
     check_selection(only, positions)
     prepare(out, resume, links)
     wall0 = time.perf_counter()
-    conn = connect(cfg, links, rack_hook, start_s)
+    conn = connect(LAB, cfg, links, rack_hook, start_s)
     try:
         with opened_journal(out, resume) as journal:
             return _day(cfg, out, conn, journal, only, resume, console, quiet, plan, align,

@@ -8,19 +8,11 @@ steps carry the ten averaged currents of each orientation and, last, the run's t
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass, field
-from typing import Protocol
 
 from procedures.cigtf.analysis import OrientationValues, RunValues, run_values
 from procedures.cigtf.scale import gsf_from_turn
 from procedures.runner import Run
-from station.drivers.cigtf import DvmDriver, FixtureDriver, GyroPowerDriver
-
-
-class Station(Protocol):
-    fixture: FixtureDriver
-    dvm: DvmDriver
-    power: GyroPowerDriver
-    clock: object
+from station.drivers.cigtf import CigtfDrivers
 
 
 @dataclass(frozen=True)
@@ -51,13 +43,13 @@ TURNS = (
 )
 
 
-def _settle_and_average(st: Station, plan: TestPlan) -> list[float]:
+def _settle_and_average(st: CigtfDrivers, plan: TestPlan) -> list[float]:
     st.fixture.wait_hold(plan.move_timeout_s)
     st.clock.sleep(plan.settle_s)
     return [st.dvm.average() for _ in range(plan.samples)]
 
 
-def scale_factor(st: Station, run: Run, plan: TestPlan) -> float:
+def scale_factor(st: CigtfDrivers, run: Run, plan: TestPlan) -> float:
     """Section 4.1: orientation 1, ten averages, a +1 deg turn, ten averages, GSF (eq. 14)."""
     with run.sheet("4.1", "Gyrocompassing scale factor") as sh:
         with sh.step("4.1.1", "fixture to orientation 1 (O up, I west); settle; ten "
@@ -79,7 +71,7 @@ def scale_factor(st: Station, run: Run, plan: TestPlan) -> float:
     return gsf
 
 
-def north_determination(st: Station, run: Run, plan: TestPlan, chart: str, title: str,
+def north_determination(st: CigtfDrivers, run: Run, plan: TestPlan, chart: str, title: str,
                         gsf: float, preamble=None) -> RunValues:
     """Section 4.2: one run (four orientations), journaled step by step; eqs. 18-19."""
     samples: list[list[float]] = []
@@ -105,7 +97,7 @@ def north_determination(st: Station, run: Run, plan: TestPlan, chart: str, title
     return rv
 
 
-def warm_up(st: Station, run: Run, plan: TestPlan) -> None:
+def warm_up(st: CigtfDrivers, run: Run, plan: TestPlan) -> None:
     """Section 4.0: gyro power on in torque-to-balance and the initial warm-up."""
     with run.sheet("4.0", "Gyro turn-on and warm-up") as sh:
         with sh.step("4.0.1", "gyro power on in torque-to-balance") as s:
@@ -129,7 +121,7 @@ def _from_record(d: dict) -> RunValues:
                      tuple(OrientationValues(**o) for o in d["orientations"]))
 
 
-def gyrocompass_test(st: Station, run: Run, plan: TestPlan | None = None) -> TestData:
+def gyrocompass_test(st: CigtfDrivers, run: Run, plan: TestPlan | None = None) -> TestData:
     """Turn-on and warm-up, 4.1, the operating phase (4.3) and the shutdown phase (4.4).
 
     Each of them, and each run, is a journaled block (``Run.block``): a resume over links

@@ -21,7 +21,6 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field, fields
-from typing import Protocol
 
 import numpy as np
 
@@ -30,26 +29,11 @@ from procedures.esg.mechanization import NominalParams, nominal_colatitude, nomi
 from procedures.esg.readings import Setting, read_setting
 from procedures.esg.readout import pickoffs_from_mirrors
 from procedures.runner import Run
-from station.drivers.esg import (
-    ConsoleDriver,
-    HeadDriver,
-    ProcessorDriver,
-    TheodoliteDriver,
-    TurntableDriver,
-)
+from station.drivers.esg import EsgDrivers
 
 # blocks a new session of a served rack repeats (processor zero, rotor state)
 RENEW = ("ESG-DP", "ESG-CAL.rotor", "ESG-CAL.tilt-*", "ESG-CAL.scan-*")
 MIRROR_ANGLE_DEG = 89.0 + 56.0 / 60.0 + 5.0 / 3600.0  # measured between the two mirrors
-
-
-class Station(Protocol):
-    clock: object
-    processor: ProcessorDriver
-    head: HeadDriver
-    turntable: TurntableDriver
-    theodolite: TheodoliteDriver
-    console: ConsoleDriver
 
 
 @dataclass(frozen=True)
@@ -181,7 +165,7 @@ def scan_from_record(d: dict) -> Scan:
 
 
 # ---------------------------------------------------------------- small operations
-def _move_table(st: Station, plan: EsgPlan, az: float | None = None,
+def _move_table(st: EsgDrivers, plan: EsgPlan, az: float | None = None,
                 tilt: float | None = None) -> None:
     if az is not None:
         st.turntable.azimuth(az)
@@ -191,7 +175,7 @@ def _move_table(st: Station, plan: EsgPlan, az: float | None = None,
         st.turntable.wait_hold(plan.move_timeout_s)
 
 
-def _move_head(st: Station, plan: EsgPlan, gamma: float) -> float:
+def _move_head(st: EsgDrivers, plan: EsgPlan, gamma: float) -> float:
     """Spindle to ``gamma`` (any real angle); the scale reading, unwrapped near gamma."""
     st.head.set(gamma % 360.0)
     st.head.wait_hold(plan.move_timeout_s)
@@ -199,11 +183,11 @@ def _move_head(st: Station, plan: EsgPlan, gamma: float) -> float:
     return r + 360.0 * round((gamma - r) / 360.0)
 
 
-def _read(st: Station, plan: EsgPlan, pickoffs: tuple[int, int]) -> Setting:
+def _read(st: EsgDrivers, plan: EsgPlan, pickoffs: tuple[int, int]) -> Setting:
     return read_setting(st.processor, pickoffs, plan.lines_per_setting)
 
 
-def _read_three(st: Station, plan: EsgPlan) -> dict[int, float | None]:
+def _read_three(st: EsgDrivers, plan: EsgPlan) -> dict[int, float | None]:
     a = _read(st, plan, (1, 2))
     b = _read(st, plan, (3, 2))
     out = {1: a.cr[1], 3: b.cr[3]}
@@ -212,12 +196,12 @@ def _read_three(st: Station, plan: EsgPlan) -> dict[int, float | None]:
     return out
 
 
-def _settings(st: Station) -> tuple[float, float, float]:
+def _settings(st: EsgDrivers) -> tuple[float, float, float]:
     az, tilt = st.turntable.readings()
     return az, tilt, st.head.reading()
 
 
-def _spin_axis_lab(st: Station, plan: EsgPlan, cr: dict[int, float | None]) -> np.ndarray:
+def _spin_axis_lab(st: EsgDrivers, plan: EsgPlan, cr: dict[int, float | None]) -> np.ndarray:
     """The spin axis in the lab from three count ratios by the drawing's pattern and the
     nominal geometry (good to a few arcmin: enough to point the axes)."""
     if any(v is None for v in cr.values()):
@@ -229,14 +213,14 @@ def _spin_axis_lab(st: Station, plan: EsgPlan, cr: dict[int, float | None]) -> n
     return geo.r_lc(*_settings(st)) @ s_case
 
 
-def _damp(st: Station, plan: EsgPlan) -> None:
+def _damp(st: EsgDrivers, plan: EsgPlan) -> None:
     st.console.damping(True)
     st.clock.sleep(plan.damping_s)
     st.console.damping(False)
 
 
 # ---------------------------------------------------------------- sheets
-def processor_setup(st: Station, run: Run, plan: EsgPlan) -> dict:
+def processor_setup(st: EsgDrivers, run: Run, plan: EsgPlan) -> dict:
     with run.sheet("ESG-DP", "Data processor adjustments") as sh:
         with sh.step("DP.1", "clock to zero; sum over ten revolutions; run number 1; HIT "
                      "threshold 1.5 V (pulses are about 2.1 V)") as s:
@@ -251,7 +235,7 @@ def processor_setup(st: Station, run: Run, plan: EsgPlan) -> dict:
     return {"t_zero_s": sh.sheet.steps[0].reading["t_zero_s"]}
 
 
-def mount_check(st: Station, run: Run, plan: EsgPlan, sh) -> float:
+def mount_check(st: EsgDrivers, run: Run, plan: EsgPlan, sh) -> float:
     """Step 1: coning of mirror 1 about the spindle seen in the theodolite."""
     with sh.step("1", "mirror 1 along the spindle: theodolite readings over one spindle "
                  "turn; coning radius") as s:
@@ -278,7 +262,7 @@ def mount_check(st: Station, run: Run, plan: EsgPlan, sh) -> float:
     return radius
 
 
-def start_gyro(st: Station, run: Run, plan: EsgPlan, sh) -> None:
+def start_gyro(st: EsgDrivers, run: Run, plan: EsgPlan, sh) -> None:
     """Step 2: damping-coil axis (the spindle) on the polar axis; spin up with damping."""
     with sh.step("2", "spindle on the Earth's polar axis; spin up to operating speed "
                  "with damping; damping off") as s:
@@ -296,7 +280,7 @@ def start_gyro(st: Station, run: Run, plan: EsgPlan, sh) -> None:
         s.reading = st.console.status()
 
 
-def _east_drift(st: Station, plan: EsgPlan, tilt: float) -> float:
+def _east_drift(st: EsgDrivers, plan: EsgPlan, tilt: float) -> float:
     """East-west drift of s (deg/hr) with s along the spindle (pickoffs 2 and 3 at the
     equator; pickoff 3 looks east at spindle angle 0, so its colatitude follows s east)."""
     slope = design_slope_per_deg(90.0, plan.design_inclination_deg)
@@ -309,7 +293,7 @@ def _east_drift(st: Station, plan: EsgPlan, tilt: float) -> float:
     return -d_theta3 / ((b.t_s - a.t_s) / 3600.0)
 
 
-def cancel_drift(st: Station, run: Run, plan: EsgPlan, sh, acq: Acquisition) -> None:
+def cancel_drift(st: EsgDrivers, run: Run, plan: EsgPlan, sh, acq: Acquisition) -> None:
     """Step 3: offset s from the polar axis in the meridian plane until the east-west
     drift is cancelled by the Earth's rotation; re-measure and readjust."""
     k = 0.0
@@ -337,7 +321,7 @@ def cancel_drift(st: Station, run: Run, plan: EsgPlan, sh, acq: Acquisition) -> 
     acq.unbalance_k_deg_hr = k
 
 
-def equal_ratio_point(st: Station, plan: EsgPlan, d_case: np.ndarray,
+def equal_ratio_point(st: EsgDrivers, plan: EsgPlan, d_case: np.ndarray,
                       s_lab: np.ndarray) -> tuple[float, dict, np.ndarray]:
     """Step 4 for one hemisphere: move the axes until the three count ratios agree."""
     spread = math.inf
@@ -357,7 +341,7 @@ def equal_ratio_point(st: Station, plan: EsgPlan, d_case: np.ndarray,
                        f"{plan.equal_iterations} adjustments")
 
 
-def find_ratio(st: Station, plan: EsgPlan, target: float, gamma: float,
+def find_ratio(st: EsgDrivers, plan: EsgPlan, target: float, gamma: float,
                slope_per_deg: float | None = None) -> tuple[float, float, float]:
     """Spindle angle where pickoff 2 reads ``target``: (gamma, time, local slope).
 
@@ -382,7 +366,7 @@ def find_ratio(st: Station, plan: EsgPlan, target: float, gamma: float,
     return g0 + (target - r0.cr[2]) / slope_per_deg, r0.t_s, slope_per_deg
 
 
-def equal_ratio_points(st: Station, run: Run, plan: EsgPlan, sh, acq: Acquisition,
+def equal_ratio_points(st: EsgDrivers, run: Run, plan: EsgPlan, sh, acq: Acquisition,
                        s_lab: np.ndarray) -> np.ndarray:
     """Step 4: equal count ratios on both rotor hemispheres."""
     d = equal_ratio_direction(plan.mirror_angle_deg)
@@ -400,7 +384,7 @@ def equal_ratio_points(st: Station, run: Run, plan: EsgPlan, sh, acq: Acquisitio
     return s_lab
 
 
-def equator(st: Station, run: Run, plan: EsgPlan, sh, acq: Acquisition,
+def equator(st: EsgDrivers, run: Run, plan: EsgPlan, sh, acq: Acquisition,
             s_lab: np.ndarray) -> None:
     """Steps 5-7: spindle across the spin axis, the two equal ratios on pickoff 2, the
     equator by bisection."""
@@ -439,7 +423,7 @@ def equator(st: Station, run: Run, plan: EsgPlan, sh, acq: Acquisition,
                      "t_s": r.t_s}
 
 
-def tilt_to_equator(st: Station, plan: EsgPlan, cr_eq: float) -> dict:
+def tilt_to_equator(st: EsgDrivers, plan: EsgPlan, cr_eq: float) -> dict:
     """Pickoff 1 (along the spindle) to the equator's ratio with the tilt (steps 8, 10-12)."""
     _, tilt = st.turntable.readings()
     r0 = _read(st, plan, (1, 2))
@@ -461,7 +445,7 @@ def tilt_to_equator(st: Station, plan: EsgPlan, cr_eq: float) -> dict:
     return {"tilt_deg": st.turntable.readings()[1], "cr_pickoff1": r.cr[1]}
 
 
-def pickoff_check(st: Station, run: Run, plan: EsgPlan, acq: Acquisition) -> None:
+def pickoff_check(st: EsgDrivers, run: Run, plan: EsgPlan, acq: Acquisition) -> None:
     """ESG-PA: pickoff 1 against the spindle by coning, with s across the spindle."""
     slope = design_slope_per_deg(90.0, plan.design_inclination_deg)
     with run.sheet("ESG-PA", "Pickoff alignment check by coning") as sh:
@@ -498,7 +482,7 @@ def pickoff_check(st: Station, run: Run, plan: EsgPlan, acq: Acquisition) -> Non
                                    f"the spindle (limit {plan.pickoff_coning_limit_arcsec:g})")
 
 
-def baseline(st: Station, plan: EsgPlan, acq: Acquisition, slope_per_deg: float) -> Baseline:
+def baseline(st: EsgDrivers, plan: EsgPlan, acq: Acquisition, slope_per_deg: float) -> Baseline:
     """Pickoff 2 to the equator's ratio (one secant step from the last known angle)."""
     g, _, _ = find_ratio(st, plan, acq.cr_eq, acq.gamma_eq_deg, slope_per_deg)
     acq.gamma_eq_deg = g
@@ -506,7 +490,7 @@ def baseline(st: Station, plan: EsgPlan, acq: Acquisition, slope_per_deg: float)
     return Baseline(g_set, _read(st, plan, (2, 1)))
 
 
-def run_scan(st: Station, plan: EsgPlan, sh, acq: Acquisition, name: str, side: int,
+def run_scan(st: EsgDrivers, plan: EsgPlan, sh, acq: Acquisition, name: str, side: int,
              increment: float, offsets: list[float], slope_per_deg: float) -> Scan:
     """One scan: baseline, the settings, back to the baseline's spindle angle."""
     with sh.step(f"{name}.0", "baseline: pickoff 2 at the equator's count ratio") as s:
@@ -548,7 +532,7 @@ def fine_slope(scan: Scan) -> float:
     return float(np.polyfit(x, y, 2)[1])
 
 
-def _scan_block(st: Station, run: Run, plan: EsgPlan, sh, acq: Acquisition, name: str,
+def _scan_block(st: EsgDrivers, run: Run, plan: EsgPlan, sh, acq: Acquisition, name: str,
                 side: int, increment: float, offsets: list[float],
                 slope_per_deg: float) -> Scan:
     """One scan as a journaled block: its settings and the equator angle it leaves."""
@@ -565,7 +549,7 @@ def _scan_block(st: Station, run: Run, plan: EsgPlan, sh, acq: Acquisition, name
     return run.block(f"ESG-CAL.scan-{name}", measure, load)
 
 
-def rotor_setup(st: Station, run: Run, plan: EsgPlan, sh, acq: Acquisition) -> None:
+def rotor_setup(st: EsgDrivers, run: Run, plan: EsgPlan, sh, acq: Acquisition) -> None:
     """Steps 2-8 and ESG-PA: spin-up, drift offset, equal ratios, equator, tilt, lock."""
     start_gyro(st, run, plan, sh)
     cancel_drift(st, run, plan, sh, acq)
@@ -579,7 +563,7 @@ def rotor_setup(st: Station, run: Run, plan: EsgPlan, sh, acq: Acquisition) -> N
     pickoff_check(st, run, plan, acq)
 
 
-def calibration_scans(st: Station, run: Run, plan: EsgPlan, sh, acq: Acquisition) -> None:
+def calibration_scans(st: EsgDrivers, run: Run, plan: EsgPlan, sh, acq: Acquisition) -> None:
     """Steps 9-12 (step 8, the tilt and lock, is the end of ``rotor_setup``)."""
     # d(CR)/d(gamma) at the equator: d(CR)/d(theta) times d(theta)/d(gamma)
     slope_g = design_slope_per_deg(90.0, plan.design_inclination_deg) * acq.colatitude_sign
@@ -603,7 +587,7 @@ def calibration_scans(st: Station, run: Run, plan: EsgPlan, sh, acq: Acquisition
                         _scan_offsets(first, last, inc), slope_g)
 
 
-def acquire(st: Station, run: Run, plan: EsgPlan | None = None) -> Acquisition:
+def acquire(st: EsgDrivers, run: Run, plan: EsgPlan | None = None) -> Acquisition:
     """Sheets ESG-DP, ESG-CAL (steps 1-13) and ESG-PA; returns the acquisition record."""
     plan = plan or EsgPlan()
     acq = Acquisition()

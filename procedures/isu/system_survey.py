@@ -51,7 +51,7 @@ from station.drivers.isu import AutocollimatorDriver
 from station.errors import InstrumentRefused
 
 if TYPE_CHECKING:
-    from station.racks.isu import Station
+    from station.drivers.isu import IsuDrivers
 
 CHART = "I-2"
 TITLE = "System survey"
@@ -133,7 +133,7 @@ def acquire(
 
 
 def read_mirrors(
-    st: Station,
+    st: IsuDrivers,
     n: int,
     aims: dict[int, tuple[float, float]],
     levels: bool,
@@ -194,7 +194,7 @@ def read_mirrors(
 
 
 def _trunnion_axis(
-    st: Station,
+    st: IsuDrivers,
     raw: tuple[float, float, float, float],
     ac0: tuple[float, float, float, float],
     n: int,
@@ -269,7 +269,7 @@ def _check_site(site: dict) -> tuple[float, float, float]:
 
 
 def system_survey(
-    station: Station,
+    station: IsuDrivers,
     run: Run,
     site: dict,
     n_readings: int = N_READINGS,

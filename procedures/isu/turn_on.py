@@ -29,7 +29,7 @@ from procedures.isu.readings import panel_connection, read_levels, resolvers, ta
 from procedures.runner import Run
 
 if TYPE_CHECKING:
-    from station.racks.isu import Station
+    from station.drivers.isu import IsuDrivers
 
 CHART = "I-1"
 OSCILLATOR_STATUS = ("LOCKED", "UNLOCKED")
@@ -48,7 +48,7 @@ def _from_zero_arcsec(deg: float) -> float:
     return abs(d) * 3600.0
 
 
-def turn_on(station: Station, run: Run, warmup_s: float = DEFAULT_WARMUP_S) -> None:
+def turn_on(station: IsuDrivers, run: Run, warmup_s: float = DEFAULT_WARMUP_S) -> None:
     """Tick Chart I-1 on ``station``; a failed check raises ProcedureError (chart, step)."""
     if warmup_s < 0:
         raise ValueError(f"warm-up time must be >= 0 s, got {warmup_s}")

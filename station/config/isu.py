@@ -48,18 +48,10 @@ from station.config.file import (
     read_section,
     validate,
 )
+from station.drivers.isu import SERIAL_INSTRUMENTS
 
 __all__ = ["ConfigError", "StationConfig", "default_dict", "load_config", "read_section"]
 
-SERIAL_INSTRUMENTS = (
-    "table",
-    "patch_panel",
-    *(f"counter{i}" for i in range(1, 7)),
-    "autocollimator1",
-    "autocollimator2",
-    "bubble_levels",
-    "oscillator",
-)
 MAX_RUN_S = 1e6  # s: no run of any laboratory lasts this long (the longest is 52 h)
 MAX_SEED = 2**63 - 1  # the journal stores the seed as a JSON number
 _STRICT = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False, strict=True)

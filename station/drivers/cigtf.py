@@ -2,7 +2,10 @@
 
 from __future__ import annotations
 
-from station.clock import Clock
+from dataclasses import dataclass
+from typing import ClassVar
+
+from station.drivers.driver_set import DriverSet
 from station.drivers.replies import Form, OneOf, fixed, general, integer, literal, word
 from station.drivers.serial_base import SerialDriver
 from station.errors import DriverError, LinkTimeout
@@ -21,10 +24,6 @@ POWER = OneOf(Form([literal("OFF")]),
 class FixtureDriver(SerialDriver):
     model = ("CIGTF", "GOERZ-2AX-PROGRAMMER")
 
-    def __init__(self, url: str, clock: Clock, name: str = "fixture", timeout: float = 5.0):
-        super().__init__(name, url, timeout)
-        self.clock = clock
-
     def move(self, axis: str, deg: int) -> None:
         self.command(f"MOVE {axis} {self.whole(deg, 'null angle', 0, 359)}")
 
@@ -40,23 +39,21 @@ class FixtureDriver(SerialDriver):
 
     def wait_hold(self, timeout: float = 120.0, poll: float = 1.0) -> None:
         """Wait until both axes hold on their nulls; a drive fault raises at once."""
-        t_end = self.clock.now() + timeout
+        clock = self.needs_clock()
+        t_end = clock.now() + timeout
         while True:
             st = self.status()
             if st == "HOLD":
                 return
             if st == "FAULT":
                 raise DriverError(self.name, self.url, "drive fault: axis did not reach its null")
-            if self.clock.now() >= t_end:
+            if clock.now() >= t_end:
                 raise LinkTimeout(self.name, self.url, f"axes still {st} after {timeout:g} s")
-            self.clock.sleep(poll)
+            clock.sleep(poll)
 
 
 class DvmDriver(SerialDriver):
     model = ("CIGTF", "DVM-AVERAGER")
-
-    def __init__(self, url: str, name: str = "dvm", timeout: float = 5.0):
-        super().__init__(name, url, timeout)
 
     def aperture(self) -> float:
         return self.ask("APER?", APERTURE)[0]
@@ -69,9 +66,6 @@ class DvmDriver(SerialDriver):
 class GyroPowerDriver(SerialDriver):
     model = ("CIGTF", "GYRO-POWER")
 
-    def __init__(self, url: str, name: str = "gyro_power", timeout: float = 5.0):
-        super().__init__(name, url, timeout)
-
     def on(self) -> None:
         self.command("PWR ON")
 
@@ -82,3 +76,14 @@ class GyroPowerDriver(SerialDriver):
         """(on, seconds since turn-on)."""
         which, values = self.ask("PWR?", POWER)
         return (False, 0.0) if which == 0 else (True, values[0])
+
+
+@dataclass
+class CigtfDrivers(DriverSet):
+    """What a CIGTF procedure sees: fixture programmer, DVM, gyro power supply, clock."""
+
+    fixture: FixtureDriver
+    dvm: DvmDriver
+    power: GyroPowerDriver
+
+    instrument_of: ClassVar[dict[str, str]] = {"power": "gyro_power"}

@@ -17,6 +17,7 @@ from typing import Any
 import serial
 
 from station.clock import Clock
+from station.drivers.driver_set import DriverSet
 from station.drivers.replies import (
     Form,
     fixed,
@@ -88,8 +89,9 @@ def _show(b: bytes) -> str:
 class ProcessorDriver(SerialDriver):
     model = ("ESG-LAB", "DATA-PROCESSOR")
 
-    def __init__(self, url: str, name: str = "processor", timeout: float = 5.0) -> None:
-        super().__init__(name, url, timeout)
+    def __init__(self, name: str, url: str, clock: Clock | None = None,
+                 timeout: float = 5.0) -> None:
+        super().__init__(name, url, clock, timeout)
         # selection and run number as last set or read (the driver is the processor's only
         # host); None until known: lines() then asks SET? first
         self._known: tuple[tuple[int, int], int] | None = None
@@ -292,32 +294,26 @@ class _Positioner(SerialDriver):
     holding: tuple[str, ...] = ("HOLD",)
     status_form = Form([word("state", "HOLD", "MOVING")])
 
-    def __init__(self, name: str, url: str, clock: Clock, timeout: float) -> None:
-        super().__init__(name, url, timeout)
-        self.clock = clock
-
     def status(self) -> str:
         return self.ask("STAT?", self.status_form)[0]
 
     def wait_hold(self, timeout: float = 120.0, poll: float = 0.5) -> None:
         """Poll ``STAT?`` on the station clock until the instrument holds still."""
-        t_end = self.clock.now() + timeout
+        clock = self.needs_clock()
+        t_end = clock.now() + timeout
         while True:
             st = self.status()
             if st in self.holding:
                 return
-            if self.clock.now() >= t_end:
+            if clock.now() >= t_end:
                 raise LinkTimeout(self.name, self.url, f"still {st} after {timeout:g} s")
-            self.clock.sleep(poll)
+            clock.sleep(poll)
 
 
 class HeadDriver(_Positioner):
     """Dividing head: absolute scale angle of the spindle, 1e-5 deg."""
 
     model = ("ESG-LAB", "DIVIDING-HEAD")
-
-    def __init__(self, url: str, clock: Clock, name: str = "head", timeout: float = 5.0):
-        super().__init__(name, url, clock, timeout)
 
     def set(self, deg: float) -> None:
         """Spindle to the scale angle ``deg`` (taken modulo 360)."""
@@ -337,9 +333,6 @@ class TurntableDriver(_Positioner):
     model = ("ESG-LAB", "TURNTABLE-TILT")
     holding = ("HOLD", "LOCKED")
     status_form = Form([word("state", "HOLD", "MOVING", "LOCKED")])
-
-    def __init__(self, url: str, clock: Clock, name: str = "turntable", timeout: float = 5.0):
-        super().__init__(name, url, clock, timeout)
 
     def azimuth(self, deg: float) -> None:
         """Azimuth to ``deg`` (taken modulo 360); refused while locked or moving."""
@@ -362,9 +355,6 @@ class TurntableDriver(_Positioner):
 class TheodoliteDriver(SerialDriver):
     model = ("ESG-LAB", "THEODOLITE")
 
-    def __init__(self, url: str, name: str = "theodolite", timeout: float = 5.0):
-        super().__init__(name, url, timeout)
-
     def read(self) -> tuple[float, float]:
         """Mirror-1 normal against the spindle, two axes, arcsec."""
         x, y = self.ask("READ?", MIRROR)
@@ -373,9 +363,6 @@ class TheodoliteDriver(SerialDriver):
 
 class ConsoleDriver(SerialDriver):
     model = ("ESG-LAB", "GYRO-CONSOLE")
-
-    def __init__(self, url: str, name: str = "console", timeout: float = 5.0):
-        super().__init__(name, url, timeout)
 
     def spin_up(self) -> None:
         self.command("SPIN UP")
@@ -393,3 +380,14 @@ class ConsoleDriver(SerialDriver):
 
     def speed(self) -> float:
         return self.ask("SPEED?", SPEED)[0]
+
+
+@dataclass
+class EsgDrivers(DriverSet):
+    """What an ESG procedure sees: processor, head, turntable, theodolite, console, clock."""
+
+    processor: ProcessorDriver
+    head: HeadDriver
+    turntable: TurntableDriver
+    theodolite: TheodoliteDriver
+    console: ConsoleDriver

@@ -22,11 +22,12 @@ import logging
 import re
 from collections import deque
 from collections.abc import Callable
-from typing import Any, Protocol
+from typing import Any
 
 import serial
 
 import station.links  # noqa: F401  (registers the sim:// handler)
+from station.clock import Clock
 from station.drivers import replies
 from station.errors import (
     DriverError,
@@ -42,12 +43,6 @@ log = logging.getLogger("station.drivers")
 MAX_REPLY = 512  # bytes of the longest reply line taken (the longest real one is ~120)
 MAX_LINES = 64  # lines read while waiting for one reply before the link is called babbling
 KEEP_REPORTED = 32  # unexpected lines kept on the driver for inspection
-
-
-class _Clock(Protocol):
-    def now(self) -> float: ...
-
-    def link_seconds(self, s: float) -> float: ...
 
 
 class AnyLine:
@@ -107,12 +102,17 @@ class SerialDriver:
         unit and version."""
         return replies.ANY_IDENTITY if self.model is None else replies.identity(*self.model)
 
-    def __init__(self, name: str, url: str, timeout: float = 5.0) -> None:
+    def __init__(self, name: str, url: str, clock: Clock | None = None,
+                 timeout: float = 5.0) -> None:
+        """The one constructor convention of every driver: the instrument's name in the
+        rack, its link (a pyserial URL), the station clock (None: a bare link whose
+        timeouts are taken as given, as ``station check`` and protocol tests use it) and
+        the reply timeout in the clock's seconds."""
         self.name = name
         self.url = url
         self.timeout = timeout
         self.link_seconds: Callable[[float], float] = float  # station -> link timeout
-        self.link_clock: _Clock | None = None  # deadlines of multi-line waits, once bound
+        self.link_clock: Clock | None = None  # deadlines of multi-line waits, once bound
         self.ident: str | None = None  # the identity as this instrument gave it
         self.last_reply = ""  # the last reply taken by ask()
         self.unexpected = 0  # lines received that answered nothing asked (all reported)
@@ -123,8 +123,18 @@ class SerialDriver:
             self.port = serial.serial_for_url(url, timeout=timeout, baudrate=115200)
         except (serial.SerialException, OSError, ValueError) as e:
             raise DriverError(name, url, f"cannot open link: {e}") from None
+        self.clock = clock
+        if clock is not None:
+            self.bind_clock(clock)
 
-    def bind_clock(self, clock) -> None:
+    def needs_clock(self) -> Clock:
+        """The station clock, for a driver method that waits on it (a positioner's hold)."""
+        if self.clock is None:
+            raise DriverError(self.name, self.url, "opened without the station clock: "
+                              "cannot wait on it")
+        return self.clock
+
+    def bind_clock(self, clock: Clock) -> None:
         """Give the link its timeouts in wall seconds when the station runs on a real-time
         clock (a served rack may run faster than the wall); virtual links keep them."""
         self.link_clock = clock

@@ -1,23 +1,21 @@
 """The rack server: a simulated rack in real time, its instruments on OS-level links.
 
-``python -m station.hil.server [--station isu|cigtf|esg] [--config FILE] [--seed N]
-[--speed X] --links DIR [--only name,...] [--can-port P]`` builds the station's rack on a
-:class:`RealtimeEnv` (the ISU SimulatedRack, the CIGTF gyrocompassing fixture's CigtfRack
-or the ESG laboratory's EsgRack), serves each selected serial instrument on a raw pty
-(symlink ``DIR/<name>``) and, if the rack has an IEU, the IEU on a socketcand server on
-127.0.0.1 and on slcan (symlink ``DIR/ieu-slcan``), writes ``DIR/session.json`` and
-``DIR/links.json`` once every link is up, prints the map, and runs until SIGTERM/SIGINT:
-with a live status table on a terminal, else with a plain status line every 10 s.
-A failure of the simulation itself stops the server with exit status 1.
+``station serve [--station NAME] ...`` (laboratory/cli.py) builds a laboratory's rack on a
+:class:`RealtimeEnv` through the registry and hands it here: :class:`HilServer` serves each
+selected serial instrument on a raw pty (symlink ``DIR/<name>``) and the rack's CAN
+instrument, if it has one (the ISU's IEU), on a socketcand server on 127.0.0.1 and on
+slcan (symlink ``DIR/<name>-slcan``), writes ``DIR/session.json`` and ``DIR/links.json``
+once every link is up, prints the map, and runs until SIGTERM/SIGINT: with a live status
+table on a terminal, else with a plain status line every 10 s. A failure of the
+simulation itself stops the server (exit status 1).
 
-A rack is any object with ``.env`` (the environment it was built on), ``.serial`` (name ->
-ByteInstrument), optionally ``.ieu`` (a CAN instrument) and ``.close()``;
-:class:`ServedStation` says how to build one and what the session publishes about it.
+A rack is a ``station.racks.base.Rack`` (its environment, ``serial`` and ``can``
+instruments, ``close``); :class:`ServedStation` says how to build one and what the
+session publishes about it. The server knows no laboratory by name.
 """
 
 from __future__ import annotations
 
-import argparse
 import gc
 import logging
 import os
@@ -31,7 +29,6 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from station.config.isu import ConfigError, StationConfig, load_config
 from station.hil import link_map, session, status
 from station.hil.can_hub import CanHub
 from station.hil.link_map import LinkEntry
@@ -43,15 +40,7 @@ from station.hil.socketcand import SocketcandServer
 
 log = logging.getLogger("station.hil")
 
-CAN_INSTRUMENT = "ieu"
-SLCAN_LINK = "ieu-slcan"
 GIL_SWITCH_S = 0.001  # s; Python's default is 0.005
-IEU_LOOKAHEAD_WALL_S = 0.003  # a sample's counts take about 0.8 ms (bench/hil_latency.py)
-# a served IEU refuses START below 200 S2^T pulses (20 ms): at the bus minimum (15) counting
-# one sample takes 63 % of the simulation thread and the rack slips (docs/hil.md)
-SERVED_IEU_MIN_PERIOD = 200
-STATIONS = ("isu", "cigtf", "esg")
-DEFAULT_SEED = 1  # cigtf, esg: the default of `station gyrocompass-test` / `esg-calibration`
 STATUS_EVERY_S = 10.0  # wall seconds between plain status lines (stdout not a terminal)
 LIVE_REFRESH_PER_S = 2.0
 
@@ -67,56 +56,12 @@ class ServedStation:
     build: Callable[[RealtimeEnv], Any]
 
 
-def isu_station(cfg: StationConfig) -> ServedStation:
-    from station.racks.isu import SimulatedRack
-
-    return ServedStation("isu", cfg.seed, session.config_digest(cfg),
-                         lambda env: SimulatedRack(cfg, env=env))
-
-
-def cigtf_station(seed: int, params=None) -> ServedStation:
-    from sim.cigtf.world import CigtfParams
-    from station.racks.cigtf import CigtfRack
-
-    params = params if params is not None else CigtfParams()
-    return ServedStation("cigtf", int(seed), session.params_digest("cigtf", params),
-                         lambda env: CigtfRack(seed, params, env=env))
-
-
-def esg_station(seed: int, params=None) -> ServedStation:
-    from sim.esg.world import EsgParams
-    from station.racks.esg import EsgRack
-
-    params = params if params is not None else EsgParams()
-    return ServedStation("esg", int(seed), session.params_digest("esg", params),
-                         lambda env: EsgRack(seed, params, env=env))
-
-
-def load_station(station: str, config: Path | None = None,
-                 seed: int | None = None) -> ServedStation:
-    """The station to serve from a config file, as its own command would read that file:
-    isu: the station config (seed: the config's unless given); cigtf: its [cigtf] section;
-    esg: its [esg] section (seed 1 unless given). Raises ConfigError or ValueError."""
-    if station == "isu":
-        return isu_station(load_config(config, seed=seed))
-    seed = DEFAULT_SEED if seed is None else seed
-    if station == "cigtf":
-        from station.config.cigtf import load_cigtf_params
-
-        return cigtf_station(seed, load_cigtf_params(config))
-    if station == "esg":
-        from station.config.esg import load_esg_params
-
-        return esg_station(seed, load_esg_params(config))
-    raise ValueError(f"unknown station {station!r}: {', '.join(STATIONS)}")
-
-
 class HilServer:
     """Owns the real-time environment, the rack, the links and the simulation thread."""
 
     def __init__(
         self,
-        target: ServedStation | StationConfig,
+        target: ServedStation,
         speed: float,
         links_dir: Path,
         only: Iterable[str] | None = None,
@@ -127,7 +72,7 @@ class HilServer:
         # first of all: a second server on this directory is refused before touching it
         self.directory = LinksDir(Path(links_dir))
         self.links_dir = self.directory.path
-        spec = target if isinstance(target, ServedStation) else isu_station(target)
+        spec = target
         self.station = spec.station
         self.seed = spec.seed
         self.config_digest = spec.config_digest
@@ -142,8 +87,12 @@ class HilServer:
             self.rack.close()
             self.directory.close()
             raise ValueError(f"the {self.station} rack was not built on the server's environment")
-        self.can_instrument = CAN_INSTRUMENT if getattr(self.rack, "ieu", None) is not None \
-            else None
+        if len(self.rack.can) > 1:
+            self.rack.close()
+            self.directory.close()
+            raise ValueError(f"the {self.station} rack has {len(self.rack.can)} CAN "
+                             "instruments: the server serves one CAN bus")
+        self.can_instrument: str | None = next(iter(self.rack.can), None)
         self.serial: dict[str, SerialPtyLink] = {}
         self.hub: CanHub | None = None
         self.socketcand: SocketcandServer | None = None
@@ -161,17 +110,22 @@ class HilServer:
                     self.serial[n] = SerialPtyLink(self.env, self.rack.serial[n], link,
                                                    self.directory)
             if self.can_instrument is not None and self.can_instrument in names:
-                # count each sample a little ahead so its frames leave at the latch instant
-                self.rack.ieu.lookahead_s = IEU_LOOKAHEAD_WALL_S * speed
-                lo, hi = self.rack.ieu.periods
-                self.rack.ieu.periods = (max(lo, SERVED_IEU_MIN_PERIOD), hi)
-                self.hub = CanHub(self.env, self.rack.ieu)
-                self.socketcand = SocketcandServer(self.hub, CAN_INSTRUMENT, can_host, can_port)
-                self.slcan = SlcanAdapter(self.hub, SLCAN_LINK, self.links_dir / SLCAN_LINK,
+                can = self.rack.can[self.can_instrument]
+                can.serve_in_real_time(speed)
+                self.hub = CanHub(self.env, can)
+                self.socketcand = SocketcandServer(self.hub, self.can_instrument, can_host,
+                                                   can_port)
+                slcan = self.slcan_link
+                self.slcan = SlcanAdapter(self.hub, slcan, self.links_dir / slcan,
                                           self.directory)
         except BaseException:
             self.close()
             raise
+
+    @property
+    def slcan_link(self) -> str:
+        """The symlink of the CAN instrument's slcan port (``ieu-slcan``)."""
+        return f"{self.can_instrument}-slcan"
 
     def _select(self, only: Iterable[str] | None) -> list[str]:
         known = [*self.rack.serial, *([self.can_instrument] if self.can_instrument else [])]
@@ -189,9 +143,9 @@ class HilServer:
     def entries(self) -> list[LinkEntry]:
         out = [LinkEntry(n, "serial", s.address) for n, s in self.serial.items()]
         if self.socketcand is not None:
-            out.append(LinkEntry(CAN_INSTRUMENT, "can", self.socketcand.address))
+            out.append(LinkEntry(str(self.can_instrument), "can", self.socketcand.address))
         if self.slcan is not None:
-            out.append(LinkEntry(CAN_INSTRUMENT, "can", self.slcan.address))
+            out.append(LinkEntry(str(self.can_instrument), "can", self.slcan.address))
         return out
 
     def devices(self) -> dict[str, str]:
@@ -279,7 +233,7 @@ def _print_map(server: HilServer) -> None:
 
 
 def serve(
-    target: ServedStation | StationConfig,
+    target: ServedStation,
     speed: float,
     links_dir: str | Path,
     only: Iterable[str] | None = None,
@@ -288,7 +242,7 @@ def serve(
 ) -> None:
     """Serve a rack until SIGTERM/SIGINT (or :meth:`HilServer.stop`); raise if the sim fails.
 
-    ``target``: a ServedStation, or a StationConfig for the ISU rack. ``live``: keep a rich
+    ``target``: the ServedStation. ``live``: keep a rich
     status table on screen (default: when stdout is a terminal); otherwise print a plain
     status line every STATUS_EVERY_S wall seconds.
     """
@@ -405,35 +359,3 @@ def _serve_until_stopped(server: HilServer, live: bool = False) -> None:
     )
     if server.error is not None:
         raise RuntimeError(f"simulation failed: {server.error!r}") from server.error
-
-
-def main(argv: list[str] | None = None) -> int:
-    p = argparse.ArgumentParser(
-        prog="python -m station.hil.server",
-        description="Serve a simulated rack in real time on ptys (and the ISU's IEU on "
-        "socketcand and slcan).",
-    )
-    p.add_argument("--station", choices=STATIONS, default="isu", help="which rack to serve")
-    p.add_argument("--config", type=Path, help="config TOML (isu: merged over the default; "
-                   "cigtf/esg: its [cigtf]/[esg] section)")
-    p.add_argument("--seed", type=int, help="run seed (default: the config's; cigtf/esg: 1)")
-    p.add_argument("--speed", type=float, default=1.0, help="simulated seconds per wall second")
-    p.add_argument("--links", type=Path, required=True, help="directory for symlinks, links.json")
-    p.add_argument("--only", help="comma-separated instruments to serve (default: all)")
-    p.add_argument("--can-port", type=int, default=0, help="socketcand TCP port (0: any free)")
-    a = p.parse_args(argv)
-    logging.basicConfig(level=logging.INFO, format="%(asctime)s %(name)s: %(message)s")
-    try:
-        target = load_station(a.station, a.config, a.seed)
-        serve(target, a.speed, a.links, a.only.split(",") if a.only else None, a.can_port)
-    except (ConfigError, ValueError, OSError) as e:
-        print(f"error: {e}", file=sys.stderr)
-        return 2
-    except RuntimeError as e:
-        print(f"error: {e}", file=sys.stderr)
-        return 1
-    return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main())

@@ -25,7 +25,7 @@ from procedures.isu.turn_on import oscillator_periods
 from procedures.runner import Run
 
 if TYPE_CHECKING:
-    from station.racks.isu import Station
+    from station.drivers.isu import IsuDrivers
 
 AC_NOISE_FLOOR_ARCSEC = 1e-3
 
@@ -68,7 +68,7 @@ def require_turn_on(run: Run) -> dict:
     return {"turn_on_completed_at_s": done.steps[-1].t_sim}
 
 
-def set_position0(st: Station, noise: NoiseSpec | None = None) -> dict:
+def set_position0(st: IsuDrivers, noise: NoiseSpec | None = None) -> dict:
     """Position 0 (the survey's) with bubble-level corrections on phi1 and phi3."""
     ps = set_position(st, *POSITION0_DEG, level=True, noise=noise)
     lev = ps.reading()
@@ -78,7 +78,7 @@ def set_position0(st: Station, noise: NoiseSpec | None = None) -> dict:
             "resolvers_deg": list(resolvers(st)), "t_s": st.clock.now()}
 
 
-def table_record(st: Station) -> tuple[tuple[float, float, float, float], tuple[float, float]]:
+def table_record(st: IsuDrivers) -> tuple[tuple[float, float, float, float], tuple[float, float]]:
     """Resolver readouts and bubble levels (range-checked) for the Alignment Results Sheet."""
     pos = resolvers(st)
     lev = read_levels(st)
@@ -92,12 +92,12 @@ def mirror_aims(survey: SurveyResults | None) -> dict[int, tuple[float, float]]:
     return {1: (a1, t1), 2: (a2, t2)}
 
 
-def acquire_mirrors(st: Station, ks, survey: SurveyResults | None) -> dict:
+def acquire_mirrors(st: IsuDrivers, ks, survey: SurveyResults | None) -> dict:
     aims = mirror_aims(survey)
     return {str(k): acquire(st.autocollimators[k], k, *aims[k]) for k in ks}
 
 
-def read_autocollimators(st: Station, ks, n: int, survey: SurveyResults | None,
+def read_autocollimators(st: IsuDrivers, ks, n: int, survey: SurveyResults | None,
                          noise: NoiseSpec | None = None) -> dict:
     """``n`` readings of each autocollimator in ``ks``, alternating; means, times, spread.
 
@@ -190,7 +190,7 @@ OSCILLATOR_STATES = ("LOCKED", "UNLOCKED")
 STRING_HZ = (1e4, 3e4)  # the strings count near 20 kHz (their data sheet)
 
 
-def check_ieu_lines(st: Station, period_ticks: int, gyros: bool, s2: float) -> dict:
+def check_ieu_lines(st: IsuDrivers, period_ticks: int, gyros: bool, s2: float) -> dict:
     """Verify the oscillator and instrument lines reach the IEU: two samples whose timer
     counts the period and whose strings count near the basic frequency (Chart III-4 step 2,
     Chart III-8 step 2). ``s2``: S2^T as turn-on recorded it."""

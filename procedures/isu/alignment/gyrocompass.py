@@ -48,7 +48,7 @@ from procedures.isu.sheets import CalibrationResults, SurveyResults
 from procedures.runner import Run
 
 if TYPE_CHECKING:
-    from station.racks.isu import Station
+    from station.drivers.isu import IsuDrivers
 
 CHART = "III-8"
 TITLE = "Gyrocompass alignment"
@@ -156,7 +156,7 @@ def gyro_checks(e: str, model: dict, survey: SurveyResults | None, w_north: floa
 
 
 def gyrocompass_procedure(
-    st: Station,
+    st: IsuDrivers,
     run: Run,
     noise: NoiseSpec,
     calib: CalibrationResults,

@@ -47,7 +47,7 @@ from procedures.isu.sheets import CalibrationResults, SurveyResults
 from procedures.runner import Run
 
 if TYPE_CHECKING:
-    from station.racks.isu import Station
+    from station.drivers.isu import IsuDrivers
 
 CHART = "III-4"
 TITLE = "Level alignment"
@@ -140,7 +140,7 @@ def level_checks(e: str, model: dict, survey: SurveyResults | None,
 
 
 def level_alignment_procedure(
-    st: Station,
+    st: IsuDrivers,
     run: Run,
     noise: NoiseSpec,
     calib: CalibrationResults,

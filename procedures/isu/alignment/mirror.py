@@ -31,7 +31,7 @@ from procedures.isu.sheets import SurveyResults
 from procedures.runner import Run
 
 if TYPE_CHECKING:
-    from station.racks.isu import Station
+    from station.drivers.isu import IsuDrivers
 
 CHART = "III-2"
 TITLE = "Mirror alignment"
@@ -68,7 +68,7 @@ def check_against_survey(t, predicted, survey: SurveyResults, position0: dict,
         ck.tilt_motion_arcsec(noise, t_ref - float(position0["t_s"])))
 
 
-def mirror_alignment_procedure(st: Station, run: Run, noise: NoiseSpec,
+def mirror_alignment_procedure(st: IsuDrivers, run: Run, noise: NoiseSpec,
                                survey: SurveyResults | None = None,
                                plan: AlignPlan | None = None) -> Outcome:
     """Tick Chart III-2 and return the mirror alignment (Chart III-1 saved in the run).

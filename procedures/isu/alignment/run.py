@@ -27,7 +27,7 @@ from procedures.isu.sheets import CalibrationResults, SurveyResults
 from procedures.runner import Run
 
 if TYPE_CHECKING:
-    from station.racks.isu import Station
+    from station.drivers.isu import IsuDrivers
 
 DAY_ESTIMATORS = {"mirror": ("average",), "level": ("average", "posterior"),
                   "gyrocompass": ("average", "hybrid")}
@@ -35,7 +35,7 @@ PRIOR_SOURCE = "Chart I-4: survey T^BI at the nominal position-0 resolver angles
 
 
 def run_alignments(
-    st: Station,
+    st: IsuDrivers,
     run: Run,
     noise: NoiseSpec,
     calib: CalibrationResults,

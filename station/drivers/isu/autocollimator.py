@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from station.clock import Clock
 from station.drivers.replies import Form, angle_between, fixed
 from station.drivers.serial_base import SerialDriver
 from station.errors import InstrumentRefused
@@ -25,8 +26,9 @@ MEASUREMENT = Form([
 class AutocollimatorDriver(SerialDriver):
     model = ("ISU-LAB", "AC-2")
 
-    def __init__(self, name: str, url: str, timeout: float = 5.0) -> None:
-        super().__init__(name, url, timeout)
+    def __init__(self, name: str, url: str, clock: Clock | None = None,
+                 timeout: float = 5.0) -> None:
+        super().__init__(name, url, clock, timeout)
         # the pointing as last set or read, (az, zen) deg; None until known
         self.aimed: tuple[float, float] | None = None
 

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from station.clock import Clock
 from station.drivers.replies import PASS, Form, integer, word
 from station.drivers.serial_base import SerialDriver
 from station.errors import DriverError
@@ -20,8 +21,9 @@ STATE = Form([word("state", "OPER", "STBY")])
 class CounterDriver(SerialDriver):
     model = ("ISU-LAB", "FC-1")
 
-    def __init__(self, name: str, url: str, timeout: float = 5.0) -> None:
-        super().__init__(name, url, timeout)
+    def __init__(self, name: str, url: str, clock: Clock | None = None,
+                 timeout: float = 5.0) -> None:
+        super().__init__(name, url, clock, timeout)
         self.mode: str | None = None  # "Z" or "XY" as last set; None until set
 
     def set_mode(self, mode: str) -> None:

@@ -33,6 +33,7 @@ from crccheck.crc import Crc8Autosar, Crc32C  # type: ignore[import-untyped]
 
 import config
 import station.links  # noqa: F401
+from station.clock import Clock
 from station.errors import DriverError, InstrumentRefused, LinkTimeout
 
 COUNT_PARTS = ("IEU_GYRO", "IEU_ACCEL_A", "IEU_ACCEL_B", "IEU_TIMER")
@@ -213,7 +214,10 @@ class SampleAssembler:
 
 
 class IeuDriver:
-    def __init__(self, can_config: dict, name: str = "ieu", timeout: float = 5.0) -> None:
+    def __init__(self, name: str, can_config: dict, clock: Clock | None = None,
+                 timeout: float = 5.0) -> None:
+        """The drivers' convention (``SerialDriver``), with python-can's bus configuration
+        for the link."""
         self.name = name
         cfg = dict(can_config)
         self.link = f"{cfg.get('interface')}:{cfg.get('channel')}"
@@ -235,9 +239,11 @@ class IeuDriver:
         self.garbled = 0  # recover mode: undecodable frames ignored
         self.failed_checks = 0  # frames or samples that failed their CRC (every mode)
         self.discarded = 0  # frames that answered nothing: stale replies, old samples
-        self.clock = None  # set by bind_clock on OS-level links
+        self.clock: Clock | None = None  # the station clock on OS-level links only
+        if clock is not None:
+            self.bind_clock(clock)
 
-    def bind_clock(self, clock) -> None:
+    def bind_clock(self, clock: Clock) -> None:
         """Over OS-level links, time samples by the station clock on receipt (a hardware
         socketcand or slcan stamps in its own time base) and give the bus wall timeouts."""
         self.clock = None if clock.virtual else clock

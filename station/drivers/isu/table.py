@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-from station.clock import Clock
 from station.drivers.replies import Form, fixed, word
 from station.drivers.serial_base import SerialDriver
 from station.errors import LinkTimeout
@@ -29,10 +28,6 @@ INTERLOCK = Form([word("interlock", "CLOSED", "OPEN")])
 
 class TableDriver(SerialDriver):
     model = ("ISU-LAB", "TT-4AX")
-
-    def __init__(self, url: str, clock: Clock, name: str = "table", timeout: float = 5.0):
-        super().__init__(name, url, timeout)
-        self.clock = clock
 
     def move(self, axis: int, deg: float) -> None:
         self.command(f"POS {axis} {deg:.7f}")
@@ -72,16 +67,17 @@ class TableDriver(SerialDriver):
 
     def wait_still(self, timeout: float = 120.0, poll: float = 0.5) -> None:
         """Wait until every axis is holding or turning at its commanded rate."""
-        t_end = self.clock.now() + timeout
+        clock = self.needs_clock()
+        t_end = clock.now() + timeout
         while True:
             st = self.status()
             if all(s in ("HOLD", "ROTATING") for s in st):
                 return
-            if self.clock.now() >= t_end:
+            if clock.now() >= t_end:
                 late = [f"axis {i} ({s})" for i, s in enumerate(st, start=1)
                         if s not in ("HOLD", "ROTATING")]
                 raise LinkTimeout(
                     self.name, self.url,
                     f"{', '.join(late)} not settled after {timeout:g} s; STAT? {','.join(st)}",
                 )
-            self.clock.sleep(poll)
+            clock.sleep(poll)

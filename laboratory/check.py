@@ -47,7 +47,7 @@ def check_all(lab: Laboratory, cfg: Any, links_dir: Path | None = None,
         links = lab.links(cfg, None)
     out: list[CheckResult] = []
     try:
-        for name, make in lab.drivers.items():
+        for name, make in lab.drivers().items():
             link = shown_link(links[name])
             try:
                 drv = make(name, links[name], None, timeout)

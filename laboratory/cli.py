@@ -522,6 +522,29 @@ def _usage_error() -> type[Exception]:
     raise ImportError("no click UsageError")
 
 
+def _add_laboratory_commands() -> None:
+    """Each registered laboratory's own commands (its procedures' entry points); one that
+    cannot be loaded is named on stderr and left out, the others still work."""
+    from laboratory import registry
+
+    try:
+        names = registry.names()
+    except registry.UnknownLaboratory as e:
+        typer.echo(f"warning: {one_line(e)}", err=True)
+        return
+    for name in names:
+        try:
+            lab = registry.get(name)
+        except registry.UnknownLaboratory as e:
+            typer.echo(f"warning: {one_line(e)}", err=True)
+            continue
+        if lab.add_commands is not None:
+            lab.add_commands(app)
+
+
+_add_laboratory_commands()
+
+
 def main() -> None:
     """`station`: usage mistakes (an unknown option, a bad number) as one line on stderr."""
     usage_error = _usage_error()

@@ -76,7 +76,7 @@ def served_station(lab: Laboratory, cfg: Any) -> ServedStation:
 def open_station(lab: Laboratory, cfg: Any, links: dict[str, Any], clock: Clock,
                  timeout: float = 5.0) -> DriverSet:
     """The laboratory's drivers on ``links`` (instrument -> link) with ``clock``."""
-    opened = open_drivers(lab.drivers, links, clock, timeout)
+    opened = open_drivers(lab.drivers(), links, clock, timeout)
     return lab.assemble(clock, opened, links)
 
 
@@ -84,11 +84,12 @@ def served_links(lab: Laboratory, served: ServedRun, links_dir: Path) -> dict[st
     """Each instrument's link on the served rack; WrongStation naming what it lacks (a rack
     served with --only)."""
     offered = {**served.links, **served.can}
-    missing = [n for n in lab.drivers if n not in offered]
+    names = list(lab.drivers())
+    missing = [n for n in names if n not in offered]
     if missing:
         raise WrongStation(f"{links_dir}: the rack served there does not serve "
                            f"{', '.join(missing)} (was it started with --only?)")
-    return {n: offered[n] for n in lab.drivers}
+    return {n: offered[n] for n in names}
 
 
 def connect(lab: Laboratory, cfg: Any, links_dir: Path | None = None,

@@ -8,8 +8,10 @@ the hardware), its truth, and its commands (the procedures' entry points on the 
 line). The CLI, ``station serve``, ``station check`` and the connection code reach a
 laboratory only through this table.
 
-Entries are ``"module:attribute"`` strings, imported when first asked for, so that a
-command pays only for its own laboratory. Laboratories kept outside this package are
+Entries are ``"module:attribute"`` strings, imported when first asked for; a declaration
+imports nothing heavy itself (its callables import what they use), so that listing the
+laboratories and their commands costs milliseconds and a command pays only for its own
+laboratory. Laboratories kept outside this package are
 added by the ``station.laboratories`` entry-point group of an installed distribution, or
 by the environment variable ``STATION_LABORATORIES`` (``name=module:attribute``, comma
 separated), read when the table is first used.
@@ -30,8 +32,8 @@ if TYPE_CHECKING:
     import typer
 
     from station.clock import Clock
-    from station.drivers.driver_set import Driver, DriverSet
-    from station.racks.base import DriverFactory, Rack
+    from station.drivers.driver_set import Driver, DriverFactory, DriverSet
+    from station.racks.base import Rack
 
 BUILTIN = {
     "isu": "laboratory.isu.lab:LAB",
@@ -53,7 +55,7 @@ class Laboratory:
     seed_of: Callable[[Any], int]  # the run's seed given its loaded config
     digest: Callable[[Any], str]  # of the config: a served session publishes it
     build_rack: Callable[[Any, simpy.Environment | None], Rack]  # on its own env if None
-    drivers: Mapping[str, DriverFactory]  # instrument -> driver class, in rack order
+    drivers: Callable[[], Mapping[str, DriverFactory]]  # instrument -> driver class
     links: Callable[[Any, Rack | None], dict[str, Any]]  # local rack's, or configured
     assemble: Callable[[Clock, dict[str, Driver], dict[str, Any]], DriverSet]
     truth: Callable[[Any], dict[str, float]]  # the world's true values a run estimates

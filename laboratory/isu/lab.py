@@ -1,33 +1,55 @@
-"""The strapdown ISU calibration laboratory (report 000) as the registry sees it."""
+"""The strapdown ISU calibration laboratory (report 000) as the registry sees it.
+
+Nothing heavy is imported here (the registry's rule): each callable imports what it uses.
+"""
 
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
-
-import simpy
+from typing import TYPE_CHECKING, Any
 
 from laboratory.registry import Laboratory
-from sim.isu.world import World
-from station.clock import Clock
-from station.config.isu import StationConfig, load_config
-from station.drivers.driver_set import Driver
-from station.drivers.isu import DRIVERS, IsuDrivers
-from station.hil.session import config_digest
-from station.racks.base import Rack
-from station.racks.isu import SimulatedRack, config_links
+
+if TYPE_CHECKING:
+    import simpy
+
+    from sim.isu.world import World
+    from station.clock import Clock
+    from station.config.isu import StationConfig
+    from station.drivers.driver_set import Driver, DriverFactory
+    from station.drivers.isu import IsuDrivers
+    from station.racks.base import Rack
+    from station.racks.isu import SimulatedRack
 
 
 def _load(path: Path | None, seed: int | None) -> StationConfig:
+    from station.config.isu import load_config
+
     return load_config(path, seed=seed)
 
 
+def _digest(cfg: StationConfig) -> str:
+    from station.hil.session import config_digest
+
+    return config_digest(cfg)
+
+
 def _rack(cfg: StationConfig, env: simpy.Environment | None) -> SimulatedRack:
+    from station.racks.isu import SimulatedRack
+
     return SimulatedRack(cfg, env=env)
 
 
+def _drivers() -> dict[str, DriverFactory]:
+    from station.drivers.isu import DRIVERS
+
+    return DRIVERS
+
+
 def _links(cfg: StationConfig, rack: Rack | None) -> dict[str, Any]:
-    return config_links(cfg, rack)  # type: ignore[arg-type]  # an ISU rack's id is all it reads
+    from station.racks.isu import config_links
+
+    return config_links(cfg, rack)
 
 
 def shown_links(links: dict[str, Any]) -> dict[str, str]:
@@ -39,6 +61,8 @@ def shown_links(links: dict[str, Any]) -> dict[str, str]:
 
 
 def _assemble(clock: Clock, opened: dict[str, Driver], links: dict[str, Any]) -> IsuDrivers:
+    from station.drivers.isu import IsuDrivers
+
     return IsuDrivers.from_opened(clock, opened, shown_links(links))
 
 
@@ -55,16 +79,10 @@ def truth(world: World) -> dict[str, float]:
     return {f"{inst}.{name}": v for (inst, name), v in calibration_truth(world).items()}
 
 
-def _commands(app: Any) -> None:
-    from laboratory.isu.cli import add_commands
-
-    add_commands(app)
-
-
 LAB = Laboratory(
     name="isu", title="strapdown ISU calibration laboratory (report 000)",
     config_help="station config TOML (merged over the embedded default)",
-    load_config=_load, seed_of=lambda cfg: cfg.seed, digest=config_digest,
-    build_rack=_rack, drivers=DRIVERS, links=_links, assemble=_assemble, truth=truth,
-    simulated=simulated, add_commands=None,
+    load_config=_load, seed_of=lambda cfg: cfg.seed, digest=_digest,
+    build_rack=_rack, drivers=_drivers, links=_links, assemble=_assemble, truth=truth,
+    simulated=simulated,
 )

@@ -7,7 +7,7 @@ simulator, so a procedure typed against it cannot reach ``sim`` or ``instruments
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, fields
 from typing import Any, ClassVar, Protocol, Self
 
@@ -24,6 +24,10 @@ class Driver(Protocol):
     def identify(self) -> str: ...
 
     def close(self) -> None: ...
+
+
+# how a driver is made: the one convention (name, link, clock or None, timeout)
+DriverFactory = Callable[[str, Any, Clock | None, float], Driver]
 
 
 @dataclass

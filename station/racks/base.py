@@ -12,14 +12,14 @@ from __future__ import annotations
 
 import itertools
 from collections import defaultdict
-from collections.abc import Callable, Iterable, Iterator, Mapping
+from collections.abc import Iterable, Iterator, Mapping
 from typing import Any, Protocol
 
 import simpy
 
 from instruments.base import ByteInstrument
 from station.clock import Clock, VirtualClock
-from station.drivers.driver_set import Driver
+from station.drivers.driver_set import Driver, DriverFactory
 from station.links import virtual
 
 _ids: defaultdict[str, Iterator[int]] = defaultdict(lambda: itertools.count(1))
@@ -83,9 +83,6 @@ def pick_links(names: Iterable[str], links: Mapping[str, Any], what: str) -> dic
         raise ValueError(f"no link for the {what} instrument(s) {', '.join(missing)} "
                          f"(links for: {', '.join(sorted(links)) or 'none'})")
     return {n: links[n] for n in names}
-
-
-DriverFactory = Callable[[str, Any, Clock | None, float], Driver]
 
 
 def open_drivers(factories: Mapping[str, DriverFactory], links: Mapping[str, Any],

@@ -16,10 +16,12 @@ from instruments.cigtf import AveragingDvm, FixtureProgrammer, GyroPower
 from sim.cigtf.world import CigtfParams, CigtfWorld
 from station.clock import Clock
 from station.drivers.cigtf import CigtfDrivers, DvmDriver, FixtureDriver, GyroPowerDriver
+from station.drivers.driver_set import DriverFactory
 from station.racks.base import SimRack, open_drivers, pick_links, rack_clock, sim_links
 
 LATENCY_S = 0.01
-INSTRUMENTS = {"fixture": FixtureDriver, "dvm": DvmDriver, "gyro_power": GyroPowerDriver}
+INSTRUMENTS: dict[str, DriverFactory] = {
+    "fixture": FixtureDriver, "dvm": DvmDriver, "gyro_power": GyroPowerDriver}
 
 
 class CigtfRack(SimRack):

@@ -15,6 +15,7 @@ import simpy
 from instruments.esg import DataProcessor, DividingHead, GyroConsole, Theodolite, Turntable
 from sim.esg.world import EsgParams, EsgWorld
 from station.clock import Clock
+from station.drivers.driver_set import DriverFactory
 from station.drivers.esg import (
     ConsoleDriver,
     EsgDrivers,
@@ -26,8 +27,9 @@ from station.drivers.esg import (
 from station.racks.base import SimRack, open_drivers, pick_links, rack_clock, sim_links
 
 LATENCY_S = 0.01
-INSTRUMENTS = {"processor": ProcessorDriver, "head": HeadDriver, "turntable": TurntableDriver,
-               "theodolite": TheodoliteDriver, "console": ConsoleDriver}
+INSTRUMENTS: dict[str, DriverFactory] = {
+    "processor": ProcessorDriver, "head": HeadDriver, "turntable": TurntableDriver,
+    "theodolite": TheodoliteDriver, "console": ConsoleDriver}
 
 
 class EsgRack(SimRack):

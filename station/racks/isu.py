@@ -24,7 +24,7 @@ from sim.isu.world import World
 from station.clock import Clock, VirtualClock, WallClock
 from station.config.isu import StationConfig
 from station.drivers.isu import DRIVERS, IsuDrivers
-from station.racks.base import SimRack, open_drivers, pin
+from station.racks.base import Rack, SimRack, open_drivers, pin
 
 
 class SimulatedRack(SimRack):
@@ -63,7 +63,7 @@ def can_config(cfg: StationConfig, rack_id: str | None) -> dict:
     return can_cfg
 
 
-def config_links(cfg: StationConfig, rack: SimulatedRack | None = None) -> dict[str, Any]:
+def config_links(cfg: StationConfig, rack: Rack | None = None) -> dict[str, Any]:
     """Each instrument's link from the config (pinned to ``rack`` if given): a pyserial URL,
     and python-can's bus configuration for the IEU."""
     rid = rack.rack_id if rack else None

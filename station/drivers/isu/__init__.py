@@ -7,7 +7,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from station.clock import Clock
-from station.drivers.driver_set import DriverSet
+from station.drivers.driver_set import DriverFactory, DriverSet
 from station.drivers.isu.autocollimator import AutocollimatorDriver
 from station.drivers.isu.bubble_level import BubbleLevelDriver
 from station.drivers.isu.counter import CounterDriver
@@ -55,7 +55,7 @@ class IsuDrivers(DriverSet):
 
 
 # instrument name in the rack -> its driver class: the one list of the lab's instruments
-DRIVERS: dict[str, type] = {
+DRIVERS: dict[str, DriverFactory] = {
     "table": TableDriver,
     "patch_panel": PatchPanelDriver,
     **{f"counter{i}": CounterDriver for i in range(1, 7)},

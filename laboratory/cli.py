@@ -3,10 +3,12 @@
 Every everyday mistake (an unknown chart, a bad number, a missing or unwritable path, a
 directory that already holds a record) ends with one line on stderr and exit 2, before
 anything is written; a procedure that stops says so on stderr, naming the step, with exit 1.
+Both are operator errors (station/errors.py) and end a command in one place, ``_exit``.
 """
 
 from __future__ import annotations
 
+import functools
 import json
 import sys
 from collections.abc import Callable, Iterator
@@ -19,6 +21,7 @@ from rich.console import Console
 from rich.table import Table
 
 from station.config.isu import ConfigError, load_config
+from station.errors import BadArgument, OperatorError, StopError, UseError
 
 app = typer.Typer(add_completion=False, no_args_is_help=True, help="The simulated ISU laboratory.")
 console = Console() if Console().is_terminal else Console(width=110)
@@ -68,10 +71,34 @@ def one_line(msg: object) -> str:
     return "; ".join(lines) if lines else type(msg).__name__
 
 
-def fail(msg: object, code: int = 2) -> NoReturn:
-    """One line on stderr and the exit code (2: the command was not run as asked)."""
-    typer.echo(f"error: {one_line(msg)}", err=True)
-    raise typer.Exit(code)
+def _exit(e: OperatorError, run_dir: Path | None = None) -> NoReturn:
+    """The one place an operator error ends a command: its line and its exit code.
+
+    An error of use (exit 2): ``error: <line>`` on stderr. A stop (exit 1): ``stopped:
+    <line>`` on stderr, with the journal that keeps every completed step when the run has a
+    directory (``run_dir``). Exit 0 (a resumed run that was already complete): the line on
+    stdout."""
+    line = one_line(e)
+    if e.exit_code == 0:
+        typer.echo(line)
+    elif isinstance(e, UseError):
+        typer.echo(f"error: {line}", err=True)
+    else:
+        keep = (f" (the journal keeps every completed step: {run_dir / 'journal.jsonl'}; "
+                f"continue with --resume {run_dir})") if run_dir is not None else ""
+        typer.echo(f"stopped: {line}{keep}", err=True)
+    raise typer.Exit(e.exit_code) from None
+
+
+def _refused(e: Exception, run_dir: Path | None = None) -> NoReturn:
+    """``_exit`` for an operator error; a builtin refusal (ValueError, OSError) met at a
+    command's boundary is an error of use with the same line."""
+    _exit(e if isinstance(e, OperatorError) else UseError(one_line(e)), run_dir)
+
+
+def fail(msg: object) -> NoReturn:
+    """A refused argument: one line on stderr, exit 2 (the command was not run as asked)."""
+    _exit(BadArgument(one_line(msg)))
 
 
 def _load(config: Path | None, seed: int | None = None):
@@ -79,9 +106,10 @@ def _load(config: Path | None, seed: int | None = None):
     try:
         return load_config(config, seed=seed)
     except ConfigError as e:  # the option too, so the user knows which argument to mend
-        fail(e if config is None else f"--config: {e}")
+        _exit(e if config is None else ConfigError(f"--config: {e}"))
     except (OSError, ValueError, RecursionError) as e:  # defence: the loader's ConfigError
-        fail(f"--config {config}: {getattr(e, 'strerror', None) or one_line(e)}")
+        _exit(ConfigError(f"--config {config}: "
+                          f"{getattr(e, 'strerror', None) or one_line(e)}"))
 
 
 def _check_seed(seed: int | None) -> None:
@@ -89,37 +117,30 @@ def _check_seed(seed: int | None) -> None:
         fail(f"--seed must be 0 or more, got {seed}")
 
 
-def _usage_errors() -> tuple[type[BaseException], ...]:
-    from laboratory.rundir import RunDirError
-    from procedures.journal import JournalError
-
-    return (ConfigError, RunDirError, JournalError, ValueError, OSError)
-
-
 @contextmanager
 def _reported(where: Callable[[], Path | None]) -> Iterator[None]:
-    """Exit 2 with one line for a refused argument, path, config or journal (nothing was
-    measured); exit 1 for a procedure that stopped, naming the step and the journal that
-    keeps every completed step (``where()``: the run directory)."""
-    from laboratory.rundir import RunComplete
-    from procedures.runner import ProcedureError, ResumeMismatch
-    from station.errors import StationError
-
+    """Any operator error (or builtin refusal) of the block ends the command through
+    ``_exit``; a stop names the journal in the run directory ``where()``."""
     try:
         yield
-    except RunComplete as e:
-        typer.echo(one_line(e))
-        raise typer.Exit(0) from None
-    except ResumeMismatch as e:  # the journal is another run's: nothing was measured
-        fail(e)
-    except (ProcedureError, StationError) as e:
-        d = where()
-        keep = (f" (the journal keeps every completed step: {d / 'journal.jsonl'}; continue "
-                f"with --resume {d})") if d is not None else ""
-        typer.echo(f"stopped: {one_line(e)}{keep}", err=True)
-        raise typer.Exit(1) from None
-    except _usage_errors() as e:
-        fail(e)
+    except BrokenPipeError:  # the reader of stdout went away: the parser's own handling
+        raise
+    except (OperatorError, ValueError, OSError) as e:
+        _refused(e, where())
+
+
+def _command(*args: Any, **kwargs: Any) -> Callable[[Callable[..., Any]], Callable[..., Any]]:
+    """``app.command`` whose whole body reports operator errors (``_reported``): every
+    command ends on one through the same ``_exit``."""
+    def register(fn: Callable[..., Any]) -> Callable[..., Any]:
+        @functools.wraps(fn)
+        def run(*a: Any, **k: Any) -> Any:
+            with _reported(lambda: None):
+                return fn(*a, **k)
+
+        return app.command(*args, **kwargs)(run)
+
+    return register
 
 
 def _new_or_resumed(command: str, out: Path | None, resume: Path | None,
@@ -172,16 +193,16 @@ def _lab_config(station: str, config: Path | None, seed: int | None) -> tuple[An
     try:
         lab = registry.get(station)
     except registry.UnknownLaboratory as e:
-        fail(e)
+        _refused(e)
     if station == "isu":
         return lab, _load(config, seed)
     try:
         return lab, lab.load_config(config, seed)
-    except ConfigError as e:
-        fail(e if config is None else f"--config: {e}")
+    except ConfigError as e:  # the option too, so the user knows which argument to mend
+        _exit(e if config is None else ConfigError(f"--config: {e}"))
 
 
-@app.command()
+@_command()
 def check(
     config: ConfigOpt = None,
     as_json: Annotated[bool, typer.Option("--json", help="print the results as JSON")] = False,
@@ -196,8 +217,8 @@ def check(
     lab, cfg = _lab_config(station, config, None)
     try:
         results = check_all(lab, cfg, links, timeout)
-    except (ValueError, FileNotFoundError) as e:
-        fail(e)
+    except (OperatorError, ValueError, OSError) as e:  # no or the wrong served rack
+        _refused(e)
     if as_json:
         typer.echo(json.dumps(as_dicts(results), indent=2))
     else:
@@ -215,7 +236,7 @@ def check(
         raise typer.Exit(1)
 
 
-@app.command()
+@_command()
 def labs() -> None:
     """List the laboratories the station knows (the --station names)."""
     from laboratory import registry
@@ -232,7 +253,7 @@ LinksOpt = Annotated[Path | None, typer.Option(
     "(station serve --links DIR), in real time")]
 
 
-@app.command()
+@_command()
 def day(
     config: ConfigOpt = None,
     seed: SeedOpt = None,
@@ -278,7 +299,7 @@ def day(
                f"record in {target}")
 
 
-@app.command()
+@_command()
 def align(
     method: Annotated[str | None, typer.Option("--method", help="mirror | level | "
                       "gyrocompass (required for a new run)")] = None,
@@ -327,7 +348,7 @@ def align(
                f"record in {target}")
 
 
-@app.command()
+@_command()
 def serve(
     config: ConfigOpt = None,
     seed: SeedOpt = None,
@@ -358,13 +379,13 @@ def serve(
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(name)s: %(message)s")
     try:
         serve_rack(target, speed, links, names or None, can_port=can_port)
-    except (ValueError, OSError) as e:
-        fail(e)
-    except RuntimeError as e:
-        fail(e, 1)
+    except (OperatorError, ValueError, OSError) as e:
+        _refused(e)
+    except RuntimeError as e:  # the simulation thread failed: serving stopped
+        _exit(StopError(one_line(e)))
 
 
-@app.command()
+@_command()
 def compare(
     dir_a: Path,
     dir_b: Path,
@@ -379,10 +400,7 @@ def compare(
     if rehearsal:
         from station.hil.twin import compare_rehearsal
 
-        try:
-            problems = compare_rehearsal(dir_a, dir_b)
-        except (OSError, ValueError) as e:
-            fail(e)
+        problems = compare_rehearsal(dir_a, dir_b)  # a refusal: exit 2 (_command)
         for line in problems:
             console.print(line)
         console.print("equal within the real-time tolerances" if not problems
@@ -390,10 +408,7 @@ def compare(
         raise typer.Exit(1 if problems else 0)
     if not rel_tol >= 0:
         fail(f"--rel-tol must be 0 or more, got {rel_tol:g}")
-    try:
-        diffs = differences(dir_a, dir_b, rel_tol)
-    except (OSError, ValueError) as e:
-        fail(e)
+    diffs = differences(dir_a, dir_b, rel_tol)  # a refusal: exit 2 (_command)
     if not diffs:
         console.print("no differences")
         return
@@ -418,8 +433,8 @@ def _station_run(load_params: Callable[[Path | None], Any], config: Path | None,
         except (OSError, ValueError, RecursionError) as e:  # defence: the loader's ConfigError
             if isinstance(e, ConfigError):
                 raise
-            raise ValueError(f"--config {config}: "
-                             f"{getattr(e, 'strerror', None) or one_line(e)}") from None
+            raise ConfigError(f"--config {config}: "
+                              f"{getattr(e, 'strerror', None) or one_line(e)}") from None
     fresh_dir = out is None
     target = _target(out, command, seed)
     try:
@@ -430,7 +445,7 @@ def _station_run(load_params: Callable[[Path | None], Any], config: Path | None,
         raise
 
 
-@app.command("gyrocompass-test")
+@_command("gyrocompass-test")
 def gyrocompass_test(
     seed: Annotated[int | None, typer.Option("--seed", help="run seed (default 1; when "
                     "resuming, the run's)")] = None,
@@ -479,7 +494,7 @@ def gyrocompass_test(
                f"record in {target}")
 
 
-@app.command("esg-calibration")
+@_command("esg-calibration")
 def esg_calibration(
     seed: Annotated[int | None, typer.Option("--seed", help="run seed (default 1; when "
                     "resuming, the run's)")] = None,

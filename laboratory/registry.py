@@ -27,6 +27,8 @@ from importlib.metadata import entry_points
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from station.errors import UseError
+
 if TYPE_CHECKING:
     import simpy
     import typer
@@ -63,7 +65,7 @@ class Laboratory:
     add_commands: Callable[[typer.Typer], None] | None = None  # its procedures' commands
 
 
-class UnknownLaboratory(ValueError):
+class UnknownLaboratory(UseError, ValueError):
     """A --station name (or a registry entry) that names no laboratory."""
 
 

@@ -16,10 +16,11 @@ import os
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
-from typing import Any
+from typing import Any, ClassVar
 
 from procedures.journal import TORN_SUFFIX, Journal, Scan, scan
 from procedures.runner import Run
+from station.errors import UseError
 
 JOURNAL = "journal.jsonl"
 RECORD_NAMES = ("journal.jsonl", "sheets", "tapes", "results.json", "gyrocompass.json",
@@ -29,8 +30,8 @@ RECORD_NAMES = ("journal.jsonl", "sheets", "tapes", "results.json", "gyrocompass
 TESTS = {"gyrocompass": "gyrocompass-test", "esg-calibration": "esg-calibration"}
 
 
-class RunDirError(Exception):
-    """A run directory a command may not use as asked; one line naming it."""
+class RunDirError(UseError):
+    """A run directory a command may not use as asked; one line naming it (exit 2)."""
 
 
 def holds_record(d: Path) -> bool:
@@ -168,7 +169,10 @@ def prepare(out: Path, resume: bool, links: Path | None = None) -> Scan | None:
 
 
 class RunComplete(RunDirError):
-    """``--resume`` of a run that already ended: nothing to do."""
+    """``--resume`` of a run that already ended: nothing to do (exit 0, the message on
+    stdout)."""
+
+    exit_code: ClassVar[int] = 0
 
 
 @contextmanager

@@ -18,6 +18,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from station.errors import UseError
 from station.files import fsync_dir
 
 KINDS = ("step", "sheet", "note", "block", "failed")
@@ -25,8 +26,9 @@ SAFE_NAME = re.compile(r"[A-Za-z0-9_][A-Za-z0-9_.+-]{0,127}")
 TORN_SUFFIX = ".torn-"
 
 
-class JournalError(Exception):
-    """A journal that cannot be created or resumed; the message names the file (and line)."""
+class JournalError(UseError):
+    """A journal that cannot be created or resumed; the message names the file (and line)
+    (exit 2)."""
 
 
 def _default(o: Any) -> Any:

@@ -33,23 +33,24 @@ from pydantic import ValidationError
 from procedures.journal import Journal, JournalError, dumps
 from procedures.sheets import SHEET_MODELS, CheckSheet, Sheet, StepRecord
 from station.clock import Clock
-from station.errors import current_step
+from station.errors import StepName, StopError, UseError, current_step
 
 VOLATILE = ("wall",)
 RESUME_MODES = ("replay", "skip")
 T = TypeVar("T")
 
 
-class ProcedureError(Exception):
-    """A step that could not be completed; the message names the chart and the step."""
+class ProcedureError(StopError):
+    """A step that could not be completed; the message names the chart and the step (exit 1)."""
 
     def __init__(self, chart: str, step: str, text: str, cause: str) -> None:
         self.chart, self.step, self.cause = chart, step, cause
         super().__init__(f"Chart {chart}, step {step} ({text}): {cause}")
 
 
-class ResumeMismatch(Exception):
-    """The replayed run does not reproduce the journal it resumes."""
+class ResumeMismatch(UseError):
+    """The replayed run does not reproduce the journal it resumes (exit 2: the journal is
+    another run's)."""
 
 
 def _stable(rec: dict) -> dict:
@@ -211,7 +212,7 @@ class CheckSheetRun:
     @contextmanager
     def step(self, number: str, text: str) -> Iterator[StepContext]:
         chart = self.sheet.chart
-        token = current_step.set(f"Chart {chart} step {number}")
+        token = current_step.set(StepName(chart, number))
         ctx = StepContext()
         try:
             yield ctx

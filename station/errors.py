@@ -1,18 +1,80 @@
-"""Errors the station reports, each naming the instrument, its link and the procedure step."""
+"""Errors the station reports to the operator, each naming what failed and where.
+
+One root, :class:`OperatorError`, with a class attribute ``exit_code`` and two families:
+
+* :class:`UseError` (exit 2): the command was not run as asked and nothing was measured (a
+  bad configuration or argument, a run directory that may not be used, a journal that cannot
+  be resumed, no or the wrong served rack);
+* :class:`StopError` (exit 1): a procedure stopped (a failed check, :class:`CheckFailed`; a
+  driver's exchange that failed, :class:`DriverError`; a step that could not be completed).
+
+The command line turns any of them into one line on stderr and its exit code, in one place.
+"""
 
 from __future__ import annotations
 
 import contextvars
+from typing import ClassVar
 
+
+class StepName(str):
+    """``Chart <chart> step <step>`` as messages print it, with the chart and the step kept
+    apart (a failed check raised inside the step takes both from it)."""
+
+    chart: str
+    step: str
+
+    def __new__(cls, chart: str, step: str) -> StepName:
+        name = super().__new__(cls, f"Chart {chart} step {step}")
+        name.chart, name.step = chart, step
+        return name
+
+
+# The check-sheet step being run (set by the procedures' runner; None outside any step).
 current_step: contextvars.ContextVar[str | None] = contextvars.ContextVar(
     "current_step", default=None
 )
 
 
-class StationError(Exception):
-    """Base of every error the station reports to the operator."""
+class OperatorError(Exception):
+    """Root of every error the operator is told about: one line and one exit code."""
+
+    exit_code: ClassVar[int] = 1
 
 
+class UseError(OperatorError):
+    """The command was not run as asked (configuration, argument, run directory, journal,
+    served rack): nothing was measured."""
+
+    exit_code: ClassVar[int] = 2
+
+
+class BadArgument(UseError):
+    """A command-line argument that cannot be used as given."""
+
+
+class StopError(OperatorError):
+    """A procedure stopped: what it measured so far stays in its journal."""
+
+    exit_code: ClassVar[int] = 1
+
+
+class CheckFailed(StopError):
+    """A check the procedure makes did not pass (a reading out of tolerance, a search that
+    did not converge, a precondition not met). ``chart`` and ``step`` name the check-sheet
+    step it was raised in (None outside a step); the message is the caller's, unchanged."""
+
+    def __init__(self, message: str, chart: str | None = None,
+                 step: str | None = None) -> None:
+        at = current_step.get()
+        self.chart = chart if chart is not None else getattr(at, "chart", None)
+        self.step = step if step is not None else getattr(at, "step", None)
+        super().__init__(message)
+
+
+class StationError(StopError):
+    """Base of the errors the rack reports while a procedure runs (a driver's exchange, a
+    virtual-time wait that can never end)."""
 class DriverError(StationError):
     """A driver could not complete an exchange with its instrument."""
 

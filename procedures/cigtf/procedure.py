@@ -13,6 +13,7 @@ from procedures.cigtf.analysis import OrientationValues, RunValues, run_values
 from procedures.cigtf.scale import gsf_from_turn
 from procedures.runner import Run
 from station.drivers.cigtf import CigtfDrivers
+from station.errors import CheckFailed
 
 
 @dataclass(frozen=True)
@@ -107,7 +108,7 @@ def warm_up(st: CigtfDrivers, run: Run, plan: TestPlan) -> None:
             st.clock.sleep(plan.initial_warmup_s)
             on, since = st.power.status()
             if not on:
-                raise RuntimeError("gyro power is off after the warm-up")
+                raise CheckFailed("gyro power is off after the warm-up")
             s.reading = {"on_s": since}
 
 

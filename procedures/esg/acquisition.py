@@ -30,6 +30,7 @@ from procedures.esg.readings import Setting, read_setting
 from procedures.esg.readout import pickoffs_from_mirrors
 from procedures.runner import Run
 from station.drivers.esg import EsgDrivers
+from station.errors import CheckFailed
 
 # blocks a new session of a served rack repeats (processor zero, rotor state)
 RENEW = ("ESG-DP", "ESG-CAL.rotor", "ESG-CAL.tilt-*", "ESG-CAL.scan-*")
@@ -205,7 +206,7 @@ def _spin_axis_lab(st: EsgDrivers, plan: EsgPlan, cr: dict[int, float | None]) -
     """The spin axis in the lab from three count ratios by the drawing's pattern and the
     nominal geometry (good to a few arcmin: enough to point the axes)."""
     if any(v is None for v in cr.values()):
-        raise RuntimeError(f"a pickoff is off the pattern: count ratios {cr}")
+        raise CheckFailed(f"a pickoff is off the pattern: count ratios {cr}")
     alpha = np.array([math.cos(math.radians(design_colatitude_deg(cr[i], plan
                                                                   .design_inclination_deg)))
                       for i in (1, 2, 3)])
@@ -257,8 +258,8 @@ def mount_check(st: EsgDrivers, run: Run, plan: EsgPlan, sh) -> float:
                      "coning_radius_arcsec": radius,
                      "limit_arcsec": plan.mount_coning_limit_arcsec}
         if radius > plan.mount_coning_limit_arcsec:
-            raise RuntimeError(f"mirror coning {radius:.1f} arcsec exceeds "
-                               f"{plan.mount_coning_limit_arcsec:g}: re-shim the mount")
+            raise CheckFailed(f"mirror coning {radius:.1f} arcsec exceeds "
+                              f"{plan.mount_coning_limit_arcsec:g}: re-shim the mount")
     return radius
 
 
@@ -272,8 +273,8 @@ def start_gyro(st: EsgDrivers, run: Run, plan: EsgPlan, sh) -> None:
         t_end = st.clock.now() + plan.spinup_timeout_s
         while st.console.speed() < plan.spin_ready_rps:
             if st.clock.now() > t_end:
-                raise RuntimeError(f"rotor below {plan.spin_ready_rps:g} rps after "
-                                   f"{plan.spinup_timeout_s:g} s")
+                raise CheckFailed(f"rotor below {plan.spin_ready_rps:g} rps after "
+                                  f"{plan.spinup_timeout_s:g} s")
             st.clock.sleep(60.0)
         st.clock.sleep(plan.damping_s)
         st.console.damping(False)
@@ -288,7 +289,7 @@ def _east_drift(st: EsgDrivers, plan: EsgPlan, tilt: float) -> float:
     st.clock.sleep(plan.drift_wait_s)
     b = _read(st, plan, (2, 3))
     if a.cr[3] is None or b.cr[3] is None:
-        raise RuntimeError("pickoff 3 off the pattern while measuring drift")
+        raise CheckFailed("pickoff 3 off the pattern while measuring drift")
     d_theta3 = (b.cr[3] - a.cr[3]) / slope  # deg
     return -d_theta3 / ((b.t_s - a.t_s) / 3600.0)
 
@@ -311,8 +312,8 @@ def cancel_drift(st: EsgDrivers, run: Run, plan: EsgPlan, sh, acq: Acquisition) 
                 _move_table(st, plan, tilt=tilt)
                 _damp(st, plan)
             if not done and it == plan.offset_iterations:  # stop inside the step: named
-                raise RuntimeError(f"east-west drift still {rate:+.3f} deg/hr after "
-                                   f"{plan.offset_iterations} offsets")
+                raise CheckFailed(f"east-west drift still {rate:+.3f} deg/hr after "
+                                  f"{plan.offset_iterations} offsets")
             s.reading = {"east_drift_deg_hr": rate, "unbalance_k_deg_hr": k,
                          "tilt_deg": tilt, "within_tolerance": done}
         acq.residual_drift_deg_hr = rate
@@ -331,14 +332,14 @@ def equal_ratio_point(st: EsgDrivers, plan: EsgPlan, d_case: np.ndarray,
         _move_head(st, plan, g)
         cr = _read_three(st, plan)
         if any(v is None for v in cr.values()):
-            raise RuntimeError(f"a pickoff is off the pattern at the computed setting "
-                               f"(count ratios {cr}): the spin-axis estimate is far off")
+            raise CheckFailed(f"a pickoff is off the pattern at the computed setting "
+                              f"(count ratios {cr}): the spin-axis estimate is far off")
         spread = max(cr.values()) - min(cr.values())
         s_lab = _spin_axis_lab(st, plan, cr)
         if spread <= plan.equal_tolerance:
             return sum(cr.values()) / 3.0, cr, s_lab
-    raise RuntimeError(f"count ratios still {spread:.2e} apart after "
-                       f"{plan.equal_iterations} adjustments")
+    raise CheckFailed(f"count ratios still {spread:.2e} apart after "
+                      f"{plan.equal_iterations} adjustments")
 
 
 def find_ratio(st: EsgDrivers, plan: EsgPlan, target: float, gamma: float,
@@ -428,7 +429,7 @@ def tilt_to_equator(st: EsgDrivers, plan: EsgPlan, cr_eq: float) -> dict:
     _, tilt = st.turntable.readings()
     r0 = _read(st, plan, (1, 2))
     if r0.cr[1] is None:
-        raise RuntimeError("pickoff 1 is off the pattern: the spindle is not across s")
+        raise CheckFailed("pickoff 1 is off the pattern: the spindle is not across s")
     st.turntable.tilt(tilt + 0.02)
     st.turntable.wait_hold(plan.move_timeout_s)
     r1 = _read(st, plan, (1, 2))
@@ -458,7 +459,7 @@ def pickoff_check(st: EsgDrivers, run: Run, plan: EsgPlan, acq: Acquisition) -> 
                 gr = _move_head(st, plan, g)
                 r = _read(st, plan, (1, 2))
                 if r.cr[1] is None:
-                    raise RuntimeError("pickoff 1 left the pattern during the coning turn")
+                    raise CheckFailed("pickoff 1 left the pattern during the coning turn")
                 rows.append((gr, r.t_s, r.cr[1]))
             a = np.array([[1.0, math.cos(math.radians(g)), math.sin(math.radians(g)),
                            t - rows[0][1]] for g, t, _ in rows])
@@ -478,8 +479,8 @@ def pickoff_check(st: EsgDrivers, run: Run, plan: EsgPlan, acq: Acquisition) -> 
                          "limit_arcsec": plan.pickoff_coning_limit_arcsec}
             # refuse only what exceeds the tolerance beyond the check's own uncertainty
             if coning - 3.0 * sigma > plan.pickoff_coning_limit_arcsec:
-                raise RuntimeError(f"pickoff 1 cones {coning:.1f} +- {sigma:.1f} arcsec about "
-                                   f"the spindle (limit {plan.pickoff_coning_limit_arcsec:g})")
+                raise CheckFailed(f"pickoff 1 cones {coning:.1f} +- {sigma:.1f} arcsec about "
+                                  f"the spindle (limit {plan.pickoff_coning_limit_arcsec:g})")
 
 
 def baseline(st: EsgDrivers, plan: EsgPlan, acq: Acquisition, slope_per_deg: float) -> Baseline:
@@ -504,8 +505,8 @@ def run_scan(st: EsgDrivers, plan: EsgPlan, sh, acq: Acquisition, name: str, sid
             g = _move_head(st, plan, b.gamma_deg + sgn * off)
             r = _read(st, plan, (2, 1))
             if r.cr[2] is None:
-                raise RuntimeError(f"pickoff 2 off the pattern {off:g} deg from the "
-                                   "equator")
+                raise CheckFailed(f"pickoff 2 off the pattern {off:g} deg from the "
+                                  "equator")
             scan.points.append(ScanPoint(name, increment, side * off, g, r))
             s.reading = {"gamma_deg": g, "offset_deg": side * off, **r.reading()}
     with sh.step(f"{name}.{len(offsets) + 1:02d}", "back to the baseline angle") as s:

@@ -13,6 +13,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 from station.drivers.esg import BadLine, DataLine, ProcessorDriver
+from station.errors import CheckFailed
 
 AGREE = 5e-5  # count ratio; about 5 times the line-to-line scatter (13 arcsec)
 
@@ -45,8 +46,8 @@ class Setting:
                    list(d["rejected"]))
 
 
-class TooFewLines(Exception):
-    pass
+class TooFewLines(CheckFailed):
+    """Too few of the processor's data lines agree to give a reading (a failed check)."""
 
 
 def _cr(line: DataLine, p: int) -> float | None:

@@ -31,6 +31,7 @@ from procedures.isu.plausibility import Implausible
 from procedures.isu.settings import STRINGS
 from procedures.isu.sheets import CalibrationResults, ResultRow
 from procedures.runner import Run
+from station.errors import CheckFailed
 
 TITLE = "Calibration computations"
 STRING_KEY = {c: (int(name[1]), int(name[3])) for c, name in STRINGS.items()}
@@ -171,8 +172,8 @@ def compute_calibration(run: Run, data: DayData, plan: DayPlan, noise: NoiseSpec
     with run.sheet("II-15", TITLE) as sheet:
         with sheet.step("1", "Prepare the data for entry") as s:
             if data.survey is None:
-                raise RuntimeError("no Survey Results Sheet (Chart I-3): the constants of "
-                                   "steps 3-4 come from the system survey (Chart I-2)")
+                raise CheckFailed("no Survey Results Sheet (Chart I-3): the constants of "
+                                  "steps 3-4 come from the system survey (Chart I-2)")
             cd = calibration_data(data, plan, site, last_d1d3)
             s.reading = {"gyro_positions": sorted(cd.gyro), "accel_positions": sorted(cd.accel)}
         sheet.done("2", "Load the calibration program")

@@ -32,6 +32,7 @@ from typing import TypeVar
 import numpy as np
 
 from procedures.isu.calibration.noise_spec import ARCSEC, NoiseSpec
+from station.errors import CheckFailed
 
 T = TypeVar("T")
 K_READING = 6.0  # a reading this many sigma from its repetitions' median is an outlier
@@ -43,9 +44,10 @@ AC_ZENITH_RANGE_DEG = (60.0, 120.0)  # autocollimator mount
 AC_FIELD_DEG = 0.5  # autocollimator field of view (radius), deg
 
 
-class Implausible(RuntimeError):
+class Implausible(CheckFailed):
     """A reading or a result that contradicts the instrument's range, its repetitions or what
-    the survey and the site already know; the message starts with what is wrong."""
+    the survey and the site already know; the message starts with what is wrong (a failed
+    check: it carries the chart and step it was raised in)."""
 
     def __init__(self, source: str, message: str) -> None:
         self.source = source

@@ -48,7 +48,7 @@ from procedures.isu.readings import (
 from procedures.isu.sheets import SurveyResults
 from procedures.runner import Run
 from station.drivers.isu import AutocollimatorDriver
-from station.errors import InstrumentRefused
+from station.errors import CheckFailed, InstrumentRefused
 
 if TYPE_CHECKING:
     from station.drivers.isu import IsuDrivers
@@ -95,7 +95,7 @@ def acquire(
 ) -> dict:
     """Find a mirror return around (az0, zen0) and centre the autocollimator on it.
 
-    Raises RuntimeError naming the searched region when no aim gives a return.
+    Raises Implausible (a failed check) naming the searched region when no aim gives a return.
     """
     tried = refused = 0
     last_refusal = ""
@@ -256,12 +256,12 @@ def _check_site(site: dict) -> tuple[float, float, float]:
         ws = float(site["omega_sin_lambda"])
         wc = float(site["omega_cos_lambda"])
     except KeyError as e:
-        raise RuntimeError(f"site estimate {e.args[0]!r} missing") from None
+        raise CheckFailed(f"site estimate {e.args[0]!r} missing") from None
     if not 0.99 <= g <= 1.01:
-        raise RuntimeError(f"g = {g} is not in g units (expected about 1)")
+        raise CheckFailed(f"g = {g} is not in g units (expected about 1)")
     w = math.hypot(ws, wc)
     if abs(w - EARTH_RATE_DEG_HR) > 0.01 * EARTH_RATE_DEG_HR:
-        raise RuntimeError(
+        raise CheckFailed(
             f"omega^E sin/cos lambda give |omega^E| = {w:.4f}, not the Earth rate "
             f"{EARTH_RATE_DEG_HR} deg/hr: check units (deg/hr) and lambda (colatitude)"
         )
@@ -291,9 +291,9 @@ def system_survey(
         with sheet.step("1", "Verify the turn-on check-sheet (Chart I-1) is complete") as s:
             done = run.check_sheets.get("I-1")
             if done is None or "check_I-1" not in run.sheets:
-                raise RuntimeError("turn-on (Chart I-1) has not been completed in this run")
+                raise CheckFailed("turn-on (Chart I-1) has not been completed in this run")
             if not done.steps or not all(r.done for r in done.steps):
-                raise RuntimeError("turn-on (Chart I-1) has unticked steps")
+                raise CheckFailed("turn-on (Chart I-1) has unticked steps")
             s.reading = {"turn_on_steps": len(done.steps), "completed_at_s": done.steps[-1].t_sim}
 
         with sheet.step("2", "Set position 0 and align the autocollimators with the mirrors") as s:
@@ -367,7 +367,7 @@ def system_survey(
                 for m in sm.SURVEYED_POSITIONS
             )
             if worst > 0.01:
-                raise RuntimeError(f"resolver settings miss their body vectors by {worst} arcsec")
+                raise CheckFailed(f"resolver settings miss their body vectors by {worst} arcsec")
             s.reading = {
                 "t_bi": t_bi.tolist(),
                 "settings_deg": {str(m): list(v) for m, v in settings.items()},

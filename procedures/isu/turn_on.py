@@ -27,6 +27,7 @@ from procedures.isu.plausibility import (
 )
 from procedures.isu.readings import panel_connection, read_levels, resolvers, table_status
 from procedures.runner import Run
+from station.errors import CheckFailed
 
 if TYPE_CHECKING:
     from station.drivers.isu import IsuDrivers
@@ -191,6 +192,6 @@ def oscillator_periods(run: Run) -> tuple[float, float]:
     done = run.check_sheets.get(CHART)
     rec = next((r for r in done.steps if r.number == "3"), None) if done else None
     if rec is None or not isinstance(rec.reading, dict):
-        raise RuntimeError("turn-on (Chart I-1) step 3 has not recorded the oscillator's "
-                           "countdowns in this run")
+        raise CheckFailed("turn-on (Chart I-1) step 3 has not recorded the oscillator's "
+                          "countdowns in this run")
     return float(rec.reading["s1_t_s"]), float(rec.reading["s2_t_s"])

@@ -21,6 +21,8 @@ from typing import Annotated, Any, TypeVar, Union, get_args, get_origin
 
 from pydantic import BaseModel, ValidationError
 
+from station.errors import UseError
+
 MAX_BYTES = 1 << 20  # the largest configuration is a few kB; anything near a MiB is not one
 MAX_DEPTH = 8  # the deepest real field is four levels down (isu.gyros.0.misalignment_arcsec)
 MAX_ERRORS = 4  # field errors spelt out in one message; the rest are counted
@@ -42,8 +44,9 @@ M = TypeVar("M", bound=BaseModel)
 _PLAIN = re.compile(r"[A-Za-z0-9_-]+")
 
 
-class ConfigError(ValueError):
-    """A configuration that cannot be used; one line naming the file and the field."""
+class ConfigError(UseError, ValueError):
+    """A configuration that cannot be used; one line naming the file and the field (exit 2;
+    still a ValueError for the callers that catch one)."""
 
 
 def name(part: object) -> str:

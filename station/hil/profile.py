@@ -12,12 +12,14 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from station.clock import WallClock
+from station.errors import UseError
 from station.hil import link_map, session
 from station.hil.session import Session
 
 
-class NoServedRack(FileNotFoundError):
-    """Nothing is served under the given directory (no links.json / session.json)."""
+class NoServedRack(UseError, FileNotFoundError):
+    """Nothing is served under the given directory (no links.json / session.json); exit 2,
+    and still a FileNotFoundError for the callers that catch one."""
 
 
 @dataclass(frozen=True)
@@ -57,8 +59,9 @@ def served(links_dir: Path, can_kind: str = "socketcand") -> ServedLinks:
     return ServedLinks(serial, can, s)
 
 
-class WrongStation(ValueError):
-    """The rack served under a links directory is not the station a command needs."""
+class WrongStation(UseError, ValueError):
+    """The rack served under a links directory is not the station a command needs (exit 2;
+    still a ValueError)."""
 
 
 @dataclass(frozen=True)

@@ -23,6 +23,7 @@ from procedures.isu.sheets import CalibrationResults, SurveyResults
 from procedures.isu.system_survey import NOMINAL_AIM_DEG, POSITION0_DEG, acquire
 from procedures.isu.turn_on import oscillator_periods
 from procedures.runner import Run
+from station.errors import CheckFailed
 
 if TYPE_CHECKING:
     from station.drivers.isu import IsuDrivers
@@ -64,7 +65,7 @@ def canonical_estimator(method: str, estimator: str) -> str:
 def require_turn_on(run: Run) -> dict:
     done = run.check_sheets.get("I-1")
     if done is None or not done.steps or not all(r.done for r in done.steps):
-        raise RuntimeError("turn-on (Chart I-1) has not been completed in this run")
+        raise CheckFailed("turn-on (Chart I-1) has not been completed in this run")
     return {"turn_on_completed_at_s": done.steps[-1].t_sim}
 
 

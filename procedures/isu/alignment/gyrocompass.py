@@ -46,6 +46,7 @@ from procedures.isu.alignment.sampling import IeuRecord, collect_checked
 from procedures.isu.calibration.noise_spec import NoiseSpec
 from procedures.isu.sheets import CalibrationResults, SurveyResults
 from procedures.runner import Run
+from station.errors import CheckFailed
 
 if TYPE_CHECKING:
     from station.drivers.isu import IsuDrivers
@@ -66,7 +67,7 @@ def matrices(estimator: str, K: int, dt: float, tape: Tape | None):
     if estimator == "average":
         return es.simple_average(K, dt, n_axes=6)
     if tape is None:
-        raise RuntimeError("the hybrid technique needs a level tape (Chart I-7)")
+        raise ValueError("the hybrid technique needs a level tape (Chart I-7)")
     M, b, _ = tape.arrays()
     return es.hybrid_gyrocompass(M, b, K, dt)
 
@@ -222,7 +223,7 @@ def gyrocompass_procedure(
                     continue
                 tape = tapes.get(e)
                 if tape is None:
-                    raise RuntimeError(f"no level tape for the {e} technique: run Chart I-7")
+                    raise CheckFailed(f"no level tape for the {e} technique: run Chart I-7")
                 check_tape(tape, params)
                 used[e] = tape.sheet.reel_id
             s.reading = {"tapes": used} if used else {"tapes": None,

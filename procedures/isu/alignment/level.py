@@ -45,6 +45,7 @@ from procedures.isu.alignment.sampling import IeuRecord, collect_checked
 from procedures.isu.calibration.noise_spec import NoiseSpec
 from procedures.isu.sheets import CalibrationResults, SurveyResults
 from procedures.runner import Run
+from station.errors import CheckFailed
 
 if TYPE_CHECKING:
     from station.drivers.isu import IsuDrivers
@@ -60,7 +61,7 @@ def estimator_matrices(estimator: str, K: int, dt: float, tape: Tape | None):
     if estimator == "average":
         return es.simple_average(K, dt)
     if tape is None:
-        raise RuntimeError(f"the {estimator} technique needs a tape (Chart I-7)")
+        raise ValueError(f"the {estimator} technique needs a tape (Chart I-7)")
     M, b, _ = tape.arrays()
     return M, b
 
@@ -73,8 +74,8 @@ def accel_x(record: IeuRecord, c: Constants) -> np.ndarray:
 
 def check_record(record: IeuRecord, K: int, dt: float) -> None:
     if record.K != K or np.max(np.abs(record.dt - dt)) > 1e-9 * dt:
-        raise RuntimeError(f"record of {record.K} intervals of {record.dt.min()}-"
-                           f"{record.dt.max()} s, not K = {K} of {dt} s")
+        raise CheckFailed(f"record of {record.K} intervals of {record.dt.min()}-"
+                          f"{record.dt.max()} s, not K = {K} of {dt} s")
 
 
 def level_solution(record: IeuRecord, c: Constants, M, b, alpha1: float,
@@ -202,7 +203,7 @@ def level_alignment_procedure(
                     continue  # not required for the average (Chart III-4, comment 8)
                 tape = tapes.get(e)
                 if tape is None:
-                    raise RuntimeError(f"no tape for the {e} technique: run Chart I-7")
+                    raise CheckFailed(f"no tape for the {e} technique: run Chart I-7")
                 check_tape(tape, params)  # ValueError names the differing parameter
                 used[e] = tape.sheet.reel_id
             s.reading = {"tapes": used} if used else {"tapes": None,

@@ -16,6 +16,7 @@ stops an instrument sending anything from then on (it still listens). The table'
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping
+from functools import partial
 from typing import Protocol
 
 import numpy as np
@@ -148,5 +149,4 @@ def apply_faults(serial: Mapping[str, ByteInstrument], ieu: Ieu,
         if f.stall_axis is not None:
             if not isinstance(inst, TableController):
                 raise ValueError(f"{name} has no axis to stall")
-            axis = f.stall_axis
-            at(env, f.stall_after_s, lambda t=inst, a=axis: t.stall(a))
+            at(env, f.stall_after_s, partial(inst.stall, f.stall_axis))

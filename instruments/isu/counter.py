@@ -52,7 +52,8 @@ class FrequencyCounter(ByteInstrument):
 
     # ----- wiring -----
     def _inputs(self) -> tuple[PulseLine | None, PulseLine | None, PulseLine | None]:
-        return tuple(self.panel.source(self.jack, i) for i in ("X", "Y", "Z"))  # type: ignore
+        src = self.panel.source
+        return src(self.jack, "X"), src(self.jack, "Y"), src(self.jack, "Z")
 
     def _difference_line(self, x: PulseLine | None, y: PulseLine | None) -> PulseLine:
         """The X-Y train as a gating line (measure X-Y)."""

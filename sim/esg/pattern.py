@@ -239,7 +239,7 @@ class Pattern:
         theta = np.atleast_1d(np.asarray(theta, float))
         phi, ok = self._solve(theta[None, :], self.edge_offsets(theta))
         vis = self.visible(theta) & np.all(ok, axis=0)
-        return Edges(*phi, visible=vis)
+        return Edges._make((*phi, vis))  # phi: the six edges in Edges' order
 
     def count_ratio(self, theta):
         """Noise-free count ratio (phi2 - phi1) / 2 pi of the trailing edges; nan off-pattern."""

@@ -160,7 +160,7 @@ class FourAxisTable:
         return max(tr.last_change() for tr in self.axes.values())
 
     # ----- kinematics -----
-    def frames(self, t: np.ndarray) -> dict[str, np.ndarray]:
+    def frames(self, t: float | np.ndarray) -> dict[str, np.ndarray]:
         """Gimbal transforms and axis angles/rates at times t (arrays, leading dim N)."""
         t = np.atleast_1d(np.asarray(t, dtype=float))
         ang, rate = {}, {}
@@ -179,7 +179,7 @@ class FourAxisTable:
             "rates": rate,
         }
 
-    def rotation_phase(self, t: np.ndarray) -> np.ndarray:
+    def rotation_phase(self, t: float | np.ndarray) -> np.ndarray:
         """Phase (cycles) of the rotary-axis pulse output: one pulse per 1/n turn of resolver 2."""
         p, _ = self.axes[2].evaluate(np.asarray(t, dtype=float))
         if not self.rotation_output:

@@ -26,7 +26,9 @@ DRIFT_KNOT = 10.0  # s
 
 
 def _others(k: int) -> tuple[int, int]:
-    return tuple(j for j in range(3) if j != k)  # type: ignore[return-value]
+    """The two axes other than k, in order."""
+    i, j = (m for m in range(3) if m != k)
+    return i, j
 
 
 def _misaligned(k: int, m_arcsec: tuple[float, float]) -> np.ndarray:

@@ -22,7 +22,7 @@ from pathlib import Path
 
 import can
 import cantools
-from crccheck.crc import Crc8Autosar, Crc32C  # type: ignore[import-untyped]
+from crccheck.crc import Crc8Autosar, Crc32C
 
 import config
 from station.hil.profile import served

@@ -37,7 +37,7 @@ from sim.isu.world import World
 from sim.timebase import ticks, ticks_ceil
 
 if TYPE_CHECKING:
-    from instruments.faults import FrameFault
+    from instruments.output_faults import FrameFault
 
 GYRO_LINES = ("G1", "G2", "G3")
 ACCEL_LINES = ("A1S1", "A1S2", "A2S1", "A2S2", "A3S1", "A3S2")

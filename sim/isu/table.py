@@ -9,6 +9,7 @@ non-orthogonality, and the base is tilted statically and by the pier (sim.isu.en
 from __future__ import annotations
 
 import math
+from typing import overload
 
 import numpy as np
 
@@ -52,7 +53,12 @@ class FourAxisTable:
         self.rotation_output = True  # False: the rotary pulse output is dead (a fault)
 
     # ----- resolvers -----
-    def resolver_error(self, axis: int, p):
+    @overload
+    def resolver_error(self, axis: int, p: float) -> float: ...
+    @overload
+    def resolver_error(self, axis: int, p: np.ndarray) -> np.ndarray: ...
+    def resolver_error(self, axis: int, p: float | np.ndarray) -> float | np.ndarray:
+        """Resolver reading minus true angle (rad) of ``axis`` at true angle(s) p."""
         a1, a2, f1, f2 = self._res_err[axis]
         return a1 * np.sin(p + f1) + a2 * np.sin(2 * p + f2)
 

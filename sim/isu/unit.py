@@ -108,7 +108,7 @@ class Gyro:
         )
         return np.clip(r, -self.max_rate, self.max_rate)
 
-    def noise_angle(self, t) -> np.ndarray:
+    def noise_angle(self, t: float | np.ndarray) -> float | np.ndarray:
         """Angle (rad) added by random walk and random drift from 0 to t."""
         return self.arw.value(t) + self.drift.integral(t)
 

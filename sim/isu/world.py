@@ -68,7 +68,7 @@ class World:
         return self._change
 
     # ----- kinematics -----
-    def kinematics(self, t) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def kinematics(self, t: float | np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """T^BE (N,3,3), body angular rate w.r.t. inertial space (N,3), specific force (N,3)."""
         t = np.atleast_1d(np.asarray(t, dtype=float))
         f = self.table.frames(t)

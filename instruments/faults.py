@@ -15,9 +15,9 @@ stops an instrument sending anything from then on (it still listens). The table'
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Generator, Mapping
 from functools import partial
-from typing import TYPE_CHECKING, Protocol, runtime_checkable
+from typing import TYPE_CHECKING, Any, Protocol, runtime_checkable
 
 import simpy
 from pydantic import BaseModel, ConfigDict, Field
@@ -66,7 +66,7 @@ def at(env: simpy.Environment, t_s: float, action: Callable[[], None]) -> None:
         action()
         return
 
-    def wait():
+    def wait() -> Generator[simpy.Event, Any, None]:
         yield env.timeout(t - env.now)
         action()
 

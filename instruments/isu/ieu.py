@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import math
 from collections import deque
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Generator, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, cast
 
@@ -243,7 +243,7 @@ class Ieu:
         self._proc = None
 
     # ----- sampling -----
-    def _sample_loop(self):
+    def _sample_loop(self) -> Generator[simpy.Event, Any, None]:
         w = self.world
         s2 = w.line("OSC2")
         try:
@@ -296,7 +296,7 @@ class Ieu:
         if fault is not None:
             t += fault.latency_s
 
-        def deliver():
+        def deliver() -> Generator[simpy.Event, Any, None]:
             yield self.env.timeout(max(0, ticks(t) - self.env.now))
             if self.silent:
                 return

@@ -19,6 +19,7 @@ import sys
 import threading
 import time
 from pathlib import Path
+from typing import TextIO
 
 import can
 import cantools
@@ -76,7 +77,7 @@ def decode(db: cantools.database.can.Database, m: can.Message,
     return rec
 
 
-def sniff(links_dir: Path, out, seconds: float | None, stop: threading.Event) -> int:
+def sniff(links_dir: Path, out: TextIO, seconds: float | None, stop: threading.Event) -> int:
     """Decode frames until ``stop`` is set or ``seconds`` pass; returns the frame count."""
     cfg = served(links_dir).can["ieu"]
     db = cantools.database.load_file(str(config.path(config.IEU_DBC)))

@@ -20,6 +20,8 @@ from sim.timebase import seconds
 from station.hil.counters import LinkCounters
 
 if TYPE_CHECKING:
+    from rich.console import Group
+
     from station.hil.realtime import RealtimeEnv
     from station.hil.serial_link import SerialPtyLink
     from station.hil.slcan import SlcanAdapter
@@ -89,7 +91,7 @@ def header(server: ServedLinks) -> str:
             f"{env.slipped_s:.3f} s | {env.inputs_applied} inputs applied")
 
 
-def render(server: ServedLinks):
+def render(server: ServedLinks) -> Group:
     """The live status: a header line and a table of the links (a rich renderable)."""
     from rich import box
     from rich.console import Group

@@ -6,6 +6,8 @@ are simulated seconds; ``recv(timeout)`` advances the simulation inline.
 
 from __future__ import annotations
 
+from typing import Any
+
 import can
 
 from sim.timebase import seconds
@@ -13,7 +15,7 @@ from station.links import virtual
 
 
 class SimBus(can.BusABC):
-    def __init__(self, channel: str = "ieu", rack: str | None = None, **kwargs) -> None:
+    def __init__(self, channel: str = "ieu", rack: str | None = None, **kwargs: Any) -> None:
         try:
             self._ep, self._env = virtual.resolve_can(str(channel), rack)
         except LookupError as e:
@@ -53,7 +55,7 @@ class SimBus(can.BusABC):
             if self._matches_filters(msg):
                 return msg
 
-    def _recv_internal(self, timeout: float | None):
+    def _recv_internal(self, timeout: float | None) -> tuple[can.Message | None, bool]:
         out = self._ep.output
         virtual.run_until(self._env, lambda: len(out) > 0, timeout)
         return self._take(), False

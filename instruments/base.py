@@ -27,7 +27,7 @@ import simpy
 from sim.timebase import ticks
 
 if TYPE_CHECKING:
-    from instruments.faults import ReplyFault
+    from instruments.output_faults import ReplyFault
 
 MAX_LINE = 256  # bytes of one command line
 MAX_REPLIES = 256  # replies waiting to leave: the output queue's size

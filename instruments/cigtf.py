@@ -17,6 +17,11 @@ Gyro power control:
 
 from __future__ import annotations
 
+from collections.abc import Generator
+from typing import Any
+
+import simpy
+
 from instruments.base import ByteInstrument, Deferred, InstrumentError, as_int
 from sim.cigtf.world import CigtfWorld
 from sim.timebase import ticks
@@ -90,7 +95,7 @@ class AveragingDvm(ByteInstrument):
         self.env.process(self._average(d))
         return d
 
-    def _average(self, d: Deferred):
+    def _average(self, d: Deferred) -> Generator[simpy.Event, Any, None]:
         t0 = self.world.now
         yield self.env.timeout(ticks(self.world.p.average_s)) | d.cancel_event
         if d.cancelled:  # a *CLS dropped the query: the average is abandoned

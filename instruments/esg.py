@@ -27,6 +27,8 @@ Gyro control console: SPIN UP|OFF | DAMP ON|OFF | STAT? | SPEED?.
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Generator
+from typing import Any
 
 import simpy
 
@@ -179,7 +181,7 @@ class DataProcessor(ByteInstrument):
         earliest = int(self.env.now) + ticks_ceil((self.revolutions + 1) / rps)
         return max(0, -((self.t_zero - earliest) // LINE_TICKS))  # ceiling division
 
-    def _lines(self, k: int | None, ok_seq: int):
+    def _lines(self, k: int | None, ok_seq: int) -> Generator[simpy.Event, Any, None]:
         a, b = self.pickoffs
         rev, run, settings = self.revolutions, self.run, self.settings
         n = self._first_index()
@@ -235,7 +237,9 @@ class DataProcessor(ByteInstrument):
         return b" ".join(fields) + b"\n"
 
     @staticmethod
-    def _digit_candidates(fields: list[bytes], selected: tuple[int, int]):
+    def _digit_candidates(fields: list[bytes], selected: tuple[int, int]
+                          ) -> list[tuple[int, int, int]]:
+        """(field, position, digit) of each one-digit change the format checks catch."""
         out = []
         for f in (*selected, 5):
             for pos in (0, 1):

@@ -15,95 +15,48 @@ stops an instrument sending anything from then on (it still listens). The table'
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
-from typing import Protocol
+from collections.abc import Callable, Generator, Mapping
+from functools import partial
+from typing import TYPE_CHECKING, Any, Protocol, runtime_checkable
 
-import numpy as np
 import simpy
+from pydantic import BaseModel, ConfigDict, Field
 
 from instruments.base import ByteInstrument
-from instruments.isu.ieu import Ieu
-from instruments.isu.table_controller import TableController
-from sim.rng import stream
+from instruments.output_faults import FrameFault, ReplyFault
 from sim.timebase import ticks
 
+if TYPE_CHECKING:  # the config reads FaultSpec: keep the IEU and its CAN database unloaded
+    from instruments.isu.ieu import Ieu
 
-class FaultSettings(Protocol):
-    """One instrument's faults (``station.config.isu.FaultSpec`` is one; defaults mean none)."""
-
-    latency_s: float
-    drop_rate: float
-    corrupt_rate: float
-    silent_after_s: float | None
-    stall_axis: int | None
-    stall_after_s: float
+MAX_RUN_S = 1e6  # s: no run of any laboratory lasts this long (the longest is 52 h)
+TABLE_ONLY_FAULTS = ("stall_axis", "stall_after_s")
 
 
-class _LossyOutput:
-    """Rates and seeded streams shared by the reply and frame faults."""
+class FaultSpec(BaseModel):
+    """Faults of one instrument for a rehearsal (``[faults.<instrument>]``); defaults: none.
 
-    def __init__(self, name: str, seed: int, latency_s: float, drop_rate: float,
-                 corrupt_rate: float) -> None:
-        self.latency_s = latency_s
-        self.drop_rate = drop_rate
-        self.corrupt_rate = corrupt_rate
-        self._drop = stream(seed, "faults", name, "drop")
-        self._corrupt = stream(seed, "faults", name, "corrupt")
+    Applied inside the simulated instruments, so a virtual run and a served rack misbehave
+    alike; every random choice is seeded from the run's seed. The station config
+    (station.config.isu) reads a table of these, one per instrument name.
+    """
 
-
-class ReplyFault(_LossyOutput):
-    """Delays, garbles and loses the reply bytes of one serial instrument."""
-
-    def __init__(self, name: str, seed: int, latency_s: float, drop_rate: float,
-                 corrupt_rate: float) -> None:
-        super().__init__(name, seed, latency_s, drop_rate, corrupt_rate)
-        self.latency = ticks(latency_s)  # extra ticks before each reply
-        self.bytes_seen = 0
-        self.bytes_corrupted = 0
-        self.bytes_dropped = 0
-
-    def garble(self, data: bytes) -> bytes:
-        """The bytes that reach the link: some with one bit flipped, some lost."""
-        if not (self.corrupt_rate or self.drop_rate):
-            return data
-        buf = np.frombuffer(data, dtype=np.uint8).copy()
-        self.bytes_seen += buf.size
-        if self.corrupt_rate:
-            hit = self._corrupt.random(buf.size) < self.corrupt_rate
-            n = int(hit.sum())
-            bits = self._corrupt.integers(0, 8, size=n)
-            buf[hit] ^= np.left_shift(1, bits).astype(np.uint8)
-            self.bytes_corrupted += n
-        if self.drop_rate:
-            keep = self._drop.random(buf.size) >= self.drop_rate
-            self.bytes_dropped += int(buf.size - keep.sum())
-            buf = buf[keep]
-        return buf.tobytes()
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False, strict=True)
+    # Extra delay per reply / frame. Past a minute (twelve times the drivers' 5 s reply
+    # timeout) a late reply is silence: rehearse that with silent_after_s.
+    latency_s: float = Field(0.0, ge=0, le=60.0)
+    drop_rate: float = Field(0.0, ge=0, lt=1)  # serial: per reply byte; IEU: per frame
+    corrupt_rate: float = Field(0.0, ge=0, lt=1)  # serial: one bit per byte; IEU: one byte
+    silent_after_s: float | None = Field(None, ge=0, le=MAX_RUN_S)  # sends nothing after
+    stall_axis: int | None = Field(None, ge=1, le=4)  # table only: the axis whose drive seizes
+    stall_after_s: float = Field(0.0, ge=0, le=MAX_RUN_S)  # table only: when it seizes
 
 
-class FrameFault(_LossyOutput):
-    """Delays (``latency_s`` added to each send time), loses and alters the IEU's frames."""
+@runtime_checkable
+class AxisDrives(Protocol):
+    """An instrument with drives that can seize (the ISU's table controller)."""
 
-    def __init__(self, name: str, seed: int, latency_s: float, drop_rate: float,
-                 corrupt_rate: float) -> None:
-        super().__init__(name, seed, latency_s, drop_rate, corrupt_rate)
-        self.frames_seen = 0
-        self.frames_dropped = 0
-        self.frames_corrupted = 0
-
-    def frame(self, data: bytes) -> bytes | None:
-        """The frame's data as it goes on the bus, or None if the frame is lost."""
-        self.frames_seen += 1
-        if self.drop_rate and self._drop.random() < self.drop_rate:
-            self.frames_dropped += 1
-            return None
-        if self.corrupt_rate and data and self._corrupt.random() < self.corrupt_rate:
-            i = int(self._corrupt.integers(len(data)))
-            out = bytearray(data)
-            out[i] ^= int(self._corrupt.integers(1, 256))  # never zero: the byte does change
-            self.frames_corrupted += 1
-            return bytes(out)
-        return data
+    def stall(self, axis: int) -> None: ...
 
 
 def at(env: simpy.Environment, t_s: float, action: Callable[[], None]) -> None:
@@ -113,7 +66,7 @@ def at(env: simpy.Environment, t_s: float, action: Callable[[], None]) -> None:
         action()
         return
 
-    def wait():
+    def wait() -> Generator[simpy.Event, Any, None]:
         yield env.timeout(t - env.now)
         action()
 
@@ -128,7 +81,7 @@ def _silence(inst: ByteInstrument | Ieu) -> Callable[[], None]:
 
 
 def apply_faults(serial: Mapping[str, ByteInstrument], ieu: Ieu,
-                 faults: Mapping[str, FaultSettings], seed: int) -> None:
+                 faults: Mapping[str, FaultSpec], seed: int) -> None:
     """Arm each configured fault on its instrument; nothing at all when ``faults`` is empty."""
     env = ieu.env
     for name, f in faults.items():
@@ -139,14 +92,14 @@ def apply_faults(serial: Mapping[str, ByteInstrument], ieu: Ieu,
         else:
             raise ValueError(f"fault for unknown instrument {name!r}")
         if f.latency_s or f.drop_rate or f.corrupt_rate:
-            if isinstance(inst, Ieu):
-                inst.frame_fault = FrameFault(name, seed, f.latency_s, f.drop_rate, f.corrupt_rate)
+            lossy = (name, seed, f.latency_s, f.drop_rate, f.corrupt_rate)
+            if isinstance(inst, ByteInstrument):
+                inst.reply_fault = ReplyFault(*lossy)
             else:
-                inst.reply_fault = ReplyFault(name, seed, f.latency_s, f.drop_rate, f.corrupt_rate)
+                inst.frame_fault = FrameFault(*lossy)
         if f.silent_after_s is not None:
             at(env, f.silent_after_s, _silence(inst))
         if f.stall_axis is not None:
-            if not isinstance(inst, TableController):
+            if not isinstance(inst, AxisDrives):
                 raise ValueError(f"{name} has no axis to stall")
-            axis = f.stall_axis
-            at(env, f.stall_after_s, lambda t=inst, a=axis: t.stall(a))
+            at(env, f.stall_after_s, partial(inst.stall, f.stall_axis))

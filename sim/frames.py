@@ -7,9 +7,10 @@ the inner frame about its own axis 1 in the positive sense.
 from __future__ import annotations
 
 import numpy as np
+import numpy.typing as npt
 
 
-def gimbal(p) -> np.ndarray:
+def gimbal(p: float | np.ndarray) -> np.ndarray:
     """Chart I-4 gimbal transform [[0,1,0],[cos p,0,-sin p],[-sin p,0,-cos p]]; p scalar or (N,)."""
     p = np.asarray(p, dtype=float)
     c, s = np.cos(p), np.sin(p)
@@ -22,7 +23,7 @@ def gimbal(p) -> np.ndarray:
     return m
 
 
-def rotation(v) -> np.ndarray:
+def rotation(v: npt.ArrayLike) -> np.ndarray:
     """Rotation matrix turning vectors by rotation vector v (Rodrigues); v (3,) or (N, 3)."""
     v = np.asarray(v, dtype=float)
     single = v.ndim == 1
@@ -38,7 +39,7 @@ def rotation(v) -> np.ndarray:
     return r[0] if single else r
 
 
-def skew(v) -> np.ndarray:
+def skew(v: npt.ArrayLike) -> np.ndarray:
     """Cross-product matrix [v x] for v of shape (..., 3)."""
     v = np.asarray(v, dtype=float)
     k = np.zeros(v.shape[:-1] + (3, 3))
@@ -49,7 +50,7 @@ def skew(v) -> np.ndarray:
     return k
 
 
-def transform_of_rotated(v) -> np.ndarray:
+def transform_of_rotated(v: npt.ArrayLike) -> np.ndarray:
     """T^XY of a frame X obtained by turning frame Y by rotation vector v (Y components)."""
     r = rotation(v)
     return np.swapaxes(r, -1, -2)

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
+from typing import overload
 
 import numpy as np
 from scipy.signal import lfilter
@@ -59,7 +60,11 @@ class KnotProcess:
         self._ensure(int(k.max()) if k.size else 0)
         return k, u - k
 
-    def value(self, t):
+    @overload
+    def value(self, t: float) -> float: ...
+    @overload
+    def value(self, t: np.ndarray) -> np.ndarray: ...
+    def value(self, t: float | np.ndarray) -> float | np.ndarray:
         """Process value at time(s) t (seconds)."""
         ta = np.asarray(t, dtype=float)
         k, f = self._locate(np.atleast_1d(ta))
@@ -72,7 +77,11 @@ class KnotProcess:
         x0, x1 = self._x[k], self._x[k + 1]
         return x0 + (x1 - x0) * f, (x1 - x0) / self.h
 
-    def integral(self, t):
+    @overload
+    def integral(self, t: float) -> float: ...
+    @overload
+    def integral(self, t: np.ndarray) -> np.ndarray: ...
+    def integral(self, t: float | np.ndarray) -> float | np.ndarray:
         """Integral of the process from 0 to time(s) t."""
         ta = np.asarray(t, dtype=float)
         k, f = self._locate(np.atleast_1d(ta))
@@ -136,7 +145,12 @@ class RandomWalk:
             x0[i], x1[i] = p[r], p[r + 1]
         return x0, x1, u - k
 
-    def value(self, t):
+    @overload
+    def value(self, t: float) -> float: ...
+    @overload
+    def value(self, t: np.ndarray) -> np.ndarray: ...
+    def value(self, t: float | np.ndarray) -> float | np.ndarray:
+        """Value at time(s) t (seconds)."""
         ta = np.asarray(t, dtype=float)
         x0, x1, f = self._knots(np.atleast_1d(ta))
         v = x0 + (x1 - x0) * f
@@ -171,13 +185,19 @@ class Multitone:
     Covariance: sum_k (A_k^2 / 2) cos(w_k tau). Value and running integral are closed form.
     """
 
-    def __init__(self, rms: float, f_lo: float, f_hi: float, n: int, seed: int, *names) -> None:
+    def __init__(self, rms: float, f_lo: float, f_hi: float, n: int, seed: int,
+                 *names: str | int) -> None:
         rng = stream(seed, *names)
         self.w = 2.0 * math.pi * rng.uniform(f_lo, f_hi, n)
         self.amp = np.full(n, rms * math.sqrt(2.0 / n))
         self.psi = rng.uniform(0.0, 2.0 * math.pi, n)
 
-    def value(self, t):
+    @overload
+    def value(self, t: float) -> float: ...
+    @overload
+    def value(self, t: np.ndarray) -> np.ndarray: ...
+    def value(self, t: float | np.ndarray) -> float | np.ndarray:
+        """Value at time(s) t (seconds)."""
         ta = np.asarray(t, dtype=float)
         v = np.cos(np.multiply.outer(ta, self.w) + self.psi) @ self.amp
         return v if ta.ndim else float(v)
@@ -187,13 +207,18 @@ class Multitone:
         ph = np.multiply.outer(np.atleast_1d(np.asarray(t, dtype=float)), self.w) + self.psi
         return np.cos(ph) @ self.amp, -np.sin(ph) @ (self.amp * self.w)
 
-    def integral(self, t):
+    @overload
+    def integral(self, t: float) -> float: ...
+    @overload
+    def integral(self, t: np.ndarray) -> np.ndarray: ...
+    def integral(self, t: float | np.ndarray) -> float | np.ndarray:
         """Integral from 0 to t."""
         ta = np.asarray(t, dtype=float)
         c = self.amp / self.w
         v = np.sin(np.multiply.outer(ta, self.w) + self.psi) @ c - float(np.sin(self.psi) @ c)
         return v if ta.ndim else float(v)
 
-    def covariance(self, tau):
+    def covariance(self, tau: float | np.ndarray) -> np.ndarray:
+        """Covariance at lag(s) tau."""
         ta = np.asarray(tau, dtype=float)
         return np.cos(np.multiply.outer(ta, self.w)) @ (0.5 * self.amp**2)

@@ -21,6 +21,6 @@ def ticks_ceil(seconds: float) -> int:
     return int(math.ceil(seconds * TICKS_PER_SECOND - 1e-6))
 
 
-def seconds(t: int) -> float:
-    """Ticks to seconds."""
+def seconds(t: float) -> float:
+    """Ticks to seconds (simpy types its clock as int | float; the station's is int ticks)."""
     return t / TICKS_PER_SECOND

@@ -13,8 +13,11 @@ Protocol:
 from __future__ import annotations
 
 import math
+from collections.abc import Generator
+from typing import Any
 
 import numpy as np
+import simpy
 
 from instruments.base import ByteInstrument, Deferred, InstrumentError, as_float, as_real_in
 from instruments.isu.params import AutocollimatorParams
@@ -82,7 +85,7 @@ class Autocollimator(ByteInstrument):
     def _meas(self, _: list[str]) -> Deferred:
         d = Deferred(self.env)
 
-        def integrate():
+        def integrate() -> Generator[simpy.Event, Any, None]:
             yield self.env.timeout(ticks(self.p.integration_s)) | d.cancel_event
             if d.cancelled:  # a *CLS dropped the query: nothing to measure
                 return

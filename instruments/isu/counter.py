@@ -13,6 +13,8 @@ from __future__ import annotations
 
 import math
 from collections import deque
+from collections.abc import Callable, Generator
+from typing import Any
 
 import simpy
 
@@ -52,7 +54,8 @@ class FrequencyCounter(ByteInstrument):
 
     # ----- wiring -----
     def _inputs(self) -> tuple[PulseLine | None, PulseLine | None, PulseLine | None]:
-        return tuple(self.panel.source(self.jack, i) for i in ("X", "Y", "Z"))  # type: ignore
+        src = self.panel.source
+        return src(self.jack, "X"), src(self.jack, "Y"), src(self.jack, "Z")
 
     def _difference_line(self, x: PulseLine | None, y: PulseLine | None) -> PulseLine:
         """The X-Y train as a gating line (measure X-Y)."""
@@ -65,7 +68,7 @@ class FrequencyCounter(ByteInstrument):
         raise InstrumentError(22, "X-Y gating needs X alone or the +/- lines of one gyro")
 
     # ----- measurement -----
-    def _gate_line_and_reader(self):
+    def _gate_line_and_reader(self) -> tuple[PulseLine, Callable[[float, float], int]]:
         x, y, z = self._inputs()
         if self.mode == "Z":
             if z is None:
@@ -82,7 +85,7 @@ class FrequencyCounter(ByteInstrument):
             raise InstrumentError(21, "input Z not connected")
         return gate, lambda t0, t1: z.count(t0, t1)
 
-    def _run(self):
+    def _run(self) -> Generator[simpy.Event, Any, None]:
         try:
             yield from self._gates()
         except simpy.Interrupt:
@@ -94,7 +97,7 @@ class FrequencyCounter(ByteInstrument):
             self.gate_open = None
             self._refuse_waiters(reply)
 
-    def _gates(self):
+    def _gates(self) -> Generator[simpy.Event, Any, None]:
         world = self.world
         while self.operating:
             try:

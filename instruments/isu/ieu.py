@@ -22,21 +22,22 @@ from __future__ import annotations
 
 import math
 from collections import deque
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Generator, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, cast
 
 import cantools
 import simpy
-from crccheck.crc import Crc8Autosar, Crc32C  # type: ignore[import-untyped]
+from crccheck.crc import Crc8Autosar, Crc32C
 
 import config
 from instruments.isu.params import IeuParams
+from sim.isu.pulses import PulseLine
 from sim.isu.world import World
 from sim.timebase import ticks, ticks_ceil
 
 if TYPE_CHECKING:
-    from instruments.faults import FrameFault
+    from instruments.output_faults import FrameFault
 
 GYRO_LINES = ("G1", "G2", "G3")
 ACCEL_LINES = ("A1S1", "A1S2", "A2S1", "A2S2", "A3S1", "A3S2")
@@ -94,6 +95,15 @@ def min_period_s(db: cantools.database.can.Database) -> float:
     sample = sum(can_frame_bits(db.get_message_by_name(n).length) for n in SAMPLE_FRAMES)
     command = can_frame_bits(db.get_message_by_name("IEU_COMMAND").length)
     return (2 * sample + command) / bus_bit_rate(db)
+
+
+def _latch_edge(s2: PulseLine, t: float, n: int) -> float:
+    """The n-th S2^T pulse after t: the master oscillator runs on whatever the table does,
+    so its line always has one (a None here is a broken world, not a stopped table)."""
+    edge = s2.edge_after(t, n)
+    if edge is None:
+        raise RuntimeError(f"the IEU's S2^T line has no edge {n} pulse(s) after t = {t:.6f} s")
+    return edge
 
 
 # ----- end-to-end checks -----
@@ -248,14 +258,14 @@ class Ieu:
         self._proc = None
 
     # ----- sampling -----
-    def _sample_loop(self):
+    def _sample_loop(self) -> Generator[simpy.Event, Any, None]:
         w = self.world
         s2 = w.line("OSC2")
         try:
-            t_prev = s2.edge_after(w.now, 1)
+            t_prev = _latch_edge(s2, w.now, 1)
             yield self.env.timeout(max(0, ticks_ceil(t_prev) - self.env.now))
             while self.running:
-                t_next = s2.edge_after(t_prev, self.period)
+                t_next = _latch_edge(s2, t_prev, self.period)
                 due = ticks_ceil(t_next)
                 early = due - ticks(self.lookahead_s)
                 counts = None
@@ -301,7 +311,7 @@ class Ieu:
         if fault is not None:
             t += fault.latency_s
 
-        def deliver():
+        def deliver() -> Generator[simpy.Event, Any, None]:
             yield self.env.timeout(max(0, ticks(t) - self.env.now))
             if self.silent:
                 return

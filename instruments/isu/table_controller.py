@@ -16,6 +16,7 @@ Protocol (one reply line per command; angles in degrees, rates in deg/s):
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 
 from instruments.base import ByteInstrument, InstrumentError, as_float, as_int, as_real_in
 from sim.isu.table import AXES, CONTINUOUS, TableError
@@ -88,7 +89,8 @@ class TableController(ByteInstrument):
         # a resolver reading: beyond ten turns the modulo would lose the arcsec
         return as_real_in(x, "angle", -MAX_ANGLE_DEG, MAX_ANGLE_DEG)
 
-    def _apply(self, fn, *a) -> str:
+    def _apply(self, fn: Callable[..., object], *a: float) -> str:
+        """A motion command ``fn(*a, now)`` on the table, refused while the interlock is open."""
         if not self.interlock_closed:
             raise InstrumentError(15, "interlock open: motion inhibited")
         try:

@@ -106,7 +106,8 @@ class GyrocompassFixture:
         self.vertical_deg, self.horizontal_deg = int(vertical_deg), int(horizontal_deg)
         self._moves += 1
         rng = stream(self.seed, "gyrocompass_fixture", "move", self._moves)
-        self._noise = tuple(float(x) for x in rng.normal(0.0, self.spec.repeatability_sd, 2))
+        nv, nh = rng.normal(0.0, self.spec.repeatability_sd, 2)
+        self._noise = (float(nv), float(nh))
 
     def angles(self) -> tuple[float, float]:
         """Actual vertical and horizontal axis angles, radians."""

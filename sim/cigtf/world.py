@@ -20,7 +20,9 @@ Magnitudes (our choice; the report's text gives none for the noise, only the dof
 from __future__ import annotations
 
 import math
+from collections.abc import Generator
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 import simpy
@@ -100,7 +102,7 @@ class CigtfWorld:
             self.env.process(self._arrive(ticks(dur), vertical_deg % 360, horizontal_deg % 360))
         return self.moving_until
 
-    def _arrive(self, dt: int, v: int, h: int):
+    def _arrive(self, dt: int, v: int, h: int) -> Generator[simpy.Event, Any, None]:
         yield self.env.timeout(dt)
         self.fixture.move_to(v, h)
         if self.gyro.on_since is not None:

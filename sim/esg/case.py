@@ -20,12 +20,13 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+import numpy.typing as npt
 
 from sim.rng import stream
 from sim.units import ARCSEC
 
 
-def small_rotation(v) -> np.ndarray:
+def small_rotation(v: npt.ArrayLike) -> np.ndarray:
     """Rotation matrix of the rotation vector v (Rodrigues)."""
     v = np.asarray(v, float)
     a = float(np.linalg.norm(v))

@@ -41,9 +41,10 @@ from __future__ import annotations
 import functools
 import math
 from dataclasses import dataclass
-from typing import NamedTuple
+from typing import NamedTuple, overload
 
 import numpy as np
+import numpy.typing as npt
 
 from sim.rng import stream
 
@@ -184,7 +185,7 @@ class Pattern:
         near_pi = _NEAR_PI.reshape((-1,) + (1,) * (np.ndim(h) - 1))
         return np.where(near_pi, math.pi - h, h), ok
 
-    def edge_function(self, name: str, theta, phi) -> np.ndarray:
+    def edge_function(self, name: str, theta: npt.ArrayLike, phi: npt.ArrayLike) -> np.ndarray:
         """F(theta, phi) of the named edge's family (for checking solutions)."""
         theta, phi = np.asarray(theta, float), np.asarray(phi, float)
         st, ct = np.sin(theta), np.cos(theta)
@@ -203,7 +204,7 @@ class Pattern:
         s = np.concatenate([np.zeros((len(EDGE_NAMES), 1)), np.cumsum(ds, axis=1)], axis=1)
         return th, s
 
-    def edge_offsets(self, theta) -> np.ndarray:
+    def edge_offsets(self, theta: npt.ArrayLike) -> np.ndarray:
         """F value D_e(theta) of every edge, flaws included; shape (6, n)."""
         theta = np.atleast_1d(np.asarray(theta, float))
         u = (theta - 0.5 * math.pi) / (0.5 * math.pi - self.top)
@@ -225,23 +226,27 @@ class Pattern:
             d = d + self._rough[rows, j] * (1.0 - f) + self._rough[rows, j + 1] * f
         return d
 
-    def edge_offset(self, name: str, theta) -> np.ndarray:
+    def edge_offset(self, name: str, theta: npt.ArrayLike) -> np.ndarray:
         """F value of one edge at colatitude(s) theta, flaws included."""
         return self.edge_offsets(theta)[EDGE_NAMES.index(name)]
 
-    def visible(self, theta) -> np.ndarray:
+    def visible(self, theta: npt.ArrayLike) -> np.ndarray:
         """Whether a pickoff at colatitude theta crosses the patterned band."""
         theta = np.atleast_1d(np.asarray(theta, float))
         return (theta >= self.top) & (theta <= math.pi - self.top)
 
-    def edges(self, theta) -> Edges:
+    def edges(self, theta: npt.ArrayLike) -> Edges:
         """Edge longitudes (rad) at colatitude(s) theta (rad), vectorised."""
         theta = np.atleast_1d(np.asarray(theta, float))
         phi, ok = self._solve(theta[None, :], self.edge_offsets(theta))
         vis = self.visible(theta) & np.all(ok, axis=0)
-        return Edges(*phi, visible=vis)
+        return Edges._make((*phi, vis))  # phi: the six edges in Edges' order
 
-    def count_ratio(self, theta):
+    @overload
+    def count_ratio(self, theta: float) -> float: ...
+    @overload
+    def count_ratio(self, theta: np.ndarray) -> np.ndarray: ...
+    def count_ratio(self, theta: float | np.ndarray) -> float | np.ndarray:
         """Noise-free count ratio (phi2 - phi1) / 2 pi of the trailing edges; nan off-pattern."""
         scalar = np.ndim(theta) == 0
         e = self.edges(theta)

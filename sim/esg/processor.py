@@ -162,8 +162,8 @@ def _genuine(phi: np.ndarray, vis: np.ndarray, ch: Channel, w: float
     return lead.ravel()[keep], trail.ravel()[keep], kind[keep]
 
 
-def _edges_per_revolution(pattern: Pattern, ch: Channel, ends, n_rev: int
-                          ) -> tuple[np.ndarray, np.ndarray]:
+def _edges_per_revolution(pattern: Pattern, ch: Channel, ends: tuple[np.ndarray, np.ndarray],
+                          n_rev: int) -> tuple[np.ndarray, np.ndarray]:
     """Edge longitudes (6, n_rev) and visibility at each revolution of the window."""
     frac = (np.arange(n_rev) + 0.5) / n_rev
     phi_ends, vis_ends = ends

@@ -41,6 +41,7 @@ from dataclasses import dataclass
 from typing import Protocol
 
 import numpy as np
+import numpy.typing as npt
 
 from sim.rng import stream
 from sim.units import DEG_PER_HR, EARTH_RATE, HOUR
@@ -76,7 +77,7 @@ def _cross(a: Vec, b: Vec) -> Vec:
     return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
 
 
-def _unit(a) -> np.ndarray:
+def _unit(a: npt.ArrayLike) -> np.ndarray:
     a = np.asarray(a, float)
     return a / np.linalg.norm(a)
 
@@ -338,7 +339,7 @@ class Rotor:
             return self._ss[i].copy()
         return self._step(self._ts[i], self._ss[i], t)
 
-    def place(self, t: float, s_lab) -> None:
+    def place(self, t: float, s_lab: npt.ArrayLike) -> None:
         """Put the spin axis at s_lab at time t = now (a test and set-up hook)."""
         self._advance(t)
         if self._ts[-1] < t:

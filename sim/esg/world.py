@@ -48,6 +48,7 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
+import numpy.typing as npt
 import simpy
 
 from sim.esg.case import CaseSpec, GyroCase
@@ -235,7 +236,7 @@ class EsgWorld:
         """Noise-free count ratio from the exact geometry; nan when off the pattern."""
         return float(self.pattern.count_ratio(float(self.true_colatitudes(t)[pickoff - 1])))
 
-    def place_spin_axis(self, s_lab) -> None:
+    def place_spin_axis(self, s_lab: npt.ArrayLike) -> None:
         """Put the spin axis at s_lab now (test and set-up hook; the rotor must run free)."""
         if not self.rotor.free(self.now):
             raise RuntimeError("the rotor is not running free")

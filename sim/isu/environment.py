@@ -111,17 +111,17 @@ class Environment:
         return eps, rate
 
     # --- translational: floor vibration ---
-    def vibration_accel(self, t) -> np.ndarray:
+    def vibration_accel(self, t: float | np.ndarray) -> np.ndarray:
         t = np.atleast_1d(np.asarray(t, dtype=float))
         return np.stack([m.value(t) for m in self.vibration], axis=-1)
 
-    def vibration_velocity(self, t) -> np.ndarray:
+    def vibration_velocity(self, t: float | np.ndarray) -> np.ndarray:
         """Integral of the vibration acceleration from 0 to t, shape (N, 3)."""
         t = np.atleast_1d(np.asarray(t, dtype=float))
         return np.stack([m.integral(t) for m in self.vibration], axis=-1)
 
     # --- covariance functions of Chart I-9 (per horizontal axis / per axis) ---
-    def tilt_covariance(self, tau) -> np.ndarray:
+    def tilt_covariance(self, tau: float | np.ndarray) -> np.ndarray:
         """phi_theta(tau): covariance of one horizontal tilt component, rad^2."""
         tau = np.abs(np.asarray(tau, dtype=float))
         pt = self.p.pier_tilt
@@ -131,6 +131,6 @@ class Environment:
         wobble = 0.5 * (self.wobble[0].covariance(tau) + self.wobble[1].covariance(tau))
         return diurnal + wander + wobble
 
-    def vibration_covariance(self, tau, axis: int = 0) -> np.ndarray:
+    def vibration_covariance(self, tau: float | np.ndarray, axis: int = 0) -> np.ndarray:
         """phi_alpha(tau): covariance of the floor acceleration along one E axis, (m/s^2)^2."""
         return self.vibration[axis].covariance(tau)

@@ -69,6 +69,7 @@ class CellIntegral:
         self._coef = np.zeros((0, ORDER, m_val))
         self._inc = np.zeros((0, m_int, 3))
         self._basis_a = np.zeros((0, 3))
+        self._end = np.zeros(m_int)  # integral from 0 to the end of the last piece held
 
     # ----- building pieces -----
     def _split(self, a: float, b: float, rate: float | None) -> list[tuple[float, float]]:
@@ -100,8 +101,8 @@ class CellIntegral:
         r = np.maximum(r[:-1], r[1:])
         pieces: list[tuple[float, float]] = []
         for j in range(j0, k):
-            a, b = j * self.h, (j + 1) * self.h
-            pieces.extend(self._split(a, b, None if j in busy else float(r[j - j0])))
+            lo, hi = j * self.h, (j + 1) * self.h
+            pieces.extend(self._split(lo, hi, None if j in busy else float(r[j - j0])))
         ab = np.array(pieces)
         a, b = ab[:, 0], ab[:, 1]
         half = 0.5 * (b - a)

@@ -9,14 +9,18 @@ the right yardstick for them.
 from __future__ import annotations
 
 import math
+from collections.abc import Generator
+from typing import Any
 
 import numpy as np
+import simpy
 
 from sim import units
 from sim.isu.world import World
 
 
-def string_phase_grid(world: World, k: int, s: int, t0: float, t1: float, dt: float):
+def string_phase_grid(world: World, k: int, s: int, t0: float, t1: float, dt: float
+                      ) -> tuple[np.ndarray, np.ndarray]:
     """Times and phase (cycles) of accelerometer k+1, string s, by direct integration."""
     n = max(2, int(math.ceil((t1 - t0) / dt)) + 1)
     t = np.linspace(t0, t1, n)
@@ -49,11 +53,11 @@ def crossings(t: np.ndarray, ph: np.ndarray) -> np.ndarray:
     return np.array(out)
 
 
-def fire_pulses(world: World, times: np.ndarray, sink: list[float]):
+def fire_pulses(world: World, times: np.ndarray, sink: list[float]) -> simpy.Process:
     """A simpy process that fires one event per pulse and records its time."""
     env = world.env
 
-    def proc():
+    def proc() -> Generator[simpy.Event, Any, None]:
         for tp in times:
             due = int(math.ceil(tp * 1e9))
             if due > env.now:

@@ -9,6 +9,7 @@ non-orthogonality, and the base is tilted statically and by the pier (sim.isu.en
 from __future__ import annotations
 
 import math
+from typing import overload
 
 import numpy as np
 
@@ -52,7 +53,12 @@ class FourAxisTable:
         self.rotation_output = True  # False: the rotary pulse output is dead (a fault)
 
     # ----- resolvers -----
-    def resolver_error(self, axis: int, p):
+    @overload
+    def resolver_error(self, axis: int, p: float) -> float: ...
+    @overload
+    def resolver_error(self, axis: int, p: np.ndarray) -> np.ndarray: ...
+    def resolver_error(self, axis: int, p: float | np.ndarray) -> float | np.ndarray:
+        """Resolver reading minus true angle (rad) of ``axis`` at true angle(s) p."""
         a1, a2, f1, f2 = self._res_err[axis]
         return a1 * np.sin(p + f1) + a2 * np.sin(2 * p + f2)
 
@@ -160,7 +166,7 @@ class FourAxisTable:
         return max(tr.last_change() for tr in self.axes.values())
 
     # ----- kinematics -----
-    def frames(self, t: np.ndarray) -> dict[str, np.ndarray]:
+    def frames(self, t: float | np.ndarray) -> dict[str, np.ndarray]:
         """Gimbal transforms and axis angles/rates at times t (arrays, leading dim N)."""
         t = np.atleast_1d(np.asarray(t, dtype=float))
         ang, rate = {}, {}
@@ -179,7 +185,7 @@ class FourAxisTable:
             "rates": rate,
         }
 
-    def rotation_phase(self, t: np.ndarray) -> np.ndarray:
+    def rotation_phase(self, t: float | np.ndarray) -> np.ndarray:
         """Phase (cycles) of the rotary-axis pulse output: one pulse per 1/n turn of resolver 2."""
         p, _ = self.axes[2].evaluate(np.asarray(t, dtype=float))
         if not self.rotation_output:

@@ -26,7 +26,9 @@ DRIFT_KNOT = 10.0  # s
 
 
 def _others(k: int) -> tuple[int, int]:
-    return tuple(j for j in range(3) if j != k)  # type: ignore[return-value]
+    """The two axes other than k, in order."""
+    i, j = (m for m in range(3) if m != k)
+    return i, j
 
 
 def _misaligned(k: int, m_arcsec: tuple[float, float]) -> np.ndarray:
@@ -106,7 +108,7 @@ class Gyro:
         )
         return np.clip(r, -self.max_rate, self.max_rate)
 
-    def noise_angle(self, t) -> np.ndarray:
+    def noise_angle(self, t: float | np.ndarray) -> float | np.ndarray:
         """Angle (rad) added by random walk and random drift from 0 to t."""
         return self.arw.value(t) + self.drift.integral(t)
 

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from functools import partial
+
 import numpy as np
 import simpy
 
@@ -66,7 +68,7 @@ class World:
         return self._change
 
     # ----- kinematics -----
-    def kinematics(self, t) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def kinematics(self, t: float | np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """T^BE (N,3,3), body angular rate w.r.t. inertial space (N,3), specific force (N,3)."""
         t = np.atleast_1d(np.asarray(t, dtype=float))
         f = self.table.frames(t)
@@ -137,7 +139,7 @@ class World:
         osc = self.oscillator
         for k, g in enumerate(self.isu.gyros, start=1):
             net = PulseLine(
-                f"G{k}", lambda t, k=k: self.gyro_phase(k - 1, t), sample=(g.tau, g.sample_offset)
+                f"G{k}", partial(self.gyro_phase, k - 1), sample=(g.tau, g.sample_offset)
             )
             self.lines[f"G{k}"] = net
             for sign, suffix in ((1, "+"), (-1, "-")):
@@ -147,9 +149,7 @@ class World:
         for k in range(1, 4):
             for s in (1, 2):
                 name = f"A{k}S{s}"
-                self.lines[name] = PulseLine(
-                    name, lambda t, k=k, s=s: self.string_phase(k - 1, s, t)
-                )
+                self.lines[name] = PulseLine(name, partial(self.string_phase, k - 1, s))
         self.lines["TROT"] = PulseLine("TROT", lambda t: float(self.table.rotation_phase(t)))
         self.lines["OSC1"] = PulseLine("OSC1", lambda t: osc.phase(t) / osc.p.s1_divider)
         self.lines["OSC2"] = PulseLine("OSC2", lambda t: osc.phase(t) / osc.p.s2_divider)

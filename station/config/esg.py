@@ -18,12 +18,17 @@ from __future__ import annotations
 
 from dataclasses import replace
 from pathlib import Path
-from typing import Literal
+from typing import TYPE_CHECKING, Literal, TypeVar
 
 from pydantic import BaseModel, ConfigDict, Field
 
 from sim.esg.world import EsgParams
 from station.config.isu import read_section
+
+if TYPE_CHECKING:
+    from _typeshed import DataclassInstance
+
+_D = TypeVar("_D", bound="DataclassInstance")
 
 _STRICT = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False, strict=True)
 
@@ -59,7 +64,8 @@ class EsgConfig(BaseModel):
     signal: SignalConfig = SignalConfig.model_validate({})
 
 
-def _set(obj, model: BaseModel):
+def _set(obj: _D, model: BaseModel) -> _D:
+    """``obj`` with the fields ``model`` sets (not None, not a sub-table) replaced."""
     return replace(obj, **{k: v for k, v in model.model_dump().items()
                            if v is not None and not isinstance(v, dict)})
 

@@ -24,6 +24,7 @@ from pydantic import (
 )
 
 import config as config_pkg
+from instruments.faults import TABLE_ONLY_FAULTS, FaultSpec
 from instruments.isu.params import (
     AutocollimatorParams,
     BubbleLevelParams,
@@ -52,7 +53,6 @@ from station.drivers.isu import SERIAL_INSTRUMENTS
 
 __all__ = ["ConfigError", "StationConfig", "default_dict", "load_config", "read_section"]
 
-MAX_RUN_S = 1e6  # s: no run of any laboratory lasts this long (the longest is 52 h)
 MAX_SEED = 2**63 - 1  # the journal stores the seed as a JSON number
 _STRICT = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False, strict=True)
 _BUS_KEY = re.compile(r"[a-z_][a-z0-9_]*")
@@ -188,26 +188,8 @@ class InstrumentSettings(InstrumentParams):
 
 # ----------------------------------------------------------------------------- faults
 
+# one FaultSpec (instruments.faults) per instrument that can misbehave
 FAULT_INSTRUMENTS = (*SERIAL_INSTRUMENTS, "ieu")
-TABLE_ONLY_FAULTS = ("stall_axis", "stall_after_s")
-
-
-class FaultSpec(BaseModel):
-    """Faults of one instrument for a rehearsal (``[faults.<instrument>]``); defaults: none.
-
-    Applied inside the simulated instruments (instruments/faults.py), so a virtual run and a
-    served rack misbehave alike; every random choice is seeded from the run's seed.
-    """
-
-    model_config = _STRICT
-    # Extra delay per reply / frame. Past a minute (twelve times the drivers' 5 s reply
-    # timeout) a late reply is silence: rehearse that with silent_after_s.
-    latency_s: float = Field(0.0, ge=0, le=60.0)
-    drop_rate: float = Field(0.0, ge=0, lt=1)  # serial: per reply byte; IEU: per frame
-    corrupt_rate: float = Field(0.0, ge=0, lt=1)  # serial: one bit per byte; IEU: one byte
-    silent_after_s: float | None = Field(None, ge=0, le=MAX_RUN_S)  # sends nothing after
-    stall_axis: int | None = Field(None, ge=1, le=4)  # table only: the axis whose drive seizes
-    stall_after_s: float = Field(0.0, ge=0, le=MAX_RUN_S)  # table only: when it seizes
 
 
 def _fault_instrument(name: str) -> str:

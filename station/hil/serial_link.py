@@ -18,10 +18,10 @@ from pathlib import Path
 
 from instruments.base import ByteInstrument
 from station.hil import throttle
+from station.hil.counters import LinkCounters, short
 from station.hil.links_dir import DirHandle
 from station.hil.pty_port import PtyPort
 from station.hil.realtime import RealtimeEnv
-from station.hil.status import LinkCounters, short
 
 MAX_SEEN = 80  # bytes of a command line kept for display
 MAX_BACKLOG = 1024  # bytes posted to the simulation thread and not yet applied

@@ -27,7 +27,7 @@ import uuid
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from station.hil import link_map, session, status
 from station.hil.can_hub import CanHub
@@ -37,6 +37,9 @@ from station.hil.realtime import RealtimeEnv
 from station.hil.serial_link import SerialPtyLink
 from station.hil.slcan import SlcanAdapter
 from station.hil.socketcand import SocketcandServer
+
+if TYPE_CHECKING:
+    from rich.console import RenderableType
 
 log = logging.getLogger("station.hil")
 
@@ -299,7 +302,7 @@ def _watch(server: HilServer, tick: Callable[[], None] | None = None) -> None:
             tick()
 
 
-def _live_table(server: HilServer):
+def _live_table(server: HilServer) -> RenderableType:
     try:
         return status.render(server)
     except Exception as e:  # a display bug must not take the server down

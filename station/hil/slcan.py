@@ -26,9 +26,9 @@ from pathlib import Path
 
 from station.hil import throttle
 from station.hil.can_hub import CanHub
+from station.hil.counters import LinkCounters, short
 from station.hil.links_dir import DirHandle
 from station.hil.pty_port import PtyPort
-from station.hil.status import LinkCounters, short
 
 log = logging.getLogger(__name__)
 

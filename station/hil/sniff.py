@@ -19,10 +19,11 @@ import sys
 import threading
 import time
 from pathlib import Path
+from typing import TextIO
 
 import can
 import cantools
-from crccheck.crc import Crc8Autosar, Crc32C  # type: ignore[import-untyped]
+from crccheck.crc import Crc8Autosar, Crc32C
 
 import config
 from station.hil.profile import served
@@ -76,7 +77,7 @@ def decode(db: cantools.database.can.Database, m: can.Message,
     return rec
 
 
-def sniff(links_dir: Path, out, seconds: float | None, stop: threading.Event) -> int:
+def sniff(links_dir: Path, out: TextIO, seconds: float | None, stop: threading.Event) -> int:
     """Decode frames until ``stop`` is set or ``seconds`` pass; returns the frame count."""
     cfg = served(links_dir).can["ieu"]
     db = cantools.database.load_file(str(config.path(config.IEU_DBC)))

@@ -28,7 +28,7 @@ from collections.abc import Callable
 
 from station.hil import throttle
 from station.hil.can_hub import CanHub
-from station.hil.status import LinkCounters, short
+from station.hil.counters import LinkCounters, short
 
 log = logging.getLogger(__name__)
 

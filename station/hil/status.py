@@ -1,11 +1,9 @@
-"""What a running rack server shows: per-link counters, a live table and a plain status line.
+"""What a running rack server shows: a live table of its links and a plain status line.
 
-The link classes (``SerialPtyLink``, ``SocketcandServer`` and its clients, ``SlcanAdapter``)
-each own a :class:`LinkCounters` and update its plain integer fields from their own
-threads, every field from one thread only (the reader counts what comes in, the
-simulation or writer thread what goes out). The counters are for display: they take no
-lock, and nothing here iterates a structure another thread may change (the socketcand
-server sums its clients under its own lock).
+It reads each link's :class:`~station.hil.counters.LinkCounters` (display-only, written by
+the links' own threads) and never iterates a structure another thread may change (the
+socketcand server sums its clients under its own lock). It sees the server through
+:class:`ServedLinks`, what the display reads of it, not through the server module.
 
 ``render(server)`` is the rich table ``station serve`` keeps live on a terminal;
 ``status_line(server)`` the one line it prints every 10 s when stdout is a file.
@@ -14,50 +12,41 @@ server sums its clients under its own lock).
 from __future__ import annotations
 
 import time
+from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Protocol
 
 from sim.timebase import seconds
+from station.hil.counters import LinkCounters
 
 if TYPE_CHECKING:
-    from station.hil.server import HilServer
+    from rich.console import Group
 
-LAST_CHARS = 32  # of the last command shown
-
-
-class LinkCounters:
-    """Display-only counters of one link (each field has a single writing thread)."""
-
-    __slots__ = ("rx_msgs", "tx_msgs", "rx_bytes", "tx_bytes", "last_msg", "last_at")
-
-    def __init__(self) -> None:
-        self.rx_msgs = 0  # lines, commands or frames from the host
-        self.tx_msgs = 0  # replies, lines or frames to the host
-        self.rx_bytes = 0
-        self.tx_bytes = 0
-        self.last_msg = ""  # the last command seen from the host (truncated)
-        self.last_at: float | None = None  # time.monotonic() of the last traffic either way
-
-    def touch(self) -> None:
-        self.last_at = time.monotonic()
-
-    def add(self, other: LinkCounters) -> None:
-        """Accumulate ``other`` into this one (a snapshot, or a retired client's totals)."""
-        self.rx_msgs += other.rx_msgs
-        self.tx_msgs += other.tx_msgs
-        self.rx_bytes += other.rx_bytes
-        self.tx_bytes += other.tx_bytes
-        if other.last_at is not None and (self.last_at is None or other.last_at > self.last_at):
-            self.last_at = other.last_at
-            self.last_msg = other.last_msg or self.last_msg
+    from station.hil.realtime import RealtimeEnv
+    from station.hil.serial_link import SerialPtyLink
+    from station.hil.slcan import SlcanAdapter
+    from station.hil.socketcand import SocketcandServer
 
 
-def short(text: bytes | str, n: int = LAST_CHARS) -> str:
-    """Printable, truncated text of a command for display."""
-    if isinstance(text, bytes):
-        text = text.decode("ascii", "replace")
-    text = "".join(c if c.isprintable() else "?" for c in text.strip())
-    return text if len(text) <= n else text[: n - 1] + "~"
+class ServedLinks(Protocol):
+    """What the status display reads of a rack server (station.hil.server.HilServer)."""
+
+    @property
+    def station(self) -> str: ...
+    @property
+    def session_id(self) -> str: ...
+    @property
+    def seed(self) -> int: ...
+    @property
+    def env(self) -> RealtimeEnv: ...
+    @property
+    def serial(self) -> Mapping[str, SerialPtyLink]: ...
+    @property
+    def can_instrument(self) -> str | None: ...
+    @property
+    def socketcand(self) -> SocketcandServer | None: ...
+    @property
+    def slcan(self) -> SlcanAdapter | None: ...
 
 
 @dataclass(frozen=True)
@@ -70,7 +59,7 @@ class LinkRow:
     counters: LinkCounters
 
 
-def rows(server: HilServer) -> list[LinkRow]:
+def rows(server: ServedLinks) -> list[LinkRow]:
     """One row per link of the server, from a consistent-enough read of its counters."""
     out = [LinkRow(n, "serial", s.address, s.port.device, None, s.counters)
            for n, s in server.serial.items()]
@@ -89,20 +78,20 @@ def _idle(c: LinkCounters, now: float) -> str:
     return "-" if c.last_at is None else f"{now - c.last_at:.1f}"
 
 
-def simulated_now(server: HilServer) -> float:
+def simulated_now(server: ServedLinks) -> float:
     """The rack's time now, s: the wall mapping (simpy's ``now`` moves only at events)."""
     env = server.env
     return seconds(max(int(env.now), env.tick_at(time.monotonic())))
 
 
-def header(server: HilServer) -> str:
+def header(server: ServedLinks) -> str:
     env = server.env
     return (f"station {server.station} | session {server.session_id} | seed {server.seed} | "
             f"speed {env.speed:g}x | t = {simulated_now(server):.1f} s simulated | slip "
             f"{env.slipped_s:.3f} s | {env.inputs_applied} inputs applied")
 
 
-def render(server: HilServer):
+def render(server: ServedLinks) -> Group:
     """The live status: a header line and a table of the links (a rich renderable)."""
     from rich import box
     from rich.console import Group
@@ -126,7 +115,7 @@ def render(server: HilServer):
     return Group(Text(header(server), style="bold"), t, note)
 
 
-def status_line(server: HilServer) -> str:
+def status_line(server: ServedLinks) -> str:
     """One plain line: the header and, per link, messages and bytes in/out."""
     parts = [header(server)]
     for r in rows(server):
@@ -138,7 +127,7 @@ def status_line(server: HilServer) -> str:
     return "status: " + "; ".join(parts)
 
 
-def held_line(server: HilServer) -> str | None:
+def held_line(server: ServedLinks) -> str | None:
     """Which links had their host's input held back by the line rate or a busy simulation
     (how often), or None if none did: a flood, or a rehearsal too fast for its links."""
     held = {n: s.port.held for n, s in server.serial.items()}

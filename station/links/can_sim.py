@@ -6,6 +6,8 @@ are simulated seconds; ``recv(timeout)`` advances the simulation inline.
 
 from __future__ import annotations
 
+from typing import Any
+
 import can
 
 from sim.timebase import seconds
@@ -13,7 +15,7 @@ from station.links import virtual
 
 
 class SimBus(can.BusABC):
-    def __init__(self, channel: str = "ieu", rack: str | None = None, **kwargs) -> None:
+    def __init__(self, channel: str = "ieu", rack: str | None = None, **kwargs: Any) -> None:
         try:
             self._ep, self._env = virtual.resolve_can(str(channel), rack)
         except LookupError as e:
@@ -24,10 +26,10 @@ class SimBus(can.BusABC):
     def send(self, msg: can.Message, timeout: float | None = None) -> None:
         if msg.is_extended_id or msg.is_remote_frame or msg.is_error_frame:
             raise can.CanOperationError("the IEU bus carries standard data frames only")
-        self._ep.receive_frame(msg.arbitration_id, bytes(msg.data))  # type: ignore[attr-defined]
+        self._ep.receive_frame(msg.arbitration_id, bytes(msg.data))
 
     def _take(self) -> can.Message | None:
-        out = self._ep.output  # type: ignore[attr-defined]
+        out = self._ep.output
         if not out:
             return None
         t, fid, data = out.popleft()
@@ -41,7 +43,7 @@ class SimBus(can.BusABC):
 
     def recv(self, timeout: float | None = None) -> can.Message | None:
         """Next frame passing the filters, waiting at most ``timeout`` simulated seconds."""
-        out = self._ep.output  # type: ignore[attr-defined]
+        out = self._ep.output
         env = self._env
         deadline = None if timeout is None else seconds(env.now) + timeout
         while True:
@@ -53,8 +55,8 @@ class SimBus(can.BusABC):
             if self._matches_filters(msg):
                 return msg
 
-    def _recv_internal(self, timeout: float | None):
-        out = self._ep.output  # type: ignore[attr-defined]
+    def _recv_internal(self, timeout: float | None) -> tuple[can.Message | None, bool]:
+        out = self._ep.output
         virtual.run_until(self._env, lambda: len(out) > 0, timeout)
         return self._take(), False
 

@@ -11,6 +11,9 @@ from station.links import virtual
 
 
 class Serial(SerialBase):
+    """A pyserial port whose other end is a simulated instrument of the current rack."""
+
+    is_open: bool  # set by SerialBase (untyped)
     def open(self) -> None:
         if self._port is None:
             raise SerialException("port must be configured before it can be used")
@@ -34,7 +37,7 @@ class Serial(SerialBase):
     def _out(self) -> bytearray:
         if not self.is_open:
             raise PortNotOpenError()
-        return self._ep.output  # type: ignore[attr-defined]
+        return self._ep.output
 
     @property
     def in_waiting(self) -> int:
@@ -69,7 +72,7 @@ class Serial(SerialBase):
         if not self.is_open:
             raise PortNotOpenError()
         b = bytes(data)
-        self._ep.receive(b)  # type: ignore[attr-defined]
+        self._ep.receive(b)
         return len(b)
 
     def flush(self) -> None:

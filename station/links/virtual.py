@@ -7,8 +7,10 @@ awaited bytes or frames exist, or until the timeout expires in simulated time (D
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections import deque
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
+from typing import Protocol
 from urllib.parse import parse_qs, urlparse
 
 import simpy
@@ -19,12 +21,28 @@ from station.errors import Deadlock
 LIVELOCK_STEPS = 1_000_000  # events at one instant before a wait is declared stuck
 
 
+class SerialEndpoint(Protocol):
+    """A simulated serial instrument as its link sees it: bytes in, a buffer of bytes out."""
+
+    output: bytearray
+
+    def receive(self, data: bytes) -> None: ...
+
+
+class CanEndpoint(Protocol):
+    """A simulated CAN instrument as its bus sees it: frames in, (time s, id, data) out."""
+
+    output: deque[tuple[float, int, bytes]]
+
+    def receive_frame(self, arbitration_id: int, data: bytes) -> None: ...
+
+
 @dataclass
 class VirtualRack:
     rack_id: str
     env: simpy.Environment
-    serial: dict[str, object] = field(default_factory=dict)
-    can: dict[str, object] = field(default_factory=dict)
+    serial: Mapping[str, SerialEndpoint] = field(default_factory=dict)
+    can: Mapping[str, CanEndpoint] = field(default_factory=dict)
 
 
 _racks: dict[str, VirtualRack] = {}
@@ -51,7 +69,7 @@ def _rack(rack_id: str | None) -> VirtualRack:
     return _racks[rid]
 
 
-def resolve_serial(url: str) -> tuple[object, simpy.Environment]:
+def resolve_serial(url: str) -> tuple[SerialEndpoint, simpy.Environment]:
     """Endpoint for ``sim://NAME[?rack=ID]``."""
     u = urlparse(url)
     rack_id = parse_qs(u.query).get("rack", [None])[0]
@@ -62,7 +80,7 @@ def resolve_serial(url: str) -> tuple[object, simpy.Environment]:
     return rack.serial[name], rack.env
 
 
-def resolve_can(channel: str, rack_id: str | None) -> tuple[object, simpy.Environment]:
+def resolve_can(channel: str, rack_id: str | None) -> tuple[CanEndpoint, simpy.Environment]:
     rack = _rack(rack_id)
     if channel not in rack.can:
         raise LookupError(f"no simulated CAN channel '{channel}' in rack {rack.rack_id}")

@@ -29,7 +29,7 @@ from typing import Any, cast
 
 import can
 import cantools
-from crccheck.crc import Crc8Autosar, Crc32C  # type: ignore[import-untyped]
+from crccheck.crc import Crc8Autosar, Crc32C
 
 import config
 import station.links  # noqa: F401

@@ -28,7 +28,7 @@ from station.drivers.replies import (
     scientific,
     word,
 )
-from station.drivers.serial_base import MAX_REPLY, SerialDriver, strip_eol
+from station.drivers.serial_base import MAX_REPLY, SerialDriver, show, strip_eol
 from station.errors import DriverError, LinkTimeout
 
 LINE_S = 0.72  # one data line every 0.0002 h
@@ -79,11 +79,7 @@ class BadLine:
 
 
 def _decode(raw: bytes) -> str:
-    return strip_eol(raw).decode("ascii", errors="backslashreplace")
-
-
-def _show(b: bytes) -> str:
-    return b.decode("ascii", errors="backslashreplace")
+    return show(strip_eol(raw))
 
 
 class ProcessorDriver(SerialDriver):
@@ -240,7 +236,7 @@ class LineChecker:
             bad = next((j for j, c in enumerate(f) if c not in b"0123456789"), None)
             if bad is not None:
                 return (f"field {n} has a non-digit ({FIELD_NAMES[n - 1]} "
-                        f"'{_show(f)}', '{_show(f[bad:bad + 1])}' at position {bad + 1})"), None
+                        f"'{show(f)}', '{show(f[bad:bad + 1])}' at position {bad + 1})"), None
             if len(f) != 7:
                 return f"field {n} has {len(f)} digits, not 7 ({FIELD_NAMES[n - 1]})", None
         v = [int(f) for f in fields]

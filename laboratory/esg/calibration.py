@@ -93,21 +93,23 @@ def schedule_summary(res: ScheduleResult) -> dict:
 def study() -> tuple[list[dict], list[dict], dict]:
     """Figure 2 curves, the report's two points (both conventions) and edge resolutions."""
     curve = strategy.figure2_table(STUDY_RANGES, points=STUDY_POINTS)
-    points, chart = [], []
+    points: list[dict] = []
+    chart: list[dict] = []
+    mixed: dict[str, float] = {}  # the mixed strategy's factor by pattern
     for pattern, rng in REPORT_POINTS:
         for strat in ("two_pickoff", "mixed"):
             f = strategy.amplification(pattern, strat, rng)
+            if strat == "mixed":
+                mixed[pattern] = f
             points.append({"pattern": pattern, "range_deg": rng, "strategy": strat,
                            "factor": f})
             fc = strategy.amplification(pattern, strat, rng, convention="chart")
             chart.append({"pattern": pattern, "range_deg": rng, "strategy": strat,
                           "factor": fc})
-    gc = next(p["factor"] for p in points
-              if p["pattern"] == "great_circle" and p["strategy"] == "mixed")
-    co = next(p["factor"] for p in points
-              if p["pattern"] == "cosine" and p["strategy"] == "mixed")
-    edge = {"great_circle_43_microinch": strategy.edge_resolution_microinch(GOAL_ARCSEC, gc),
-            "cosine_37_microinch": strategy.edge_resolution_microinch(GOAL_ARCSEC, co),
+    edge = {"great_circle_43_microinch":
+            strategy.edge_resolution_microinch(GOAL_ARCSEC, mixed["great_circle"]),
+            "cosine_37_microinch": strategy.edge_resolution_microinch(GOAL_ARCSEC,
+                                                                      mixed["cosine"]),
             "report_factors": {"great_circle_43": 1.55, "cosine_37": 1.20},
             "chart_convention": chart,
             "cosine_mixed_minimum_deg": strategy.cosine_mixed_minimum()}

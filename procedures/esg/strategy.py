@@ -177,29 +177,29 @@ def pattern_geometry(pattern: str, theta0_deg: float, convention: str = "sphere"
         return x, math.atan(td)
 
     if pattern == "great_circle":
-        def geom_of(i: float) -> PatternGeometry:
+        def geom_of_i(i: float) -> PatternGeometry:
             return PatternGeometry(pattern, theta0_deg, convention, n_sets,
                                    inclination_deg=math.degrees(i))
 
-        def resid(i: float) -> float:
+        def resid_i(i: float) -> float:
             ph0 = math.asin(min(1.0, c0 / (s0 * math.tan(i))))
-            x, _ = spacing(geom_of(i))
+            x, _ = spacing(geom_of_i(i))
             return ph0 - (allot - HALF_LINE_SHARE * x / (radius_inch * s0))
 
         lo = math.pi / 2 - th0
-        i = brentq(resid, lo + 1e-9, math.pi / 2 - 1e-9, xtol=1e-14)
-        g = geom_of(i)
+        i = brentq(resid_i, lo + 1e-9, math.pi / 2 - 1e-9, xtol=1e-14)
+        g = geom_of_i(i)
         ph0 = math.asin(c0 / (s0 * math.tan(i)))
     else:
-        def geom_of(ph0: float) -> PatternGeometry:
+        def geom_of_ph0(ph0: float) -> PatternGeometry:
             return PatternGeometry(pattern, theta0_deg, convention, n_sets, k=c0 / ph0)
 
-        def resid(ph0: float) -> float:
-            x, _ = spacing(geom_of(ph0))
+        def resid_ph0(ph0: float) -> float:
+            x, _ = spacing(geom_of_ph0(ph0))
             return ph0 - (allot - HALF_LINE_SHARE * x / (radius_inch * s0))
 
-        ph0 = brentq(resid, 1e-6, allot, xtol=1e-14)
-        g = geom_of(ph0)
+        ph0 = brentq(resid_ph0, 1e-6, allot, xtol=1e-14)
+        g = geom_of_ph0(ph0)
     x, delta = spacing(g)
     return PatternGeometry(g.pattern, theta0_deg, convention, n_sets, g.inclination_deg, g.k,
                            math.degrees(ph0), math.degrees(delta), x)

@@ -10,6 +10,7 @@ Q_II = a2 / a1 (Chart IV-2: the (w.G)^2 term). Rates in deg/hr, P' in pulses/s.
 from __future__ import annotations
 
 import math
+from typing import TypedDict
 
 import numpy as np
 
@@ -148,10 +149,23 @@ def q_is_from_fit(a2_over_a1: float, sigma_ratio: float, q_ii: float, sigma_q_ii
     return q, sig
 
 
-def fit_nonlinearity(rows: list[dict], sigma_counts: float) -> dict[str, float]:
+class NonlinearityFit(TypedDict):
+    """The quadratic P' = a0 + a1 w + a2 w^2 of one speed series and its checks."""
+
+    a0: float
+    a1: float
+    a2: float
+    Q_II: float  # a2 / a1, hr/deg
+    sigma: float  # of Q_II
+    scale_factor_arcsec: float  # 1 / a1
+    residual_z: list[float]  # each speed off the quadratic through the others, in sigma
+
+
+def fit_nonlinearity(rows: list[dict], sigma_counts: float | np.ndarray) -> NonlinearityFit:
     """Chart II-7 steps 16-17: weighted quadratic fit of P' against w; Q_II and its sigma.
 
-    sigma_counts: standard error of one count (quantization and noise), pulses.
+    sigma_counts: standard error of one count (quantization and noise), pulses; one for all
+    speeds or one per speed.
     """
     w = np.array([r["w_deg_hr"] for r in rows])
     p = np.array([r["p_dot"] for r in rows])

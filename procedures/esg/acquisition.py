@@ -28,7 +28,7 @@ from procedures.esg import geometry as geo
 from procedures.esg.mechanization import NominalParams, nominal_colatitude, nominal_count_ratio
 from procedures.esg.readings import Setting, read_setting
 from procedures.esg.readout import pickoffs_from_mirrors
-from procedures.runner import Run
+from procedures.runner import CheckSheetRun, Run
 from station.drivers.esg import EsgDrivers
 from station.errors import CheckFailed
 
@@ -244,7 +244,7 @@ def processor_setup(st: EsgDrivers, run: Run, plan: EsgPlan) -> dict:
     return {"t_zero_s": sh.sheet.steps[0].reading["t_zero_s"]}
 
 
-def mount_check(st: EsgDrivers, run: Run, plan: EsgPlan, sh) -> float:
+def mount_check(st: EsgDrivers, run: Run, plan: EsgPlan, sh: CheckSheetRun) -> float:
     """Step 1: coning of mirror 1 about the spindle seen in the theodolite."""
     with sh.step("1", "mirror 1 along the spindle: theodolite readings over one spindle "
                  "turn; coning radius") as s:
@@ -271,7 +271,7 @@ def mount_check(st: EsgDrivers, run: Run, plan: EsgPlan, sh) -> float:
     return radius
 
 
-def start_gyro(st: EsgDrivers, run: Run, plan: EsgPlan, sh) -> None:
+def start_gyro(st: EsgDrivers, run: Run, plan: EsgPlan, sh: CheckSheetRun) -> None:
     """Step 2: damping-coil axis (the spindle) on the polar axis; spin up with damping."""
     with sh.step("2", "spindle on the Earth's polar axis; spin up to operating speed "
                  "with damping; damping off") as s:
@@ -302,7 +302,8 @@ def _east_drift(st: EsgDrivers, plan: EsgPlan, tilt: float) -> float:
     return -d_theta3 / ((b.t_s - a.t_s) / 3600.0)
 
 
-def cancel_drift(st: EsgDrivers, run: Run, plan: EsgPlan, sh, acq: Acquisition) -> None:
+def cancel_drift(st: EsgDrivers, run: Run, plan: EsgPlan, sh: CheckSheetRun,
+                 acq: Acquisition) -> None:
     """Step 3: offset s from the polar axis in the meridian plane until the east-west
     drift is cancelled by the Earth's rotation; re-measure and readjust."""
     k = 0.0
@@ -374,7 +375,7 @@ def find_ratio(st: EsgDrivers, plan: EsgPlan, target: float, gamma: float,
     return g0 + (target - r0.ratio(2)) / slope_per_deg, r0.t_s, slope_per_deg
 
 
-def equal_ratio_points(st: EsgDrivers, run: Run, plan: EsgPlan, sh, acq: Acquisition,
+def equal_ratio_points(st: EsgDrivers, run: Run, plan: EsgPlan, sh: CheckSheetRun, acq: Acquisition,
                        s_lab: np.ndarray) -> np.ndarray:
     """Step 4: equal count ratios on both rotor hemispheres."""
     d = equal_ratio_direction(plan.mirror_angle_deg)
@@ -392,7 +393,7 @@ def equal_ratio_points(st: EsgDrivers, run: Run, plan: EsgPlan, sh, acq: Acquisi
     return s_lab
 
 
-def equator(st: EsgDrivers, run: Run, plan: EsgPlan, sh, acq: Acquisition,
+def equator(st: EsgDrivers, run: Run, plan: EsgPlan, sh: CheckSheetRun, acq: Acquisition,
             s_lab: np.ndarray) -> None:
     """Steps 5-7: spindle across the spin axis, the two equal ratios on pickoff 2, the
     equator by bisection."""
@@ -500,8 +501,8 @@ def baseline_start(st: EsgDrivers, plan: EsgPlan, acq: Acquisition,
     return g_set, _read(st, plan, (2, 1))
 
 
-def run_scan(st: EsgDrivers, plan: EsgPlan, sh, acq: Acquisition, name: str, side: int,
-             increment: float, offsets: list[float], slope_per_deg: float) -> Scan:
+def run_scan(st: EsgDrivers, plan: EsgPlan, sh: CheckSheetRun, acq: Acquisition, name: str,
+             side: int, increment: float, offsets: list[float], slope_per_deg: float) -> Scan:
     """One scan: baseline, the settings, back to the baseline's spindle angle."""
     with sh.step(f"{name}.0", "baseline: pickoff 2 at the equator's count ratio") as s:
         gamma0, start = baseline_start(st, plan, acq, slope_per_deg)
@@ -543,8 +544,8 @@ def fine_slope(scan: Scan) -> float:
     return float(np.polyfit(x, y, 2)[1])
 
 
-def _scan_block(st: EsgDrivers, run: Run, plan: EsgPlan, sh, acq: Acquisition, name: str,
-                side: int, increment: float, offsets: list[float],
+def _scan_block(st: EsgDrivers, run: Run, plan: EsgPlan, sh: CheckSheetRun, acq: Acquisition,
+                name: str, side: int, increment: float, offsets: list[float],
                 slope_per_deg: float) -> Scan:
     """One scan as a journaled block: its settings and the equator angle it leaves."""
     def measure() -> dict:
@@ -560,7 +561,8 @@ def _scan_block(st: EsgDrivers, run: Run, plan: EsgPlan, sh, acq: Acquisition, n
     return run.block(f"ESG-CAL.scan-{name}", measure, load)
 
 
-def rotor_setup(st: EsgDrivers, run: Run, plan: EsgPlan, sh, acq: Acquisition) -> None:
+def rotor_setup(st: EsgDrivers, run: Run, plan: EsgPlan, sh: CheckSheetRun,
+                acq: Acquisition) -> None:
     """Steps 2-8 and ESG-PA: spin-up, drift offset, equal ratios, equator, tilt, lock."""
     start_gyro(st, run, plan, sh)
     cancel_drift(st, run, plan, sh, acq)
@@ -574,7 +576,8 @@ def rotor_setup(st: EsgDrivers, run: Run, plan: EsgPlan, sh, acq: Acquisition) -
     pickoff_check(st, run, plan, acq)
 
 
-def calibration_scans(st: EsgDrivers, run: Run, plan: EsgPlan, sh, acq: Acquisition) -> None:
+def calibration_scans(st: EsgDrivers, run: Run, plan: EsgPlan, sh: CheckSheetRun,
+                      acq: Acquisition) -> None:
     """Steps 9-12 (step 8, the tilt and lock, is the end of ``rotor_setup``)."""
     # d(CR)/d(gamma) at the equator: d(CR)/d(theta) times d(theta)/d(gamma)
     slope_g = design_slope_per_deg(90.0, plan.design_inclination_deg) * acq.colatitude_sign

@@ -14,7 +14,7 @@ from pathlib import Path
 IGNORED = {"wall", "wall_seconds", "t_wall"}
 
 
-def _flatten(x, prefix: str, out: dict) -> None:
+def _flatten(x: object, prefix: str, out: dict) -> None:
     if isinstance(x, dict):
         for k, v in x.items():
             if k in IGNORED:
@@ -28,7 +28,7 @@ def _flatten(x, prefix: str, out: dict) -> None:
         out[prefix] = x
 
 
-def _row_key(v, i: int) -> str:
+def _row_key(v: object, i: int) -> str:
     if isinstance(v, dict) and "instrument" in v and "parameter" in v:
         return f"{v['instrument']}:{v['parameter']}"
     return str(i)

@@ -13,6 +13,7 @@ from __future__ import annotations
 import time
 from collections.abc import Callable
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from laboratory.cigtf.lab import LAB
 from laboratory.connect import connect, journaled_run
@@ -27,6 +28,9 @@ from sim.cigtf.world import CigtfParams
 from station.files import atomic_path
 from station.hil.session import params_digest
 from station.racks.cigtf import CigtfRack
+
+if TYPE_CHECKING:
+    from rich.console import Console
 
 PHASES = ("operating", "shutdown")
 RENEW = ("4.0",)  # a restarted served rack powered the gyro off: its warm-up again
@@ -174,7 +178,7 @@ def analyse_journal(d: Path, params: CigtfParams | None = None) -> dict:
     return res
 
 
-def render_tables(console, res: dict) -> None:
+def render_tables(console: Console, res: dict) -> None:
     """Run table, phase table and the section 5.4 tests, with rich."""
     from rich import box
     from rich.table import Table

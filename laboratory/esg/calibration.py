@@ -18,9 +18,10 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from dataclasses import replace
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -37,14 +38,17 @@ from sim.esg.world import EsgParams, EsgWorld
 from station.files import atomic_path
 from station.racks.esg import EsgRack
 
+if TYPE_CHECKING:
+    from rich.console import Console
+
 GOAL_ARCSEC = 15.0
 STUDY_RANGES = tuple(range(35, 48))
 STUDY_POINTS = 6000
 REPORT_POINTS = (("great_circle", 43.0), ("cosine", 37.0))
 
 
-def _rms(v) -> float:
-    v = [x for x in v if x is not None]
+def _rms(values: Iterable[float | None]) -> float:
+    v = [x for x in values if x is not None]
     return math.sqrt(sum(x * x for x in v) / len(v)) if v else float("nan")
 
 
@@ -67,9 +71,9 @@ def no_truth(rows: list[dict]) -> None:
         r["assignment_error_arcsec"] = None
 
 
-def _rms_known(v) -> float | None:
+def _rms_known(values: Iterable[float | None]) -> float | None:
     """rms of the values present; None if there are none (truth absent)."""
-    v = [x for x in v if x is not None]
+    v = [x for x in values if x is not None]
     return _rms(v) if v else None
 
 
@@ -93,33 +97,35 @@ def schedule_summary(res: ScheduleResult) -> dict:
 def study() -> tuple[list[dict], list[dict], dict]:
     """Figure 2 curves, the report's two points (both conventions) and edge resolutions."""
     curve = strategy.figure2_table(STUDY_RANGES, points=STUDY_POINTS)
-    points, chart = [], []
+    points: list[dict] = []
+    chart: list[dict] = []
+    mixed: dict[str, float] = {}  # the mixed strategy's factor by pattern
     for pattern, rng in REPORT_POINTS:
         for strat in ("two_pickoff", "mixed"):
             f = strategy.amplification(pattern, strat, rng)
+            if strat == "mixed":
+                mixed[pattern] = f
             points.append({"pattern": pattern, "range_deg": rng, "strategy": strat,
                            "factor": f})
             fc = strategy.amplification(pattern, strat, rng, convention="chart")
             chart.append({"pattern": pattern, "range_deg": rng, "strategy": strat,
                           "factor": fc})
-    gc = next(p["factor"] for p in points
-              if p["pattern"] == "great_circle" and p["strategy"] == "mixed")
-    co = next(p["factor"] for p in points
-              if p["pattern"] == "cosine" and p["strategy"] == "mixed")
-    edge = {"great_circle_43_microinch": strategy.edge_resolution_microinch(GOAL_ARCSEC, gc),
-            "cosine_37_microinch": strategy.edge_resolution_microinch(GOAL_ARCSEC, co),
+    edge = {"great_circle_43_microinch":
+            strategy.edge_resolution_microinch(GOAL_ARCSEC, mixed["great_circle"]),
+            "cosine_37_microinch": strategy.edge_resolution_microinch(GOAL_ARCSEC,
+                                                                      mixed["cosine"]),
             "report_factors": {"great_circle_43": 1.55, "cosine_37": 1.20},
             "chart_convention": chart,
             "cosine_mixed_minimum_deg": strategy.cosine_mixed_minimum()}
     return curve, points, edge
 
 
-def render_tables(console, res: dict) -> None:
+def render_tables(console: Console, res: dict) -> None:
     """Schedules (Table 4 of the report) and the strategy study's report points, with rich."""
     from rich import box
     from rich.table import Table
 
-    def f1(x) -> str:
+    def f1(x: float | None) -> str:
         return "-" if x is None else f"{x:.1f}"
 
     t = Table(title="Pattern calibration and readout (arcsec rms; true = against the "

@@ -35,11 +35,11 @@ def calibration_truth(world: World) -> dict[tuple[str, str], float]:
         }
         out.update({(inst, n): float(v) for n, v in vals.items()})
     for k, a in enumerate(world.isu.accels, start=1):
-        p = a.p
+        ap = a.p
         inst = f"accel{k}"
         vals = {
-            "D1": p.D1_pps_per_g, "A.B1": float(a.A[0]), "A.B2": float(a.A[1]),
-            "A.B3": float(a.A[2]), "D0": p.D0_g, "D2": p.D2_g_per_g2, "D3": p.D3_g_per_g3,
+            "D1": ap.D1_pps_per_g, "A.B1": float(a.A[0]), "A.B2": float(a.A[1]),
+            "A.B3": float(a.A[2]), "D0": ap.D0_g, "D2": ap.D2_g_per_g2, "D3": ap.D3_g_per_g3,
         }
         out.update({(inst, n): float(v) for n, v in vals.items()})
     return out

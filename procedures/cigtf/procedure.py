@@ -7,11 +7,13 @@ steps carry the ten averaged currents of each orientation and, last, the run's t
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
+from functools import partial
 
 from procedures.cigtf.analysis import OrientationValues, RunValues, run_values
 from procedures.cigtf.scale import gsf_from_turn
-from procedures.runner import Run
+from procedures.runner import CheckSheetRun, Run
 from station.drivers.cigtf import CigtfDrivers
 from station.errors import CheckFailed
 
@@ -73,7 +75,8 @@ def scale_factor(st: CigtfDrivers, run: Run, plan: TestPlan) -> float:
 
 
 def north_determination(st: CigtfDrivers, run: Run, plan: TestPlan, chart: str, title: str,
-                        gsf: float, preamble=None) -> RunValues:
+                        gsf: float,
+                        preamble: Callable[[CheckSheetRun], None] | None = None) -> RunValues:
     """Section 4.2: one run (four orientations), journaled step by step; eqs. 18-19."""
     samples: list[list[float]] = []
     with run.sheet(chart, title) as sh:
@@ -117,6 +120,13 @@ def _as_record(rv: RunValues) -> dict:
     return asdict(rv)
 
 
+def _run_record(st: CigtfDrivers, run: Run, plan: TestPlan, chart: str, title: str,
+                gsf: float,
+                preamble: Callable[[CheckSheetRun], None] | None = None) -> dict:
+    """One run of section 4.2 as a block's result."""
+    return _as_record(north_determination(st, run, plan, chart, title, gsf, preamble))
+
+
 def _from_record(d: dict) -> RunValues:
     return RunValues(d["theta"], d["sigma"],
                      tuple(OrientationValues(**o) for o in d["orientations"]))
@@ -134,22 +144,23 @@ def gyrocompass_test(st: CigtfDrivers, run: Run, plan: TestPlan | None = None) -
     data.gsf = run.block("4.1", lambda: scale_factor(st, run, plan), float)
     for i in range(1, plan.operating_runs + 1):
         chart = f"4.3-R{i:02d}"
-        rv = run.block(chart, lambda c=chart, i=i: _as_record(north_determination(
-            st, run, plan, c, f"Operating phase, run {i}", data.gsf)), _from_record)
+        rv = run.block(chart, partial(_run_record, st, run, plan, chart,
+                                      f"Operating phase, run {i}", data.gsf), _from_record)
         data.runs["operating"].append(rv)
+
+    def shutdown(sh: CheckSheetRun) -> None:
+        with sh.step("4.4.1", "gyro shutdown") as s:
+            st.power.off()
+            st.clock.sleep(plan.shutdown_s)
+            s.reading = {"off_s": plan.shutdown_s}
+        with sh.step("4.4.2", "gyro power on; warm up") as s:
+            st.power.on()
+            st.clock.sleep(plan.warmup_s)
+            s.reading = {"on_s": st.power.status()[1]}
     for i in range(1, plan.shutdown_runs + 1):
-        def shutdown(sh) -> None:
-            with sh.step("4.4.1", "gyro shutdown") as s:
-                st.power.off()
-                st.clock.sleep(plan.shutdown_s)
-                s.reading = {"off_s": plan.shutdown_s}
-            with sh.step("4.4.2", "gyro power on; warm up") as s:
-                st.power.on()
-                st.clock.sleep(plan.warmup_s)
-                s.reading = {"on_s": st.power.status()[1]}
         chart = f"4.4-R{i:02d}"
-        rv = run.block(chart, lambda c=chart, i=i, pre=shutdown: _as_record(
-            north_determination(st, run, plan, c, f"Shutdown phase, run {i}", data.gsf,
-                                preamble=pre)), _from_record)
+        rv = run.block(chart, partial(_run_record, st, run, plan, chart,
+                                      f"Shutdown phase, run {i}", data.gsf, shutdown),
+                       _from_record)
         data.runs["shutdown"].append(rv)
     return data

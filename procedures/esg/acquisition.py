@@ -28,7 +28,7 @@ from procedures.esg import geometry as geo
 from procedures.esg.mechanization import NominalParams, nominal_colatitude, nominal_count_ratio
 from procedures.esg.readings import Setting, read_setting
 from procedures.esg.readout import pickoffs_from_mirrors
-from procedures.runner import Run
+from procedures.runner import CheckSheetRun, Run
 from station.drivers.esg import EsgDrivers
 from station.errors import CheckFailed
 
@@ -94,9 +94,11 @@ def equal_ratio_direction(mirror_angle_deg: float) -> np.ndarray:
 # ---------------------------------------------------------------- acquisition record
 @dataclass
 class Baseline:
+    """Pickoff 2 at the equator's count ratio before a scan and back at it after."""
+
     gamma_deg: float
     start: Setting
-    end: Setting | None = None
+    end: Setting
 
 
 @dataclass
@@ -150,7 +152,7 @@ def scan_record(scan: Scan) -> dict:
     b = scan.baseline
     return {"name": scan.name, "side": scan.side, "increment_deg": scan.increment_deg,
             "baseline": {"gamma_deg": b.gamma_deg, "start": b.start.reading(),
-                         "end": b.end.reading() if b.end is not None else None},
+                         "end": b.end.reading()},
             "points": [{"scan": q.scan, "increment_deg": q.increment_deg,
                         "offset_deg": q.offset_deg, "gamma_deg": q.gamma_deg,
                         "setting": q.setting.reading()} for q in scan.points]}
@@ -159,7 +161,7 @@ def scan_record(scan: Scan) -> dict:
 def scan_from_record(d: dict) -> Scan:
     b = d["baseline"]
     base = Baseline(b["gamma_deg"], Setting.from_reading(b["start"]),
-                    Setting.from_reading(b["end"]) if b["end"] is not None else None)
+                    Setting.from_reading(b["end"]))
     return Scan(d["name"], d["side"], d["increment_deg"], base,
                 [ScanPoint(q["scan"], q["increment_deg"], q["offset_deg"], q["gamma_deg"],
                            Setting.from_reading(q["setting"])) for q in d["points"]])
@@ -197,16 +199,22 @@ def _read_three(st: EsgDrivers, plan: EsgPlan) -> dict[int, float | None]:
     return out
 
 
+def _on_pattern(cr: dict[int, float | None], problem: str) -> dict[int, float]:
+    """The count ratios when every pickoff is on the pattern; else a failed check."""
+    on = {p: v for p, v in cr.items() if v is not None}
+    if len(on) < len(cr):
+        raise CheckFailed(problem)
+    return on
+
+
 def _settings(st: EsgDrivers) -> tuple[float, float, float]:
     az, tilt = st.turntable.readings()
     return az, tilt, st.head.reading()
 
 
-def _spin_axis_lab(st: EsgDrivers, plan: EsgPlan, cr: dict[int, float | None]) -> np.ndarray:
+def _spin_axis_lab(st: EsgDrivers, plan: EsgPlan, cr: dict[int, float]) -> np.ndarray:
     """The spin axis in the lab from three count ratios by the drawing's pattern and the
     nominal geometry (good to a few arcmin: enough to point the axes)."""
-    if any(v is None for v in cr.values()):
-        raise CheckFailed(f"a pickoff is off the pattern: count ratios {cr}")
     alpha = np.array([math.cos(math.radians(design_colatitude_deg(cr[i], plan
                                                                   .design_inclination_deg)))
                       for i in (1, 2, 3)])
@@ -236,7 +244,7 @@ def processor_setup(st: EsgDrivers, run: Run, plan: EsgPlan) -> dict:
     return {"t_zero_s": sh.sheet.steps[0].reading["t_zero_s"]}
 
 
-def mount_check(st: EsgDrivers, run: Run, plan: EsgPlan, sh) -> float:
+def mount_check(st: EsgDrivers, run: Run, plan: EsgPlan, sh: CheckSheetRun) -> float:
     """Step 1: coning of mirror 1 about the spindle seen in the theodolite."""
     with sh.step("1", "mirror 1 along the spindle: theodolite readings over one spindle "
                  "turn; coning radius") as s:
@@ -263,7 +271,7 @@ def mount_check(st: EsgDrivers, run: Run, plan: EsgPlan, sh) -> float:
     return radius
 
 
-def start_gyro(st: EsgDrivers, run: Run, plan: EsgPlan, sh) -> None:
+def start_gyro(st: EsgDrivers, run: Run, plan: EsgPlan, sh: CheckSheetRun) -> None:
     """Step 2: damping-coil axis (the spindle) on the polar axis; spin up with damping."""
     with sh.step("2", "spindle on the Earth's polar axis; spin up to operating speed "
                  "with damping; damping off") as s:
@@ -294,7 +302,8 @@ def _east_drift(st: EsgDrivers, plan: EsgPlan, tilt: float) -> float:
     return -d_theta3 / ((b.t_s - a.t_s) / 3600.0)
 
 
-def cancel_drift(st: EsgDrivers, run: Run, plan: EsgPlan, sh, acq: Acquisition) -> None:
+def cancel_drift(st: EsgDrivers, run: Run, plan: EsgPlan, sh: CheckSheetRun,
+                 acq: Acquisition) -> None:
     """Step 3: offset s from the polar axis in the meridian plane until the east-west
     drift is cancelled by the Earth's rotation; re-measure and readjust."""
     k = 0.0
@@ -330,10 +339,9 @@ def equal_ratio_point(st: EsgDrivers, plan: EsgPlan, d_case: np.ndarray,
         a, e, g = geo.point_case(d_case, s_lab)
         _move_table(st, plan, az=a, tilt=e)
         _move_head(st, plan, g)
-        cr = _read_three(st, plan)
-        if any(v is None for v in cr.values()):
-            raise CheckFailed(f"a pickoff is off the pattern at the computed setting "
-                              f"(count ratios {cr}): the spin-axis estimate is far off")
+        read = _read_three(st, plan)
+        cr = _on_pattern(read, f"a pickoff is off the pattern at the computed setting "
+                               f"(count ratios {read}): the spin-axis estimate is far off")
         spread = max(cr.values()) - min(cr.values())
         s_lab = _spin_axis_lab(st, plan, cr)
         if spread <= plan.equal_tolerance:
@@ -353,21 +361,21 @@ def find_ratio(st: EsgDrivers, plan: EsgPlan, target: float, gamma: float,
     if slope_per_deg is None:
         g1 = _move_head(st, plan, gamma + 0.05)
         r1 = _read(st, plan, (2, 3))
-        slope_per_deg = (r1.cr[2] - r0.cr[2]) / (g1 - g0)
+        slope_per_deg = (r1.ratio(2) - r0.ratio(2)) / (g1 - g0)
         g0, r0 = g1, r1
     for _ in range(plan.search_iterations):
-        step = (target - r0.cr[2]) / slope_per_deg
-        if abs(target - r0.cr[2]) <= plan.search_tolerance:
+        step = (target - r0.ratio(2)) / slope_per_deg
+        if abs(target - r0.ratio(2)) <= plan.search_tolerance:
             return g0 + step, r0.t_s, slope_per_deg
         g1 = _move_head(st, plan, g0 + step)
         r1 = _read(st, plan, (2, 3))
         if abs(g1 - g0) > 0.01:  # a shorter step's ratio change is mostly line noise
-            slope_per_deg = (r1.cr[2] - r0.cr[2]) / (g1 - g0)
+            slope_per_deg = (r1.ratio(2) - r0.ratio(2)) / (g1 - g0)
         g0, r0 = g1, r1
-    return g0 + (target - r0.cr[2]) / slope_per_deg, r0.t_s, slope_per_deg
+    return g0 + (target - r0.ratio(2)) / slope_per_deg, r0.t_s, slope_per_deg
 
 
-def equal_ratio_points(st: EsgDrivers, run: Run, plan: EsgPlan, sh, acq: Acquisition,
+def equal_ratio_points(st: EsgDrivers, run: Run, plan: EsgPlan, sh: CheckSheetRun, acq: Acquisition,
                        s_lab: np.ndarray) -> np.ndarray:
     """Step 4: equal count ratios on both rotor hemispheres."""
     d = equal_ratio_direction(plan.mirror_angle_deg)
@@ -385,7 +393,7 @@ def equal_ratio_points(st: EsgDrivers, run: Run, plan: EsgPlan, sh, acq: Acquisi
     return s_lab
 
 
-def equator(st: EsgDrivers, run: Run, plan: EsgPlan, sh, acq: Acquisition,
+def equator(st: EsgDrivers, run: Run, plan: EsgPlan, sh: CheckSheetRun, acq: Acquisition,
             s_lab: np.ndarray) -> None:
     """Steps 5-7: spindle across the spin axis, the two equal ratios on pickoff 2, the
     equator by bisection."""
@@ -418,9 +426,9 @@ def equator(st: EsgDrivers, run: Run, plan: EsgPlan, sh, acq: Acquisition,
         # the mid angle belongs to time tb; move it on by the drift to the reading's time
         slope_eq = design_slope_per_deg(90.0, plan.design_inclination_deg) * (
             acq.colatitude_sign)
-        acq.cr_eq = r.cr[2] - slope_eq * ((g_set - g_mid) - rate * (r.t_s - tb))
+        acq.cr_eq = r.ratio(2) - slope_eq * ((g_set - g_mid) - rate * (r.t_s - tb))
         acq.gamma_eq_deg = g_mid + rate * (r.t_s - tb)
-        s.reading = {"gamma_mid_deg": g_mid, "cr_read": r.cr[2], "cr_eq": acq.cr_eq,
+        s.reading = {"gamma_mid_deg": g_mid, "cr_read": r.ratio(2), "cr_eq": acq.cr_eq,
                      "t_s": r.t_s}
 
 
@@ -433,17 +441,17 @@ def tilt_to_equator(st: EsgDrivers, plan: EsgPlan, cr_eq: float) -> dict:
     st.turntable.tilt(tilt + 0.02)
     st.turntable.wait_hold(plan.move_timeout_s)
     r1 = _read(st, plan, (1, 2))
-    slope = (r1.cr[1] - r0.cr[1]) / 0.02
+    slope = (r1.ratio(1) - r0.cr[1]) / 0.02
     tilt += 0.02
     r = r1
     for _ in range(plan.search_iterations):
-        if abs(r.cr[1] - cr_eq) <= plan.search_tolerance:
+        if abs(r.ratio(1) - cr_eq) <= plan.search_tolerance:
             break
-        tilt += (cr_eq - r.cr[1]) / slope
+        tilt += (cr_eq - r.ratio(1)) / slope
         st.turntable.tilt(round(tilt, 4))
         st.turntable.wait_hold(plan.move_timeout_s)
         r = _read(st, plan, (1, 2))
-    return {"tilt_deg": st.turntable.readings()[1], "cr_pickoff1": r.cr[1]}
+    return {"tilt_deg": st.turntable.readings()[1], "cr_pickoff1": r.ratio(1)}
 
 
 def pickoff_check(st: EsgDrivers, run: Run, plan: EsgPlan, acq: Acquisition) -> None:
@@ -483,36 +491,39 @@ def pickoff_check(st: EsgDrivers, run: Run, plan: EsgPlan, acq: Acquisition) -> 
                                   f"the spindle (limit {plan.pickoff_coning_limit_arcsec:g})")
 
 
-def baseline(st: EsgDrivers, plan: EsgPlan, acq: Acquisition, slope_per_deg: float) -> Baseline:
-    """Pickoff 2 to the equator's ratio (one secant step from the last known angle)."""
+def baseline_start(st: EsgDrivers, plan: EsgPlan, acq: Acquisition,
+                   slope_per_deg: float) -> tuple[float, Setting]:
+    """Pickoff 2 to the equator's ratio (one secant step from the last known angle): the
+    spindle reading and the setting there."""
     g, _, _ = find_ratio(st, plan, acq.cr_eq, acq.gamma_eq_deg, slope_per_deg)
     acq.gamma_eq_deg = g
     g_set = _move_head(st, plan, g)
-    return Baseline(g_set, _read(st, plan, (2, 1)))
+    return g_set, _read(st, plan, (2, 1))
 
 
-def run_scan(st: EsgDrivers, plan: EsgPlan, sh, acq: Acquisition, name: str, side: int,
-             increment: float, offsets: list[float], slope_per_deg: float) -> Scan:
+def run_scan(st: EsgDrivers, plan: EsgPlan, sh: CheckSheetRun, acq: Acquisition, name: str,
+             side: int, increment: float, offsets: list[float], slope_per_deg: float) -> Scan:
     """One scan: baseline, the settings, back to the baseline's spindle angle."""
     with sh.step(f"{name}.0", "baseline: pickoff 2 at the equator's count ratio") as s:
-        b = baseline(st, plan, acq, slope_per_deg)
-        s.reading = {"gamma_deg": b.gamma_deg, **b.start.reading()}
-    scan = Scan(name, side, increment, b)
+        gamma0, start = baseline_start(st, plan, acq, slope_per_deg)
+        s.reading = {"gamma_deg": gamma0, **start.reading()}
+    points: list[ScanPoint] = []
     # spindle direction that lowers pickoff 2's colatitude for side +1
     sgn = -acq.colatitude_sign * side
     for k, off in enumerate(offsets, start=1):
         with sh.step(f"{name}.{k:02d}", f"spindle {off:g} deg from the baseline") as s:
-            g = _move_head(st, plan, b.gamma_deg + sgn * off)
+            g = _move_head(st, plan, gamma0 + sgn * off)
             r = _read(st, plan, (2, 1))
             if r.cr[2] is None:
                 raise CheckFailed(f"pickoff 2 off the pattern {off:g} deg from the "
                                   "equator")
-            scan.points.append(ScanPoint(name, increment, side * off, g, r))
+            points.append(ScanPoint(name, increment, side * off, g, r))
             s.reading = {"gamma_deg": g, "offset_deg": side * off, **r.reading()}
     with sh.step(f"{name}.{len(offsets) + 1:02d}", "back to the baseline angle") as s:
-        g = _move_head(st, plan, b.gamma_deg)
-        b.end = _read(st, plan, (2, 1))
-        s.reading = {"gamma_deg": g, **b.end.reading()}
+        g = _move_head(st, plan, gamma0)
+        end = _read(st, plan, (2, 1))
+        s.reading = {"gamma_deg": g, **end.reading()}
+    scan = Scan(name, side, increment, Baseline(gamma0, start, end), points)
     acq.scans.append(scan)
     return scan
 
@@ -526,15 +537,15 @@ def fine_slope(scan: Scan) -> float:
     """d(CR)/d(spindle offset towards side +) from the step-9 scan, drift removed."""
     b = scan.baseline
     t0, t1 = b.start.t_s, b.end.t_s
-    drift = b.end.cr[2] - b.start.cr[2]
+    drift = b.end.ratio(2) - b.start.ratio(2)
     x = np.array([p.offset_deg for p in scan.points])
-    y = np.array([p.setting.cr[2] - drift * (p.setting.t_s - t0) / (t1 - t0)
+    y = np.array([p.setting.ratio(2) - drift * (p.setting.t_s - t0) / (t1 - t0)
                   for p in scan.points])
     return float(np.polyfit(x, y, 2)[1])
 
 
-def _scan_block(st: EsgDrivers, run: Run, plan: EsgPlan, sh, acq: Acquisition, name: str,
-                side: int, increment: float, offsets: list[float],
+def _scan_block(st: EsgDrivers, run: Run, plan: EsgPlan, sh: CheckSheetRun, acq: Acquisition,
+                name: str, side: int, increment: float, offsets: list[float],
                 slope_per_deg: float) -> Scan:
     """One scan as a journaled block: its settings and the equator angle it leaves."""
     def measure() -> dict:
@@ -550,7 +561,8 @@ def _scan_block(st: EsgDrivers, run: Run, plan: EsgPlan, sh, acq: Acquisition, n
     return run.block(f"ESG-CAL.scan-{name}", measure, load)
 
 
-def rotor_setup(st: EsgDrivers, run: Run, plan: EsgPlan, sh, acq: Acquisition) -> None:
+def rotor_setup(st: EsgDrivers, run: Run, plan: EsgPlan, sh: CheckSheetRun,
+                acq: Acquisition) -> None:
     """Steps 2-8 and ESG-PA: spin-up, drift offset, equal ratios, equator, tilt, lock."""
     start_gyro(st, run, plan, sh)
     cancel_drift(st, run, plan, sh, acq)
@@ -564,7 +576,8 @@ def rotor_setup(st: EsgDrivers, run: Run, plan: EsgPlan, sh, acq: Acquisition) -
     pickoff_check(st, run, plan, acq)
 
 
-def calibration_scans(st: EsgDrivers, run: Run, plan: EsgPlan, sh, acq: Acquisition) -> None:
+def calibration_scans(st: EsgDrivers, run: Run, plan: EsgPlan, sh: CheckSheetRun,
+                      acq: Acquisition) -> None:
     """Steps 9-12 (step 8, the tilt and lock, is the end of ``rotor_setup``)."""
     # d(CR)/d(gamma) at the equator: d(CR)/d(theta) times d(theta)/d(gamma)
     slope_g = design_slope_per_deg(90.0, plan.design_inclination_deg) * acq.colatitude_sign

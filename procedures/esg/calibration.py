@@ -113,7 +113,7 @@ def _scan_points(sc: Scan, acq: Acquisition, bud: Budget, k: float, cs: int,
                  n_lines: int) -> list[Point]:
     b = sc.baseline
     t0, t1 = b.start.t_s, b.end.t_s
-    cr0, cr1 = b.start.cr[2], b.end.cr[2]
+    cr0, cr1 = b.start.ratio(2), b.end.ratio(2)
     theta0 = 90.0 + (cr0 - acq.cr_eq) / k  # pickoff 2 at the baseline, scan start
     drift = (cr1 - cr0) / k  # colatitude change at the baseline over the scan
     s0 = bud.line_sigma / math.sqrt(len(b.start.times_s) or n_lines)
@@ -130,7 +130,7 @@ def _scan_points(sc: Scan, acq: Acquisition, bud: Budget, k: float, cs: int,
         var = ((1 - f) * s0 / k) ** 2 + (f * s1 / k) ** 2 + bud.equator_deg ** 2 + nl ** 2
         if off != 0.0:
             var += 2.0 * bud.head_deg ** 2
-        out.append(Point(sc.name, sc.increment_deg, off, s.t_s, list(s.times_s), s.cr[2],
+        out.append(Point(sc.name, sc.increment_deg, off, s.t_s, list(s.times_s), s.ratio(2),
                          theta, math.sqrt(var) * 3600.0))
     return out
 
@@ -163,8 +163,10 @@ def calibrate(points: list[Point], params: NominalParams, schedule: str,
                         np.array([p.colatitude_deg for p in fit_pts]), params, order=order)
 
     def rows(pts: list[Point]) -> list[dict]:
-        out = []
-        comp = fit.colatitude(np.array([p.cr for p in pts])) if pts else []
+        out: list[dict] = []
+        if not pts:
+            return out
+        comp = fit.colatitude(np.array([p.cr for p in pts]))
         for p, c in zip(pts, comp, strict=True):
             out.append({"scan": p.scan, "increment_deg": p.increment_deg,
                         "offset_deg": p.offset_deg, "t_s": p.t_s,

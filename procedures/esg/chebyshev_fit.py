@@ -28,6 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.polynomial import Chebyshev, Polynomial
 from numpy.polynomial import chebyshev as C
+from numpy.typing import ArrayLike
 
 from procedures.esg.mechanization import NominalParams, nominal_cos
 
@@ -50,11 +51,11 @@ class ChebyshevFit:
     def order(self) -> int:
         return len(self.coef) - 1
 
-    def x(self, cr) -> np.ndarray:
+    def x(self, cr: ArrayLike) -> np.ndarray:
         """The linear map of count ratio onto [-1, 1] (data range plus margins)."""
         return (2.0 * np.asarray(cr, dtype=float) - (self.lo + self.hi)) / (self.hi - self.lo)
 
-    def weight(self, cr) -> np.ndarray:
+    def weight(self, cr: ArrayLike) -> np.ndarray:
         """Eq. 12 weight (1 - x^2)^(-1/2) at count ratios."""
         x = self.x(cr)
         return 1.0 / np.sqrt(1.0 - x * x)
@@ -76,21 +77,21 @@ class ChebyshevFit:
     def power(self) -> np.ndarray:
         return self.power_coefficients(False)
 
-    def deviation(self, cr, direct: bool = False) -> np.ndarray:
+    def deviation(self, cr: ArrayLike, direct: bool = False) -> np.ndarray:
         """The modelled cos th_m - cos th_n at count ratios."""
         return C.chebval(self.x(cr), self._coef(direct))
 
-    def cos_colatitude(self, cr, direct: bool = False) -> np.ndarray:
+    def cos_colatitude(self, cr: ArrayLike, direct: bool = False) -> np.ndarray:
         if self.params is None:
             raise ValueError("this fit has no nominal mechanization attached")
         return nominal_cos(cr, self.params) + self.deviation(cr, direct)
 
-    def colatitude(self, cr, direct: bool = False) -> np.ndarray:
+    def colatitude(self, cr: ArrayLike, direct: bool = False) -> np.ndarray:
         """Compensated colatitude (deg) for count ratios."""
         return np.degrees(np.arccos(np.clip(self.cos_colatitude(cr, direct), -1.0, 1.0)))
 
 
-def chebyshev_lsq(y, f, order: int = 7, margin: float = MARGIN_CR
+def chebyshev_lsq(y: ArrayLike, f: ArrayLike, order: int = 7, margin: float = MARGIN_CR
                   ) -> tuple[float, float, np.ndarray, np.ndarray]:
     """(lo, hi, least-squares coefficients, direct coefficients) of f(y), eq. 12 weights."""
     y = np.asarray(y, dtype=float)
@@ -111,7 +112,7 @@ def chebyshev_lsq(y, f, order: int = 7, margin: float = MARGIN_CR
     return lo, hi, coef, direct
 
 
-def fit_deviation(cr, theta_deg, params: NominalParams, order: int = 7,
+def fit_deviation(cr: ArrayLike, theta_deg: ArrayLike, params: NominalParams, order: int = 7,
                   margin: float = MARGIN_CR) -> ChebyshevFit:
     """Fit eq. 11 to measured colatitudes (deg) at count ratios, nominal ``params``."""
     cr = np.asarray(cr, dtype=float)
@@ -120,6 +121,7 @@ def fit_deviation(cr, theta_deg, params: NominalParams, order: int = 7,
     return ChebyshevFit(lo=lo, hi=hi, coef=coef, coef_direct=direct, params=params)
 
 
-def residuals(fit: ChebyshevFit, cr, theta_deg, direct: bool = False) -> np.ndarray:
+def residuals(fit: ChebyshevFit, cr: ArrayLike, theta_deg: ArrayLike,
+              direct: bool = False) -> np.ndarray:
     """Calibration or readout error (deg): compensated minus measured colatitude."""
     return fit.colatitude(cr, direct) - np.asarray(theta_deg, dtype=float)

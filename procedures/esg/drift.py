@@ -35,6 +35,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 __all__ = ["SlopeFit", "fit_slope", "DriftCorrection", "drift_correction"]
 
@@ -50,12 +51,12 @@ class SlopeFit:
     rms: float              # residual rms (count ratio)
     drift_rate_deg: float   # equivalent spindle-angle drift per time unit (0 without times)
 
-    def angle(self, cr) -> np.ndarray:
+    def angle(self, cr: ArrayLike) -> np.ndarray:
         """Spindle angle (deg) at which the line reaches the count ratio(s), at t_ref."""
         return self.gamma_ref + (np.asarray(cr, dtype=float) - self.intercept) / self.slope
 
 
-def fit_slope(spindle_deg, cr, times=None) -> SlopeFit:
+def fit_slope(spindle_deg: ArrayLike, cr: ArrayLike, times: ArrayLike | None = None) -> SlopeFit:
     """Local slope d(CR)/d(gamma) from the step-9 scan (deg of spindle angle).
 
     With ``times`` the model carries a linear drift term q (t - t_ref): the scan starts and
@@ -102,17 +103,17 @@ class DriftCorrection:
         """Drift over the whole scan, equivalent spindle degrees."""
         return (self.cr1 - self.cr0) / self.slope
 
-    def _f(self, t) -> np.ndarray:
+    def _f(self, t: ArrayLike) -> np.ndarray:
         return (np.asarray(t, dtype=float) - self.t0) / (self.t1 - self.t0)
 
-    def angle(self, t) -> np.ndarray:
+    def angle(self, t: ArrayLike) -> np.ndarray:
         """Drift angle delta(t) (deg) to add to the spindle reading."""
         return self._f(t) * self.total_deg
 
-    def corrected(self, spindle_deg, t) -> np.ndarray:
+    def corrected(self, spindle_deg: ArrayLike, t: ArrayLike) -> np.ndarray:
         return np.asarray(spindle_deg, dtype=float) + self.angle(t)
 
-    def sigma(self, t) -> np.ndarray:
+    def sigma(self, t: ArrayLike) -> np.ndarray:
         """Predicted 1-sigma (deg) of the correction at time(s) t."""
         f = self._f(t)
         k = self.slope
@@ -124,7 +125,7 @@ class DriftCorrection:
         return np.sqrt(var + q * q)
 
 
-def _baseline(cr, t) -> tuple[float, float, int, float]:
+def _baseline(cr: ArrayLike, t: ArrayLike) -> tuple[float, float, int, float]:
     cr = np.atleast_1d(np.asarray(cr, dtype=float))
     t = np.atleast_1d(np.asarray(t, dtype=float))
     if t.size == 1 and cr.size > 1:
@@ -134,7 +135,8 @@ def _baseline(cr, t) -> tuple[float, float, int, float]:
     return float(cr.mean()), float(t.mean()), cr.size, float(((cr - cr.mean()) ** 2).sum())
 
 
-def drift_correction(start_cr, start_t, end_cr, end_t, slope: float, *,
+def drift_correction(start_cr: ArrayLike, start_t: ArrayLike, end_cr: ArrayLike,
+                     end_t: ArrayLike, slope: float, *,
                      line_sigma: float | None = None, sigma_slope: float = 0.0,
                      rate_change_bound: float = 0.0) -> DriftCorrection:
     """The correction from the baseline readings at the start and end of a scan.

@@ -13,6 +13,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 EARTH_RATE_DEG_HR = 15.04107  # sidereal rate
 
@@ -37,17 +38,17 @@ def r_lc(azimuth_deg: float, tilt_deg: float, gamma_deg: float) -> np.ndarray:
             @ _rx(math.radians(gamma_deg)))
 
 
-def unit(v) -> np.ndarray:
+def unit(v: ArrayLike) -> np.ndarray:
     v = np.asarray(v, dtype=float)
     return v / np.linalg.norm(v)
 
 
-def elevation_deg(v) -> float:
+def elevation_deg(v: ArrayLike) -> float:
     v = unit(v)
     return math.degrees(math.asin(max(-1.0, min(1.0, v[2]))))
 
 
-def azimuth_deg(v) -> float:
+def azimuth_deg(v: ArrayLike) -> float:
     v = unit(v)
     return math.degrees(math.atan2(v[0], v[1]))
 
@@ -62,7 +63,8 @@ def polar_axis(latitude_deg: float) -> np.ndarray:
     return from_az_el(0.0, latitude_deg)
 
 
-def point_case(d_case, s_lab, tilt_limit_deg: float = 90.0) -> tuple[float, float, float]:
+def point_case(d_case: ArrayLike, s_lab: ArrayLike,
+               tilt_limit_deg: float = 90.0) -> tuple[float, float, float]:
     """(A, E, gamma) that put the case direction ``d_case`` on the lab direction ``s_lab``.
 
     The spindle (c1) goes in the vertical plane of s at the angle acos(d1) from s, on
@@ -101,7 +103,7 @@ def drift_equilibrium(latitude_deg: float, k_deg_hr: float) -> np.ndarray:
     return unit(w + k_deg_hr * np.array([0.0, 0.0, -1.0]))
 
 
-def unbalance_k_from_east_drift(east_rate_deg_hr: float, s_lab) -> float:
+def unbalance_k_from_east_drift(east_rate_deg_hr: float, s_lab: ArrayLike) -> float:
     """k (deg/hr) from an east-west drift rate seen with s in the meridian plane.
 
     For s = (0, cos e, sin e): s x (k down) = (-k cos e, 0, 0), so the east rate is

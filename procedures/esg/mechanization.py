@@ -50,6 +50,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 __all__ = [
     "NominalParams",
@@ -79,12 +80,12 @@ class NominalParams:
         return math.degrees(math.atan2(self.b, self.c))
 
 
-def half_phase(cr) -> np.ndarray:
+def half_phase(cr: ArrayLike) -> np.ndarray:
     """X = cos(mu / 2) = sin((pi - mu) / 2), mu = 2 pi CR (eqs. 3, 4)."""
     return np.cos(np.pi * np.asarray(cr, dtype=float))
 
 
-def nominal_cos(cr, params: NominalParams) -> np.ndarray:
+def nominal_cos(cr: ArrayLike, params: NominalParams) -> np.ndarray:
     """cos(th_n) from count ratios by the closed-form root of eq. 8 (eq. 10); vectorised."""
     b, c, d = params.b, params.c, params.dbar
     a = b * half_phase(cr)
@@ -93,19 +94,19 @@ def nominal_cos(cr, params: NominalParams) -> np.ndarray:
     return (c * d - a * root) / den
 
 
-def nominal_colatitude(cr, params: NominalParams) -> np.ndarray:
+def nominal_colatitude(cr: ArrayLike, params: NominalParams) -> np.ndarray:
     """Nominal colatitude th_n (deg) for count ratios (eq. 10); vectorised."""
     return np.degrees(np.arccos(np.clip(nominal_cos(cr, params), -1.0, 1.0)))
 
 
-def nominal_count_ratio(theta_deg, params: NominalParams) -> np.ndarray:
+def nominal_count_ratio(theta_deg: ArrayLike, params: NominalParams) -> np.ndarray:
     """Inverse of eq. 8: the count ratio the nominal mechanization assigns to a colatitude."""
     th = np.radians(np.asarray(theta_deg, dtype=float))
     x = (params.dbar - params.c * np.cos(th)) / (params.b * np.sin(th))
     return np.arccos(np.clip(x, -1.0, 1.0)) / np.pi
 
 
-def exact_count_ratio(theta_deg, b: float, c: float, d1: float, d2: float) -> np.ndarray:
+def exact_count_ratio(theta_deg: ArrayLike, b: float, c: float, d1: float, d2: float) -> np.ndarray:
     """Count ratio from the exact edge geometry (eqs. 1-6): (ph2 - ph1) / (2 pi)."""
     th = np.radians(np.asarray(theta_deg, dtype=float))
     bs = b * np.sin(th)
@@ -114,7 +115,7 @@ def exact_count_ratio(theta_deg, b: float, c: float, d1: float, d2: float) -> np
     return (ph2 - ph1) / (2.0 * np.pi)
 
 
-def nominal_factor(theta_deg, b: float, c: float, d1: float, d2: float) -> np.ndarray:
+def nominal_factor(theta_deg: ArrayLike, b: float, c: float, d1: float, d2: float) -> np.ndarray:
     """F = cos((ph1 - ph2') / 2), the factor eq. 8 drops (eq. 7)."""
     th = np.radians(np.asarray(theta_deg, dtype=float))
     bs = b * np.sin(th)

@@ -37,10 +37,19 @@ class Setting:
                 "line_cr": {str(k): v for k, v in self.line_cr.items()},
                 "rejected": self.rejected}
 
+    def ratio(self, pickoff: int) -> float:
+        """A pickoff's mean count ratio; a failed check when the pickoff is off the pattern."""
+        v = self.cr[pickoff]
+        if v is None:
+            raise CheckFailed(f"pickoff {pickoff} is off the pattern (setting at "
+                              f"t = {self.t_s:.1f} s)")
+        return v
+
     @classmethod
     def from_reading(cls, d: dict) -> Setting:
         """The setting back from its journal form (``reading``)."""
-        return cls(tuple(d["pickoffs"]), d["t_s"],  # type: ignore[arg-type]
+        first, second = d["pickoffs"]
+        return cls((first, second), d["t_s"],
                    {int(k): v for k, v in d["cr"].items()}, list(d["times_s"]),
                    {int(k): list(v) for k, v in d["line_cr"].items()},
                    list(d["rejected"]))
@@ -83,10 +92,11 @@ def read_setting(proc: ProcessorDriver, pickoffs: tuple[int, int], n_lines: int 
                 rejected.append(f"{ln.reason}: {ln.raw!r}")
             else:
                 good.append(ln)
+        # the pickoffs on the pattern in every line, with their ratios line by line
         crs = {p: [_cr(ln, p) for ln in good] for p in pickoffs}
-        on = {p: all(v is not None for v in vals) and len(vals) > 0
-              for p, vals in crs.items()}
-        keep = agreeing([[crs[p][i] for p in pickoffs if on[p]] for i in range(len(good))])
+        on = {p: [v for v in vals if v is not None] for p, vals in crs.items()
+              if vals and None not in vals}
+        keep = agreeing([[on[p][i] for p in pickoffs if p in on] for i in range(len(good))])
         for i, k in enumerate(keep):
             if not k:
                 rejected.append(f"count ratio off the setting's agreeing lines: "
@@ -94,7 +104,7 @@ def read_setting(proc: ProcessorDriver, pickoffs: tuple[int, int], n_lines: int 
         used = [ln for ln, k in zip(good, keep, strict=True) if k]
         if len(used) >= min_lines:
             times = [ln.time_hr * 3600.0 for ln in used]
-            line_cr = {p: [ln.count_ratio(p) for ln in used] for p in pickoffs if on[p]}
+            line_cr = {p: [ln.count_ratio(p) for ln in used] for p in pickoffs if p in on}
             cr = {p: (sum(v) / len(v) if p in line_cr else None)
                   for p, v in ((p, line_cr.get(p, [])) for p in pickoffs)}
             return Setting(pickoffs, sum(times) / len(times), cr, times, line_cr, rejected)

@@ -38,7 +38,10 @@ All functions take cosines with shape (..., 3) and broadcast over the leading ax
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
+from numpy.typing import ArrayLike
 
 __all__ = [
     "orthogonal_pickoffs",
@@ -65,23 +68,24 @@ def pickoffs_from_mirrors(mirror_angle_deg: float) -> np.ndarray:
     return np.array([[1.0, 0.0, 0.0], [np.cos(a), np.sin(a), 0.0], [0.0, 0.0, 1.0]])
 
 
-def _p(pickoffs) -> np.ndarray:
+def _p(pickoffs: ArrayLike | None) -> np.ndarray:
     return orthogonal_pickoffs() if pickoffs is None else np.asarray(pickoffs, dtype=float)
 
 
-def spin_axis_three(cosines, pickoffs=None) -> np.ndarray:
+def spin_axis_three(cosines: ArrayLike, pickoffs: ArrayLike | None = None) -> np.ndarray:
     """Three-pickoff mode with ordinary normalisation: s = P^-1 alpha / |P^-1 alpha|."""
     a = np.asarray(cosines, dtype=float)
     v = a @ np.linalg.inv(_p(pickoffs)).T
     return v / np.linalg.norm(v, axis=-1, keepdims=True)
 
 
-def _third(pair) -> np.ndarray:
+def _third(pair: ArrayLike) -> np.ndarray:
     pair = np.asarray(pair)
     return 3 - pair[..., 0] - pair[..., 1]
 
 
-def spin_axis_two(cosines, pair, sign, pickoffs=None) -> np.ndarray:
+def spin_axis_two(cosines: ArrayLike, pair: ArrayLike, sign: ArrayLike,
+                  pickoffs: ArrayLike | None = None) -> np.ndarray:
     """Two-pickoff mode with pickoffs ``pair`` = (i, j) (0-based; shape (2,) or (..., 2)).
 
     The third component comes from the orthogonality identity (general geometry: the
@@ -109,7 +113,7 @@ def spin_axis_two(cosines, pair, sign, pickoffs=None) -> np.ndarray:
     return s0 + (np.where(np.asarray(sign) < 0, -1.0, 1.0) * t)[..., None] * n
 
 
-def nearest_equator_pair(cosines, viewing=None) -> np.ndarray:
+def nearest_equator_pair(cosines: ArrayLike, viewing: ArrayLike | None = None) -> np.ndarray:
     """The two pickoffs with the smallest |cosine| (among those viewing, if given)."""
     a = np.abs(np.asarray(cosines, dtype=float))
     if viewing is not None:
@@ -118,7 +122,8 @@ def nearest_equator_pair(cosines, viewing=None) -> np.ndarray:
     return np.sort(order[..., :2], axis=-1)
 
 
-def spin_axis_mixed(cosines, viewing, signs, pickoffs=None) -> tuple[np.ndarray, np.ndarray]:
+def spin_axis_mixed(cosines: ArrayLike, viewing: ArrayLike, signs: ArrayLike,
+                    pickoffs: ArrayLike | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Mixed strategy: (s, mode), mode 3 where all three view, 2 where two do, 0 where fewer.
 
     ``viewing`` (bool, (..., 3)) says which pickoffs see the pattern; ``signs`` ((..., 3)
@@ -141,19 +146,21 @@ def spin_axis_mixed(cosines, viewing, signs, pickoffs=None) -> tuple[np.ndarray,
     return s, np.where(nv >= 3, 3, np.where(nv == 2, 2, 0))
 
 
-def variance_two(alpha, beta, var_alpha, var_beta) -> np.ndarray:
+def variance_two(alpha: ArrayLike, beta: ArrayLike, var_alpha: float | np.ndarray,
+                 var_beta: float | np.ndarray) -> np.ndarray:
     """Eq. (2): E|dS|^2 of the two-pickoff mode (orthogonal pickoffs)."""
     a2, b2 = np.square(alpha), np.square(beta)
     return ((1.0 - b2) * var_alpha + (1.0 - a2) * var_beta) / (1.0 - a2 - b2)
 
 
-def variance_three(cosines, variances) -> np.ndarray:
+def variance_three(cosines: ArrayLike, variances: ArrayLike) -> np.ndarray:
     """Eq. (3): E|dS|^2 of the normalised three-pickoff mode (orthogonal pickoffs)."""
     a = np.asarray(cosines, dtype=float)
     return ((1.0 - a * a) * np.asarray(variances, dtype=float)).sum(-1)
 
 
-def jacobian_two(s, pair, pickoffs=None) -> np.ndarray:
+def jacobian_two(s: ArrayLike, pair: Sequence[int] | np.ndarray,
+                 pickoffs: ArrayLike | None = None) -> np.ndarray:
     """dS/d(alpha_i, alpha_j) (3 x 2) of the two-pickoff mode at the true axis s."""
     p = _p(pickoffs)
     i, j = int(pair[0]), int(pair[1])
@@ -161,13 +168,13 @@ def jacobian_two(s, pair, pickoffs=None) -> np.ndarray:
     return np.linalg.inv(m)[:, :2]
 
 
-def jacobian_three(s, pickoffs=None) -> np.ndarray:
+def jacobian_three(s: ArrayLike, pickoffs: ArrayLike | None = None) -> np.ndarray:
     """dS/d alpha (3 x 3) of the normalised three-pickoff mode at the true axis s."""
     s = np.asarray(s, dtype=float)
     return (np.eye(3) - np.outer(s, s)) @ np.linalg.inv(_p(pickoffs))
 
 
-def propagated_variance(jacobian, variances) -> float:
+def propagated_variance(jacobian: ArrayLike, variances: ArrayLike) -> float:
     """E|dS|^2 = trace(J diag(v) J') for independent cosine errors."""
     j = np.asarray(jacobian, dtype=float)
     return float(((j * j) * np.asarray(variances, dtype=float)).sum())

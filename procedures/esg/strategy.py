@@ -90,11 +90,13 @@ and 60); with the sphere values 15" / 1.432 -> 50.8 and 15" / 1.151 -> 63.2 micr
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable
 from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
 
 import numpy as np
+from numpy.typing import ArrayLike
 from scipy.optimize import brentq, minimize_scalar
 
 from procedures.esg.readout import nearest_equator_pair, variance_three, variance_two
@@ -141,7 +143,7 @@ class PatternGeometry:
     delta_deg: float = float("nan")    # line angle to the parallel at the extremity
     x_inch: float = float("nan")       # spacing parameter x of Figure 1
 
-    def slope2(self, alpha) -> np.ndarray:
+    def slope2(self, alpha: ArrayLike) -> np.ndarray:
         """T^2 = (d th / d ph)^2 along the line where cos th = alpha."""
         s2 = 1.0 - np.square(np.asarray(alpha, dtype=float))
         if self.pattern == "great_circle":
@@ -177,35 +179,35 @@ def pattern_geometry(pattern: str, theta0_deg: float, convention: str = "sphere"
         return x, math.atan(td)
 
     if pattern == "great_circle":
-        def geom_of(i: float) -> PatternGeometry:
+        def geom_of_i(i: float) -> PatternGeometry:
             return PatternGeometry(pattern, theta0_deg, convention, n_sets,
                                    inclination_deg=math.degrees(i))
 
-        def resid(i: float) -> float:
+        def resid_i(i: float) -> float:
             ph0 = math.asin(min(1.0, c0 / (s0 * math.tan(i))))
-            x, _ = spacing(geom_of(i))
+            x, _ = spacing(geom_of_i(i))
             return ph0 - (allot - HALF_LINE_SHARE * x / (radius_inch * s0))
 
         lo = math.pi / 2 - th0
-        i = brentq(resid, lo + 1e-9, math.pi / 2 - 1e-9, xtol=1e-14)
-        g = geom_of(i)
+        i = brentq(resid_i, lo + 1e-9, math.pi / 2 - 1e-9, xtol=1e-14)
+        g = geom_of_i(i)
         ph0 = math.asin(c0 / (s0 * math.tan(i)))
     else:
-        def geom_of(ph0: float) -> PatternGeometry:
+        def geom_of_ph0(ph0: float) -> PatternGeometry:
             return PatternGeometry(pattern, theta0_deg, convention, n_sets, k=c0 / ph0)
 
-        def resid(ph0: float) -> float:
-            x, _ = spacing(geom_of(ph0))
+        def resid_ph0(ph0: float) -> float:
+            x, _ = spacing(geom_of_ph0(ph0))
             return ph0 - (allot - HALF_LINE_SHARE * x / (radius_inch * s0))
 
-        ph0 = brentq(resid, 1e-6, allot, xtol=1e-14)
-        g = geom_of(ph0)
+        ph0 = brentq(resid_ph0, 1e-6, allot, xtol=1e-14)
+        g = geom_of_ph0(ph0)
     x, delta = spacing(g)
     return PatternGeometry(g.pattern, theta0_deg, convention, n_sets, g.inclination_deg, g.k,
                            math.degrees(ph0), math.degrees(delta), x)
 
 
-def pickoff_sigma(geom: PatternGeometry, alpha) -> np.ndarray:
+def pickoff_sigma(geom: PatternGeometry, alpha: ArrayLike) -> np.ndarray:
     """1-sigma of a pickoff's direction cosine per unit edge error e (r = 1).
 
     sphere: sqrt((sin^2 th + T^2) / 2n); chart (report): sqrt((1 + T^2) / 2n).
@@ -267,7 +269,8 @@ def amplification(pattern: str, strategy: str, theta0_deg: float,
     return amplification_details(pattern, strategy, theta0_deg, convention, points)["factor"]
 
 
-def figure2_table(ranges, convention: str = "sphere", points: int = 20000) -> list[dict]:
+def figure2_table(ranges: Iterable[float], convention: str = "sphere",
+                  points: int = 20000) -> list[dict]:
     """Rows (pattern, range_deg, strategy, factor, excluded_fraction, three_fraction)."""
     rows = []
     for pattern in PATTERNS:

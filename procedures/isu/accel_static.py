@@ -6,11 +6,16 @@ takes the string to give the preset number of pulses. Bubble-level corrections a
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 from procedures.isu.common import Gate, PositionSet
 from procedures.isu.settings import ACCEL, STRINGS
 from procedures.isu.sheets import CounterOutputs, CounterSettings, ResolverSettings
 from procedures.isu.static_positions import StaticKind, pair_steps, run_static, single_steps
 from procedures.runner import Run
+
+if TYPE_CHECKING:
+    from station.drivers.isu import IsuDrivers
 
 TITLE_7_12 = "Accelerometer bias, scale factor, second order and (Q^A)^-1, positions 7 to 12"
 TITLE_13_14 = "Accelerometer third order terms, positions 13 and 14"
@@ -33,15 +38,15 @@ def _kind(f0: float) -> StaticKind:
     )
 
 
-def accel_positions_7_12(st, run: Run, settings: ResolverSettings, presets: CounterSettings,
-                         outputs: CounterOutputs, s1: float, f0: float, pairs=(7, 9, 11)
-                         ) -> dict[int, dict]:
+def accel_positions_7_12(st: IsuDrivers, run: Run, settings: ResolverSettings,
+                         presets: CounterSettings, outputs: CounterOutputs, s1: float,
+                         f0: float, pairs: tuple[int, ...] = (7, 9, 11)) -> dict[int, dict]:
     return run_static(st, run, "II-13", TITLE_7_12, _kind(f0), settings, presets, outputs,
                       pair_steps(pairs))
 
 
-def accel_positions_13_14(st, run: Run, settings: ResolverSettings, presets: CounterSettings,
-                          outputs: CounterOutputs, s1: float, f0: float, positions=(13, 14)
-                          ) -> dict[int, dict]:
+def accel_positions_13_14(st: IsuDrivers, run: Run, settings: ResolverSettings,
+                          presets: CounterSettings, outputs: CounterOutputs, s1: float,
+                          f0: float, positions: tuple[int, ...] = (13, 14)) -> dict[int, dict]:
     return run_static(st, run, "II-14", TITLE_13_14, _kind(f0), settings, presets, outputs,
                       single_steps(positions))

@@ -10,13 +10,17 @@ as the table's.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 from procedures.isu.calibration.noise_spec import ARCSEC, NoiseSpec
 from procedures.isu.plausibility import K_READING, MAX_REREADS, PARSE_ERRORS, Implausible, source_of
 from procedures.isu.readings import RATE_TOLERANCE, read_levels, resolver
 from station.errors import DriverError
+
+if TYPE_CHECKING:
+    from station.drivers.isu import IsuDrivers
 
 ARCSEC_PER_DEG = 3600.0
 SPEC = NoiseSpec.model_validate({})  # the lab's specification unless a procedure has its own
@@ -66,7 +70,7 @@ def level_check_z(check: tuple[float, float], applied: tuple[float, float],
 SETTING_CHECK_ARCSEC = 3.0  # a held axis's resolver against its command (10 x the scatter)
 
 
-def axes_off_command(st, commanded: dict[int, float]) -> str | None:
+def axes_off_command(st: IsuDrivers, commanded: dict[int, float]) -> str | None:
     """Axes whose resolver does not read their last command (within SETTING_CHECK_ARCSEC),
     as the table reports them; None if every one does (asked only when a levelling fails:
     a seized axis answers a command within its in-position band with HOLD)."""
@@ -79,7 +83,7 @@ def axes_off_command(st, commanded: dict[int, float]) -> str | None:
     return "; ".join(off) if off else None
 
 
-def set_position(st, phi1: float, phi2: float | None, phi3: float, phi4: float,
+def set_position(st: IsuDrivers, phi1: float, phi2: float | None, phi3: float, phi4: float,
                  level: bool, noise: NoiseSpec | None = None) -> PositionSet:
     """Move to (phi1, phi2, phi3, phi4); with ``level``, read the bubbles and correct phi1, phi3.
 
@@ -132,7 +136,7 @@ def set_position(st, phi1: float, phi2: float | None, phi3: float, phi4: float,
                        (c1, c3), t_level, (v1, v3), relevelled)
 
 
-def patch(st, wiring: dict[int, tuple[str | None, str | None, str]]) -> None:
+def patch(st: IsuDrivers, wiring: dict[int, tuple[str | None, str | None, str]]) -> None:
     """Clear the panel, then counter -> (X line, Y line or None, Z line)."""
     st.patch_panel.clear_all()
     for c, (x, y, z) in wiring.items():
@@ -143,7 +147,7 @@ def patch(st, wiring: dict[int, tuple[str | None, str | None, str]]) -> None:
         st.patch_panel.connect(z, c, "Z")
 
 
-def patch_check_counter(st, counter: int, k: int) -> None:
+def patch_check_counter(st: IsuDrivers, counter: int, k: int) -> None:
     """Connect gyro k's + and - lines to a check counter's X and Y (its Z stays)."""
     st.patch_panel.connect(f"G{k}+", counter, "X")
     st.patch_panel.connect(f"G{k}-", counter, "Y")
@@ -157,7 +161,7 @@ class Gate:
     t_each: dict[int, float] = field(default_factory=dict)  # when each counter was operated
 
 
-def run_counters(st, presets: dict[int, int], timeout: float,
+def run_counters(st: IsuDrivers, presets: dict[int, int], timeout: float,
                  diagnose: Callable[[], str | None] | None = None) -> Gate:
     """Set presets, switch every counter to operate, wait for each print-out, then standby.
 
@@ -194,7 +198,7 @@ def run_counters(st, presets: dict[int, int], timeout: float,
     return Gate(readings, t0, st.clock.now(), t_each)
 
 
-def check_repeated_counts(st, gate: Gate, repeats: dict[int, int],
+def check_repeated_counts(st: IsuDrivers, gate: Gate, repeats: dict[int, int],
                           gate_s: float | None) -> dict[str, int]:
     """Counters that counted the same line over the same gate must agree. ``gate_s`` None:
     the gate is a number of the table's rotation pulses, opened on the same pulse for
@@ -225,8 +229,8 @@ def check_repeated_counts(st, gate: Gate, repeats: dict[int, int],
 TURN_RATE_TOLERANCE = 1e-3  # relative: the table's mean rate over whole turns (data sheet)
 
 
-def check_turns_clock(st, counter: int, ticks: int, pulses: int, s1: float, s_phi: float,
-                      rate_deg_s: float) -> float:
+def check_turns_clock(st: IsuDrivers, counter: int, ticks: int, pulses: int, s1: float,
+                      s_phi: float, rate_deg_s: float) -> float:
     """Table rate (deg/s) from a counter's clock ticks over whole turns; it must be the
     commanded rate within TURN_RATE_TOLERANCE, else that counter's reading is wrong."""
     w = s_phi * pulses / (ticks * s1) if ticks > 0 else math.inf
@@ -238,7 +242,7 @@ def check_turns_clock(st, counter: int, ticks: int, pulses: int, s1: float, s_ph
     return w
 
 
-def rotary_axis_turning(st, rate_deg_s: float, axis: int = 2,
+def rotary_axis_turning(st: IsuDrivers, rate_deg_s: float, axis: int = 2,
                         tolerance: float = RATE_TOLERANCE) -> Callable[[], str | None]:
     """A ``diagnose`` for gates on the table's rotation pulses: None if ``axis`` turns at the
     commanded rate (within ``tolerance``, relative), else what the table reports."""
@@ -258,6 +262,6 @@ def rotary_axis_turning(st, rate_deg_s: float, axis: int = 2,
     return check
 
 
-def set_modes(st, counters, mode: str) -> None:
+def set_modes(st: IsuDrivers, counters: Iterable[int], mode: str) -> None:
     for c in counters:
         st.counters[c].set_mode(mode)

@@ -25,11 +25,11 @@ from procedures.isu.calibration import (
 from procedures.isu.calibration.checks import K_RESULT, check_residuals, check_string_sums
 from procedures.isu.day import DayData
 from procedures.isu.j_term import j_estimate, j_pairs
-from procedures.isu.nonlinearity import fit_nonlinearity, q_is_from_fit
+from procedures.isu.nonlinearity import NonlinearityFit, fit_nonlinearity, q_is_from_fit
 from procedures.isu.plan import DayPlan
 from procedures.isu.plausibility import Implausible
 from procedures.isu.settings import STRINGS
-from procedures.isu.sheets import CalibrationResults, ResultRow
+from procedures.isu.sheets import CalibrationResults, ResultRow, SurveyResults
 from procedures.runner import Run
 from station.errors import CheckFailed
 
@@ -38,9 +38,18 @@ STRING_KEY = {c: (int(name[1]), int(name[3])) for c, name in STRINGS.items()}
 J_COUNTERS = {7: {3: 2, 4: 3}, 11: {2: 1}}  # position -> counter -> gyro
 
 
+def _survey(data: DayData) -> SurveyResults:
+    """The Survey Results Sheet of the day; a failed check when the survey was not run."""
+    if data.survey is None:
+        raise CheckFailed("no Survey Results Sheet (Chart I-3): the constants of "
+                          "steps 3-4 come from the system survey (Chart I-2)")
+    return data.survey
+
+
 def calibration_data(data: DayData, plan: DayPlan, site: dict,
                      last_d1d3: dict[int, float] | None = None) -> CalibrationData:
-    sv = data.survey
+    """Chart II-15 steps 3-7: the survey's constants and every position's counts."""
+    sv = _survey(data)
     const = Constants(
         g=site["g"],
         w_sin_lambda=site["omega_sin_lambda"],
@@ -90,7 +99,7 @@ def _tilt_change_sigma_arcsec(noise: NoiseSpec, gate_s: float) -> float:
     return math.sqrt(max(var, 0.0)) * 180.0 / math.pi * 3600.0
 
 
-def _check_speeds(chart: str, k: int, pts: list[dict], fit: dict) -> list[float]:
+def _check_speeds(chart: str, k: int, pts: list[dict], fit: NonlinearityFit) -> list[float]:
     """Each speed of a nonlinearity series off the quadratic through the others (sigma)."""
     for p, z in zip(pts, fit["residual_z"], strict=True):
         if abs(z) > K_RESULT:
@@ -120,7 +129,7 @@ def special_experiments(rows: list[ResultRow], data: DayData, plan: DayPlan, sit
         rq = _row(rows, f"gyro{k}", "Q_II")
         dphi = _row(rows, f"gyro{k}", "DeltaPhi").estimate or 3.0
         gb = [_row(rows, f"gyro{k}", f"G.B{j}").estimate for j in (1, 2, 3)]
-        if rq.estimate is None or any(x is None for x in gb):
+        if rq.estimate is None or rq.sigma is None or any(x is None for x in gb):
             continue  # needs Q_II (II-7) and (Q^G)^-1 (positions 1-6)
         gates = np.array([abs(p["counts"] / p["p_dot"]) for p in pts])
         fit = fit_nonlinearity(pts, np.array([_count_sigma(noise, g, dphi) for g in gates]))
@@ -131,7 +140,7 @@ def special_experiments(rows: list[ResultRow], data: DayData, plan: DayPlan, sit
         r.note = "designed speed series along (G + S)/sqrt2 (docs/special-experiments.md)"
     if not data.j_term:
         return checks
-    sv = data.survey
+    sv = _survey(data)
     for m, counters in J_COUNTERS.items():
         recs = data.j_term.get(m)
         if not recs:
@@ -171,9 +180,6 @@ def compute_calibration(run: Run, data: DayData, plan: DayPlan, noise: NoiseSpec
                         ) -> CalibrationResults:
     with run.sheet("II-15", TITLE) as sheet:
         with sheet.step("1", "Prepare the data for entry") as s:
-            if data.survey is None:
-                raise CheckFailed("no Survey Results Sheet (Chart I-3): the constants of "
-                                  "steps 3-4 come from the system survey (Chart I-2)")
             cd = calibration_data(data, plan, site, last_d1d3)
             s.reading = {"gyro_positions": sorted(cd.gyro), "accel_positions": sorted(cd.accel)}
         sheet.done("2", "Load the calibration program")

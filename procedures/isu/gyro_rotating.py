@@ -6,6 +6,8 @@ the same N whole turns of the rotary axis ("measure Z", Z = table rotation pulse
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 from procedures.isu.common import (
     check_repeated_counts,
     check_turns_clock,
@@ -21,12 +23,15 @@ from procedures.isu.readings import axis_rate, resolver
 from procedures.isu.settings import ALONG_AXIS_CHECK, GYRO_ROTATING, turning_repeats, wiring
 from procedures.isu.sheets import CounterOutputs, ResolverSettings
 from procedures.isu.turn_on import oscillator_periods
-from procedures.runner import Run
+from procedures.runner import CheckSheetRun, Run
+
+if TYPE_CHECKING:
+    from station.drivers.isu import IsuDrivers
 
 TITLE = "Gyro scale factor and (Q^G)^-1, positions 1 to 6"
 
 
-def wait_clear_of_pulse(st, rate_deg_s: float, ppr: int, margin_s: float = 1.0) -> None:
+def wait_clear_of_pulse(st: IsuDrivers, rate_deg_s: float, ppr: int, margin_s: float = 1.0) -> None:
     """Step 9: switch on only after the rotary output has just fired, so that no pulse falls
     between the counters being switched (they must all share one gate)."""
     pitch = 360.0 / ppr
@@ -37,8 +42,8 @@ def wait_clear_of_pulse(st, rate_deg_s: float, ppr: int, margin_s: float = 1.0) 
         st.clock.sleep(t_next + 0.1)
 
 
-def position_pair(st, sheet, settings: ResolverSettings, plan: DayPlan, m: int,
-                  outputs: CounterOutputs, data: dict) -> None:
+def position_pair(st: IsuDrivers, sheet: CheckSheetRun, settings: ResolverSettings,
+                  plan: DayPlan, m: int, outputs: CounterOutputs, data: dict) -> None:
     """Steps 7-14 for positions m and m + 1; step numbers carry the position (e.g. 9/m2)."""
     n_pulses = plan.min_turns * plan.rotation_pulses_per_rev
     timeout = 2.0 * plan.min_turns * 360.0 / plan.table_rate_deg_s + 60.0
@@ -84,8 +89,9 @@ def position_pair(st, sheet, settings: ResolverSettings, plan: DayPlan, m: int,
             s.reading = data[mm]
 
 
-def scale_factor_positions(st, run: Run, settings: ResolverSettings, plan: DayPlan,
-                           outputs: CounterOutputs, positions=(1, 3, 5)) -> dict[int, dict]:
+def scale_factor_positions(st: IsuDrivers, run: Run, settings: ResolverSettings,
+                           plan: DayPlan, outputs: CounterOutputs,
+                           positions: tuple[int, ...] = (1, 3, 5)) -> dict[int, dict]:
     """Positions 1-6 (pairs m, m + 1 for m in ``positions``); returns the gyro data by position."""
     data: dict[int, dict] = {}
     with run.sheet("II-6", TITLE) as sheet:

@@ -8,11 +8,16 @@ down) and 13-15 (bisectors up). Bubble-level corrections are applied in every po
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 from procedures.isu.common import Gate, PositionSet
 from procedures.isu.settings import GYRO_CHECK_COUNTERS, GYRO_STATIC
 from procedures.isu.sheets import CounterOutputs, CounterSettings, ResolverSettings
 from procedures.isu.static_positions import StaticKind, pair_steps, run_static, single_steps
 from procedures.runner import Run
+
+if TYPE_CHECKING:
+    from station.drivers.isu import IsuDrivers
 
 TITLE_7_12 = "Gyro bias, unbalance and square compliance, positions 7 to 12"
 TITLE_13_15 = "Gyro product compliance, positions 13 to 15"
@@ -34,14 +39,15 @@ def _kind(s1: float) -> StaticKind:
     )
 
 
-def gyro_positions_7_12(st, run: Run, settings: ResolverSettings, presets: CounterSettings,
-                        outputs: CounterOutputs, s1: float, pairs=(7, 9, 11)) -> dict[int, dict]:
+def gyro_positions_7_12(st: IsuDrivers, run: Run, settings: ResolverSettings,
+                        presets: CounterSettings, outputs: CounterOutputs, s1: float,
+                        pairs: tuple[int, ...] = (7, 9, 11)) -> dict[int, dict]:
     return run_static(st, run, "II-11", TITLE_7_12, _kind(s1), settings, presets, outputs,
                       pair_steps(pairs))
 
 
-def gyro_positions_13_15(st, run: Run, settings: ResolverSettings, presets: CounterSettings,
-                         outputs: CounterOutputs, s1: float, positions=(13, 14, 15)
-                         ) -> dict[int, dict]:
+def gyro_positions_13_15(st: IsuDrivers, run: Run, settings: ResolverSettings,
+                         presets: CounterSettings, outputs: CounterOutputs, s1: float,
+                         positions: tuple[int, ...] = (13, 14, 15)) -> dict[int, dict]:
     return run_static(st, run, "II-12", TITLE_13_15, _kind(s1), settings, presets, outputs,
                       single_steps(positions))

@@ -15,6 +15,8 @@ the integrals of sin phi2 and cos phi2 that II-1.3 anticipates.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
+from typing import TYPE_CHECKING
 
 import numpy as np
 from scipy.integrate import quad
@@ -27,6 +29,9 @@ from procedures.isu.settings import GYRO_STATIC, wiring
 from procedures.isu.sheets import ResolverSettings
 from procedures.runner import Run
 
+if TYPE_CHECKING:
+    from station.drivers.isu import IsuDrivers
+
 TITLE = "J term experiment (designed: commanded table acceleration, positions 7 and 11)"
 GYROS_OF_POSITION = {7: (2, 3), 11: (1,)}
 # the table's rotary angle after a gate against the commanded ramp: a few arcsec of
@@ -37,7 +42,8 @@ PROFILE_DELAY_S = 0.05
 DEG = math.pi / 180.0
 
 
-def profile(phi0_deg: float, w0: float, w1: float, acc: float, t_cmd: float):
+def profile(phi0_deg: float, w0: float, w1: float, acc: float,
+            t_cmd: float) -> Callable[[float], float]:
     """phi2(t) in deg (t from the reading phi0) for a ramp from rate w0 to w1 (deg/s) at
     |acc| commanded at t_cmd."""
     a = math.copysign(acc, w1 - w0)
@@ -54,14 +60,15 @@ def profile(phi0_deg: float, w0: float, w1: float, acc: float, t_cmd: float):
     return phi
 
 
-def gate_integrals(phi, t0: float, t1: float) -> tuple[float, float, float]:
+def gate_integrals(phi: Callable[[float], float], t0: float,
+                   t1: float) -> tuple[float, float, float]:
     """theta (deg), int sin(phi2) dt, int cos(phi2) dt over [t0, t1] (times relative)."""
     s = quad(lambda t: math.sin(phi(t) * DEG), t0, t1, limit=400, epsabs=1e-10)[0]
     c = quad(lambda t: math.cos(phi(t) * DEG), t0, t1, limit=400, epsabs=1e-10)[0]
     return phi(t1) - phi(t0), s, c
 
 
-def j_experiment(st, run: Run, settings: ResolverSettings, plan: DayPlan, s1: float,
+def j_experiment(st: IsuDrivers, run: Run, settings: ResolverSettings, plan: DayPlan, s1: float,
                  pairs: int = 4, gate_s: float = 20.0) -> dict:
     """Run the up/down gates in positions 7 and 11; return the raw records per position.
 

@@ -10,8 +10,10 @@ Q_II = a2 / a1 (Chart IV-2: the (w.G)^2 term). Rates in deg/hr, P' in pulses/s.
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING, TypedDict
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from procedures.isu.common import (
     check_repeated_counts,
@@ -28,13 +30,16 @@ from procedures.isu.plan import DayPlan
 from procedures.isu.readings import axis_rate
 from procedures.isu.settings import ALONG_AXIS_CHECK, GYRO_ROTATING, turning_repeats, wiring
 from procedures.isu.sheets import ResolverSettings
-from procedures.runner import Run
+from procedures.runner import CheckSheetRun, Run
+
+if TYPE_CHECKING:
+    from station.drivers.isu import IsuDrivers
 
 TITLE = "Gyro scale-factor nonlinearity experiments"
 POSITION_OF_GYRO = {1: 1, 2: 3, 3: 5}
 
 
-def speed_series(st, sheet, tag: str, k: int, plan: DayPlan, s1: float,
+def speed_series(st: IsuDrivers, sheet: CheckSheetRun, tag: str, k: int, plan: DayPlan, s1: float,
                  omega_sin_lambda: float) -> list[dict]:
     """Steps 6-10 at every speed of the plan for gyro k (counters 1 and k + 1)."""
     ppr = plan.rotation_pulses_per_rev
@@ -71,7 +76,7 @@ def speed_series(st, sheet, tag: str, k: int, plan: DayPlan, s1: float,
     return rows
 
 
-def nonlinearity_experiment(st, run: Run, settings: ResolverSettings, plan: DayPlan,
+def nonlinearity_experiment(st: IsuDrivers, run: Run, settings: ResolverSettings, plan: DayPlan,
                             s1: float, omega_sin_lambda: float) -> dict[int, list[dict]]:
     """Chart II-7 steps 1-15; returns per gyro the (w, P', counts, ticks) points."""
     points: dict[int, list[dict]] = {}
@@ -113,7 +118,7 @@ def bisector(k: int) -> np.ndarray:
     return (g + s) / math.sqrt(2.0)
 
 
-def q_is_experiment(st, run: Run, t_bi, plan: DayPlan, s1: float,
+def q_is_experiment(st: IsuDrivers, run: Run, t_bi: ArrayLike, plan: DayPlan, s1: float,
                     omega_sin_lambda: float) -> dict[int, list[dict]]:
     from procedures.isu.survey_math import settings_for
 
@@ -148,10 +153,23 @@ def q_is_from_fit(a2_over_a1: float, sigma_ratio: float, q_ii: float, sigma_q_ii
     return q, sig
 
 
-def fit_nonlinearity(rows: list[dict], sigma_counts: float) -> dict[str, float]:
+class NonlinearityFit(TypedDict):
+    """The quadratic P' = a0 + a1 w + a2 w^2 of one speed series and its checks."""
+
+    a0: float
+    a1: float
+    a2: float
+    Q_II: float  # a2 / a1, hr/deg
+    sigma: float  # of Q_II
+    scale_factor_arcsec: float  # 1 / a1
+    residual_z: list[float]  # each speed off the quadratic through the others, in sigma
+
+
+def fit_nonlinearity(rows: list[dict], sigma_counts: float | np.ndarray) -> NonlinearityFit:
     """Chart II-7 steps 16-17: weighted quadratic fit of P' against w; Q_II and its sigma.
 
-    sigma_counts: standard error of one count (quantization and noise), pulses.
+    sigma_counts: standard error of one count (quantization and noise), pulses; one for all
+    speeds or one per speed.
     """
     w = np.array([r["w_deg_hr"] for r in rows])
     p = np.array([r["p_dot"] for r in rows])

@@ -30,6 +30,7 @@ from dataclasses import dataclass, field
 from typing import TypeVar
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from procedures.isu.calibration.noise_spec import ARCSEC, NoiseSpec
 from station.errors import CheckFailed
@@ -71,7 +72,7 @@ def check_range(driver: object, what: str, value: float, lo: float, hi: float,
     return value
 
 
-def level_reading(driver, values: Sequence[float]) -> tuple[float, float]:
+def level_reading(driver: object, values: Sequence[float]) -> tuple[float, float]:
     """A bubble-level reading (phi1, phi3 corrections, arcsec) inside the levels' range."""
     c1, c3 = (check_range(driver, f"level correction for phi{ax}", float(v),
                           -LEVEL_RANGE_ARCSEC, LEVEL_RANGE_ARCSEC, "arcsec")
@@ -79,7 +80,7 @@ def level_reading(driver, values: Sequence[float]) -> tuple[float, float]:
     return c1, c3
 
 
-def autocollimator_reading(driver, values: Sequence[float]) -> tuple[float, float]:
+def autocollimator_reading(driver: object, values: Sequence[float]) -> tuple[float, float]:
     """An autocollimator reading (azimuth, zenith, deg) the mount and field of view allow."""
     az, zen = (float(v) for v in values)
     check_range(driver, "azimuth", az, 0.0, 360.0, "deg")
@@ -251,7 +252,7 @@ class AgreeingReadings:
             note_reread(rr.record() | {"what": self.what})
 
 
-def _fmt(v) -> str:
+def _fmt(v: ArrayLike) -> str:
     return "(" + ", ".join(f"{float(x):.7g}" for x in np.atleast_1d(v)) + ")"
 
 

@@ -10,7 +10,8 @@ enclosing ``plausibility.rereads()`` block), then the step stops naming the inst
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
+from typing import TYPE_CHECKING
 
 from procedures.isu.plausibility import (
     MAX_REREADS,
@@ -23,10 +24,13 @@ from procedures.isu.plausibility import (
     source_of,
 )
 
+if TYPE_CHECKING:
+    from station.drivers.isu import IsuDrivers
+
 ARCSEC_PER_DEG = 3600.0
 
 
-def read_levels(st) -> tuple[float, float]:
+def read_levels(st: IsuDrivers) -> tuple[float, float]:
     """One bubble-level reading inside the levels' range; an out-of-range reply is read
     again (at most MAX_REREADS times) before the step stops naming the levels."""
     refused: list[list[float]] = []
@@ -45,7 +49,7 @@ def read_levels(st) -> tuple[float, float]:
         return got
 
 
-def read_mirror(st, k: int) -> tuple[float, float]:
+def read_mirror(st: IsuDrivers, k: int) -> tuple[float, float]:
     """One autocollimator k reading (azimuth, zenith, deg) the mount and field allow; an
     impossible one is read again (at most MAX_REREADS times), no return stops the step."""
     ac = st.autocollimators[k]
@@ -67,12 +71,12 @@ def read_mirror(st, k: int) -> tuple[float, float]:
         return got
 
 
-def resolvers(st) -> tuple[float, float, float, float]:
+def resolvers(st: IsuDrivers) -> tuple[float, float, float, float]:
     """The four resolver readings (a reply the driver cannot read is read again)."""
     return guarded(st.table, "resolvers", st.table.positions)
 
 
-def resolver(st, axis: int) -> float:
+def resolver(st: IsuDrivers, axis: int) -> float:
     """One axis's resolver reading (a reply the driver cannot read is read again)."""
     return guarded(st.table, f"axis {axis} resolver", lambda: st.table.position(axis))
 
@@ -80,13 +84,13 @@ def resolver(st, axis: int) -> float:
 RESOLVER_REPEAT_ARCSEC = 0.5  # a holding axis's resolver reads the same within this
 
 
-def steady_resolvers(st, first: tuple[float, ...] | None = None
+def steady_resolvers(st: IsuDrivers, first: tuple[float, ...] | None = None
                      ) -> tuple[float, float, float, float]:
     """The resolvers of a table at rest, read until two consecutive readings agree within
     RESOLVER_REPEAT_ARCSEC (``first``: a reading already taken at this setting, else one is
     taken); at most MAX_REREADS more readings, recorded, then the step stops naming the table."""
 
-    def apart(a, b) -> float:
+    def apart(a: Sequence[float], b: Sequence[float]) -> float:
         return max(abs((x - y + 180.0) % 360.0 - 180.0) for x, y in zip(a, b, strict=True))
 
     prev = tuple(first) if first is not None else resolvers(st)
@@ -109,7 +113,7 @@ def steady_resolvers(st, first: tuple[float, ...] | None = None
 IN_POSITION_ARCSEC = 10.0  # the controller holds an axis within this of its command
 
 
-def axis_in_position(st, axis: int, commanded_deg: float) -> float:
+def axis_in_position(st: IsuDrivers, axis: int, commanded_deg: float) -> float:
     """The resolver of an axis holding at ``commanded_deg``: it must read within the
     controller's in-position band of the command; a reading beyond it is read again (at most
     MAX_REREADS times, recorded), then the step stops naming the table."""
@@ -121,8 +125,8 @@ def axis_in_position(st, axis: int, commanded_deg: float) -> float:
         f"{commanded_deg} deg")
 
 
-def _table_reading(st, what: str, read: Callable[[], float], ok: Callable[[float], bool],
-                   refusal: Callable[[list[float]], str]) -> float:
+def _table_reading(st: IsuDrivers, what: str, read: Callable[[], float],
+                   ok: Callable[[float], bool], refusal: Callable[[list[float]], str]) -> float:
     """A table reading that must pass ``ok``: read again (at most MAX_REREADS times, the
     re-read recorded), then Implausible naming the table with ``refusal`` of the readings."""
     was: list[float] = []
@@ -138,7 +142,7 @@ def _table_reading(st, what: str, read: Callable[[], float], ok: Callable[[float
         was.append(value)
 
 
-def panel_connection(st, counter: int, inp: str, lines: set[str],
+def panel_connection(st: IsuDrivers, counter: int, inp: str, lines: set[str],
                      first: str | None = None) -> str | None:
     """What the panel connects to a counter input: None or one of its ``lines``. Any other
     reply (a NONE that lost a letter) is garbled: read again, then stop naming the panel.
@@ -153,7 +157,7 @@ def panel_connection(st, counter: int, inp: str, lines: set[str],
 RATE_TOLERANCE = 0.01  # relative: a turning axis at its commanded rate (servo and reading)
 
 
-def axis_rate(st, axis: int, commanded_deg_s: float) -> float:
+def axis_rate(st: IsuDrivers, axis: int, commanded_deg_s: float) -> float:
     """The rate of an axis the controller reports turning at ``commanded_deg_s``: a reply
     off by more than RATE_TOLERANCE is read again (at most MAX_REREADS times, recorded), then
     the step stops naming the table and the axis."""
@@ -168,7 +172,7 @@ def axis_rate(st, axis: int, commanded_deg_s: float) -> float:
 AXIS_STATES = ("HOLD", "MOVING", "ROTATING", "ACCEL")
 
 
-def table_status(st) -> list[str]:
+def table_status(st: IsuDrivers) -> list[str]:
     """The four axes' states, each a word the controller says (a garbled ``STAT?`` reply,
     e.g. a HOLD that lost its H, is read again; then the step stops naming the table)."""
     was: list[str] = []

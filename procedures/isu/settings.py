@@ -56,7 +56,7 @@ def counter_connections() -> CounterConnections:
 
 def wiring(experiment: str) -> dict[int, tuple[str | None, str | None, str]]:
     """Patch-panel wiring of an experiment: counter -> (X, Y, Z)."""
-    out = {}
+    out: dict[int, tuple[str | None, str | None, str]] = {}
     for c, conn in counter_connections().experiments[experiment].items():
         x, _, y = conn.xy.partition("/")
         out[int(c)] = (x, y or None, conn.z)

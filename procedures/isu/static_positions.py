@@ -7,8 +7,9 @@ what is patched, the counter mode, the presets and what a reading means (``Stati
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 from procedures.isu.common import (
     Gate,
@@ -23,6 +24,9 @@ from procedures.isu.readings import resolver
 from procedures.isu.settings import wiring
 from procedures.isu.sheets import CounterOutputs, CounterSettings, ResolverSettings
 from procedures.runner import Run
+
+if TYPE_CHECKING:
+    from station.drivers.isu import IsuDrivers
 
 
 @dataclass(frozen=True)
@@ -41,7 +45,7 @@ class StaticKind:
     gate_s: Callable[[dict[int, int]], float] = lambda n: 0.0
 
 
-def pair_steps(pairs) -> list[tuple[int, str, str]]:
+def pair_steps(pairs: Iterable[int]) -> list[tuple[int, str, str]]:
     """Positions m, m + 1 for each m: set (step 6), then turn phi3 by 180 deg (step 10)."""
     out = []
     for m in pairs:
@@ -50,11 +54,11 @@ def pair_steps(pairs) -> list[tuple[int, str, str]]:
     return out
 
 
-def single_steps(positions) -> list[tuple[int, str, str]]:
+def single_steps(positions: Iterable[int]) -> list[tuple[int, str, str]]:
     return [(m, "6", f"Set phi3, phi4 to position {m} with level correction") for m in positions]
 
 
-def run_static(st, run: Run, chart: str, title: str, kind: StaticKind,
+def run_static(st: IsuDrivers, run: Run, chart: str, title: str, kind: StaticKind,
                settings: ResolverSettings, presets: CounterSettings, outputs: CounterOutputs,
                steps: list[tuple[int, str, str]]) -> dict[int, dict]:
     data: dict[int, dict] = {}

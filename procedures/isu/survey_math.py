@@ -15,8 +15,10 @@ and azimuth before entering position 0 here.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 # Body vector put along the rotary axis R1 in each surveyed calibration position (Chart I-5);
 # positions 2, 4, 6 are 1, 3, 5 with phi3 + 180 deg, positions 7-15 reuse these settings.
@@ -44,7 +46,7 @@ def gimbal(p_deg: float) -> np.ndarray:
     return np.array([[0.0, 1.0, 0.0], [c, 0.0, -s], [-s, 0.0, -c]])
 
 
-def t_ie(position_deg) -> np.ndarray:
+def t_ie(position_deg: Sequence[float] | np.ndarray) -> np.ndarray:
     """T^IE = T^IO(phi4) T^OR(phi3) T^RT(phi2) T^TF(phi1) T^FE with T^FE = I (Chart I-4).
 
     ``position_deg`` = (phi1, phi2, phi3, phi4).
@@ -62,16 +64,16 @@ def direction(az_deg: float, zen_deg: float) -> np.ndarray:
     return np.array([math.cos(th), math.cos(a) * math.sin(th), math.sin(a) * math.sin(th)])
 
 
-def angles(v) -> tuple[float, float]:
+def angles(vector: ArrayLike) -> tuple[float, float]:
     """(azimuth in [0, 360), zenith) in degrees of a vector (U, E, N); inverse of ``direction``."""
-    v = np.asarray(v, dtype=float)
+    v = np.asarray(vector, dtype=float)
     v = v / np.linalg.norm(v)
     zen = math.degrees(math.acos(max(-1.0, min(1.0, float(v[0])))))
     az = math.degrees(math.atan2(float(v[2]), float(v[1]))) % 360.0
     return az, zen
 
 
-def rotation_about(axis, angle_deg: float) -> np.ndarray:
+def rotation_about(axis: ArrayLike, angle_deg: float) -> np.ndarray:
     """Matrix turning vectors positively (right hand) by ``angle_deg`` about unit ``axis``."""
     k = np.asarray(axis, dtype=float)
     k = k / np.linalg.norm(k)
@@ -131,7 +133,8 @@ def mirror_alignment(alpha1: float, theta1: float, alpha2: float, theta2: float)
     return np.column_stack([m1, b2, b3])
 
 
-def t_bi_from_survey(position0_deg, autocollimator_deg) -> np.ndarray:
+def t_bi_from_survey(position0_deg: Sequence[float] | np.ndarray,
+                     autocollimator_deg: Sequence[float] | np.ndarray) -> np.ndarray:
     """Chart I-4: T^BI = (T^BS0 T^SE0) (T^IO0 T^OR0 T^RT0 T^TF0 T^FE)^-1.
 
     ``position0_deg`` = (phi1, phi2, phi3, phi4) at position 0; ``autocollimator_deg`` =
@@ -143,7 +146,7 @@ def t_bi_from_survey(position0_deg, autocollimator_deg) -> np.ndarray:
     return t_be @ t_ie(position0_deg).T
 
 
-def settings_for(t_bi: np.ndarray, b) -> tuple[float, float]:
+def settings_for(t_bi: np.ndarray, b: ArrayLike) -> tuple[float, float]:
     """(phi3, phi4) in degrees putting body vector ``b`` (unit, B components) along R1.
 
     Chart I-5: R1 in I components is the first column of T^IO T^OR (Chart I-6),

@@ -34,6 +34,7 @@ from functools import partial
 from typing import TYPE_CHECKING
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from procedures.isu import plausibility as pl
 from procedures.isu import survey_math as sm
@@ -188,9 +189,11 @@ def read_mirrors(
         for k, v in got.items()
     }
     ac = (float(mean[1][0]), float(mean[1][1]), float(mean[2][0]), float(mean[2][1]))
-    lev_mean = (tuple(float(x) for x in np.mean(np.array(lev.values), axis=0))
-                if levels else None)
-    return ac, spread, lev_mean  # type: ignore[return-value]
+    lev_mean: tuple[float, float] | None = None
+    if levels:
+        c1, c3 = np.mean(np.array(lev.values), axis=0)
+        lev_mean = (float(c1), float(c3))
+    return ac, spread, lev_mean
 
 
 def _trunnion_axis(
@@ -245,9 +248,9 @@ def _trunnion_axis(
     }
 
 
-def _angle_arcsec(a, b) -> float:
-    a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
-    return math.degrees(math.atan2(np.linalg.norm(np.cross(a, b)), float(a @ b))) * 3600.0
+def _angle_arcsec(a: ArrayLike, b: ArrayLike) -> float:
+    u, v = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
+    return math.degrees(math.atan2(float(np.linalg.norm(np.cross(u, v))), float(u @ v))) * 3600.0
 
 
 def _check_site(site: dict) -> tuple[float, float, float]:

@@ -153,14 +153,14 @@ def turn_on(station: IsuDrivers, run: Run, warmup_s: float = DEFAULT_WARMUP_S) -
             }
 
         with sheet.step("8", "IEU idle and reporting no error") as s:
-            status = st.ieu.status()
-            if int(status.get("ErrorCode", 0)) != 0:
+            ieu_status = st.ieu.status()
+            if int(ieu_status.get("ErrorCode", 0)) != 0:
                 raise Implausible(source_of(st.ieu),
-                                  f"reports error code {status['ErrorCode']}")
-            if int(status.get("State", 0)) != 0:
+                                  f"reports error code {ieu_status['ErrorCode']}")
+            if int(ieu_status.get("State", 0)) != 0:
                 st.ieu.stop()
-                status = st.ieu.status()
-            s.reading = {k: int(v) for k, v in status.items()}
+                ieu_status = st.ieu.status()
+            s.reading = {k: int(v) for k, v in ieu_status.items()}
 
         with sheet.step("9", "Bubble levels readable (level corrections, arcsec)") as s, \
                 rereads() as rr:

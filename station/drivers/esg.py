@@ -159,9 +159,11 @@ class ProcessorDriver(SerialDriver):
         except DriverError:
             raise DriverError(self.name, self.url, f"lines(k) needs a whole k >= 1 (at most "
                               f"{MAX_LINES}), got {k!r}") from None
-        if self._known is None:
-            self.settings()
-        (a, b), run = self._known  # type: ignore[misc]
+        known = self._known
+        if known is None:
+            s = self.settings()
+            known = (s["pickoffs"], s["run"])
+        (a, b), run = known
         selected = {a, b}
         try:
             self.command(f"GO {k}")

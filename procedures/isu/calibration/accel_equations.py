@@ -57,8 +57,9 @@ def accel_estimates(z: Mapping[Key, float], g: float, k: int) -> dict[str, Value
     V = diff(k)
     m45, partner = BISECTOR[k]
     W = None
-    if None not in (F(m45), P[partner], d1d0, d1d2):
-        W = SQ2 * F(m45) / g - P[partner] - SQ2 * d1d0 / g - g / SQ2 * d1d2  # type: ignore[operator]
+    f45, p_partner = F(m45), P[partner]
+    if f45 is not None and p_partner is not None and d1d0 is not None and d1d2 is not None:
+        W = SQ2 * f45 / g - p_partner - SQ2 * d1d0 / g - g / SQ2 * d1d2
     X: Value = None
     if V is not None and W is not None:
         X = 2.0 * (V - W) / g**2
@@ -70,7 +71,8 @@ def accel_estimates(z: Mapping[Key, float], g: float, k: int) -> dict[str, Value
     d1 = math.sqrt(sum(p * p for p in P.values() if p is not None))
     out["D1"] = d1
     for j in (1, 2, 3):
-        out[f"A.B{j}"] = None if P.get(j) is None else P[j] / d1  # type: ignore[operator]
+        pj = P.get(j)
+        out[f"A.B{j}"] = None if pj is None else pj / d1
     out["D0"] = None if d1d0 is None else d1d0 / d1
     out["D2"] = None if d1d2 is None else d1d2 / d1
     out["D3"] = None if X is None else X / d1

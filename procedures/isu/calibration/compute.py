@@ -28,6 +28,14 @@ from procedures.isu.sheets import ResultRow
 Row = tuple[str, str]  # (instrument, parameter)
 
 
+def _central_difference(plus: float | None, minus: float | None, h: float, row: Row,
+                        datum: Key) -> float:
+    """d(constant)/d(datum) from the estimates with the datum moved by +h and -h."""
+    if plus is None or minus is None:
+        raise ValueError(f"{row[0]} {row[1]}: no estimate once datum {datum} moved by {h:g}")
+    return (plus - minus) / (2 * h)
+
+
 def estimate(z: Mapping[Key, float], c: Constants) -> dict[Row, float | None]:
     """All Chart II-5 constants from reduced data (None where not determined)."""
     out: dict[Row, float | None] = {}
@@ -91,7 +99,7 @@ def predicted_sigmas(
         zp[keys[i]] = z0[i] + h
         zm[keys[i]] = z0[i] - h
         ep, em = estimate(zp, c), estimate(zm, c)
-        jac[:, i] = [(ep[r] - em[r]) / (2 * h) for r in rows]  # type: ignore[operator]
+        jac[:, i] = [_central_difference(ep[r], em[r], h, r, keys[i]) for r in rows]
     var = np.einsum("ij,jk,ik->i", jac, cov, jac)
     sig: dict[Row, float | None] = {r: None for r in est}
     for r, v in zip(rows, var, strict=True):

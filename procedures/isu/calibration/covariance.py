@@ -138,11 +138,12 @@ class DataCovariance:
                 f = Functional.point(rec.t0 + T, 1.0 / T) + Functional.point(rec.t0, -1.0 / T)
                 to_pulses = RAD2DEG / gm.dphi_deg
                 if m <= 6:
-                    n = -(gm.G @ FIRST_COLUMN[m]) * to_pulses  # R1 = south
+                    n = -float(gm.G @ FIRST_COLUMN[m]) * to_pulses  # R1 = south
                 else:
                     t = self.t_br[("G", m)]
                     u, no = t[:, 0], t[:, 1]
-                    e, n = -(gm.G @ np.cross(u, no)) * to_pulses, (gm.G @ no) * to_pulses
+                    e = -float(gm.G @ np.cross(u, no)) * to_pulses
+                    n = float(gm.G @ no) * to_pulses
             elif kind == "F":
                 am = self.accels[k]
                 (_, _, T1), (_, _, T2) = rec.strings
@@ -154,7 +155,7 @@ class DataCovariance:
                 t = self.t_br[("A", m)]
                 u, no = t[:, 0], t[:, 1]
                 s = am.D1 * self.c.g
-                e, n = s * (am.A @ no), s * (am.A @ np.cross(u, no))
+                e, n = s * float(am.A @ no), s * float(am.A @ np.cross(u, no))
             fs.append(f)
             he.append(e)
             hn.append(n)

@@ -58,7 +58,10 @@ class GyroModel:
         coef = {t: float(est.get(t) or 0.0) for t in GYRO_TERMS}
         return GyroModel(float(dphi or 3.0) / 3600.0, G, O, S, coef)
 
-    def _deg_hr(self, ag, ao, as_, wg, ws, agg, ass, ags, aos, ago, wgg, wgs) -> float:
+    def _deg_hr(self, ag: float, ao: float, as_: float, wg: float, ws: float, agg: float,
+                ass: float, ags: float, aos: float, ago: float, wgg: float,
+                wgs: float) -> float:
+        """Indicated rate, deg/hr: the input rate wg plus the model's drift terms."""
         c = self.coef
         return (
             wg
@@ -93,7 +96,7 @@ class GyroModel:
         G, O, S = self.G, self.O, self.S  # noqa: E741
         gr, orr, sr = G @ r, O @ r, S @ r
 
-        def aa(x, y, xr, yr):
+        def aa(x: np.ndarray, y: np.ndarray, xr: float, yr: float) -> float:
             return g2h * (x @ y - xr * yr)
 
         r_deg_hr = self._deg_hr(

@@ -87,7 +87,7 @@ def default_geometry() -> TableGeometry:
     """Nominal bolting (T^BI = I), Chart I-5 settings, position 0 with B1 east and B2 north."""
     s = chart_i5_settings(np.eye(3))
     return TableGeometry(
-        t_bi=tuple(tuple(r) for r in np.eye(3)),  # type: ignore[arg-type]
+        t_bi=tuple(tuple(r) for r in np.eye(3)),
         phi0_deg=DEFAULT_PHI0_DEG,
         settings_deg={m: (math.degrees(a), math.degrees(b)) for m, (a, b) in s.items()},
     )

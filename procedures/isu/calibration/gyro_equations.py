@@ -280,12 +280,13 @@ def gyro_estimates(z: Mapping[Key, float], c: Constants, k: int) -> dict[str, Va
     C deg/hr/g^2. Q_II, Q_IS, J come from separate experiments: None here."""
     t = _Terms(z, c, k)
     out: dict[str, Value] = {p: None for p in GYRO_PARAMS}
-    if None in t.gk:
+    gk = [x for x in t.gk if x is not None]
+    if len(gk) < 3:
         return out  # every constant needs the scale factor (Chart II-16 note)
-    dphi = 1.0 / math.sqrt(sum(x * x for x in t.gk))  # type: ignore[operator]  # deg/pulse
+    dphi = 1.0 / math.sqrt(sum(x * x for x in gk))  # deg/pulse
     out["DeltaPhi"] = 3600.0 * dphi
     for j in (1, 2, 3):
-        out[f"G.B{j}"] = t.gk[j - 1] * dphi  # type: ignore[operator]
+        out[f"G.B{j}"] = gk[j - 1] * dphi
     for name, v in _FORMS[k](t).items():
         out[name] = None if v is None else v * dphi * 3600.0  # pulses/s -> deg/hr
     return out

@@ -84,7 +84,7 @@ class AccelPosition(_In):
 
     @field_validator("gamma", "n1", mode="before")
     @classmethod
-    def _string_keys(cls, v):
+    def _string_keys(cls, v: object) -> object:
         """Accept (k, l) tuples and, for JSON round trips, "k,l" or "kl" strings."""
         if not isinstance(v, dict):
             return v

@@ -18,6 +18,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from numpy.typing import ArrayLike
 from pydantic import BaseModel, ConfigDict, Field
 
 ARCSEC = math.pi / (180.0 * 3600.0)
@@ -91,9 +92,9 @@ class NoiseSpec(BaseModel):
         q = self.bubble_graduation_arcsec
         return math.sqrt(self.bubble_noise_arcsec**2 + q * q / 12.0) * ARCSEC
 
-    def tilt_covariance(self, tau) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(east-east, north-north, east-north) tilt covariance at lag tau (s), rad^2."""
-        tau = np.abs(np.asarray(tau, dtype=float))
+    def tilt_covariance(self, lag: ArrayLike) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(east-east, north-north, east-north) tilt covariance at a lag (s), rad^2."""
+        tau = np.abs(np.asarray(lag, dtype=float))
         amp = 0.5 * self.tilt_diurnal_pp_arcsec * ARCSEC
         az = math.radians(self.tilt_diurnal_azimuth_deg)
         diurnal = 0.5 * amp * amp * np.cos(2 * math.pi * tau / DAY)

@@ -43,18 +43,21 @@ class Reduced:
 
 
 def reduce(data: CalibrationData) -> Reduced:
+    """Every counter output of the data as its rate, keyed as the module says."""
     s1 = data.constants.s1_t
     out = Reduced()
-    for m, p in sorted(data.gyro.items()):
-        t = p.n1 * s1
+    for m, gp in sorted(data.gyro.items()):
+        t = gp.n1 * s1
         # the gate ends at the print-out; it may open after the switch to operate (positions
         # 1-6 wait for the next rotation pulse), so it is placed against t1 when t1 allows
-        start = max(p.t0, p.t1 - t)
+        start = max(gp.t0, gp.t1 - t)
         if m in TURNING_POSITIONS:
-            rec = Record(("w", 0, m), start, t, p.n1)
-            out.add(rec, data.constants.s_phi * float(p.n_phi) / t)  # type: ignore[arg-type]
+            if gp.n_phi is None:  # CalibrationData's validator refuses this already
+                raise ValueError(f"gyro position {m} needs n_phi (rotation pulses)")
+            rec = Record(("w", 0, m), start, t, gp.n1)
+            out.add(rec, data.constants.s_phi * float(gp.n_phi) / t)
         for k in (1, 2, 3):
-            out.add(Record(("G", k, m), start, t, p.n1), p.delta[k - 1] / t)
+            out.add(Record(("G", k, m), start, t, gp.n1), gp.delta[k - 1] / t)
     for m, p in sorted(data.accel.items()):
         for k in (1, 2, 3):
             if (k, 1) not in p.gamma or (k, 2) not in p.gamma:

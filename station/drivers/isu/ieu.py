@@ -108,8 +108,8 @@ def decode_frame(db: cantools.database.can.Database, name: str, link: str,
     """Decode one received frame with the DBC; ``GarbledFrame`` for anything that is not an
     IEU frame of the right length, ``FailedCheck`` for a reply failing its CRC-8."""
     try:
-        fid = int(arbitration_id)  # type: ignore[call-overload]
-        raw = bytes(data)  # type: ignore[call-overload]
+        fid = int(arbitration_id)  # type: ignore[call-overload]  # any object; caught below
+        raw = bytes(data)  # type: ignore[call-overload]  # any object; caught below
         spec = db.get_message_by_frame_id(fid)
     except (KeyError, TypeError, ValueError, OverflowError):
         raise GarbledFrame(name, link, f"garbled frame id {_hex_id(arbitration_id)}: "

@@ -50,7 +50,8 @@ class TableDriver(SerialDriver):
         return self.ask(f"POS? {a}", POSITION[a])[0]
 
     def positions(self) -> tuple[float, float, float, float]:
-        return tuple(self.position(a) for a in AXES)  # type: ignore[return-value]
+        p1, p2, p3, p4 = (self.position(a) for a in AXES)
+        return p1, p2, p3, p4
 
     def rate(self, axis: int) -> float:
         a = self.whole(axis, "axis", 1, 4)

@@ -63,14 +63,16 @@ def alignment_entries(outcomes: list[Outcome], world) -> list[dict]:
     out = []
     for o in outcomes:
         sig = o.predicted_sigma_arcsec
-        if world is None:
-            t_true, level, az, z = None, [None, None], None, [None, None, None]
-        else:
-            t_true = world.attitude(o.t_ref).T  # world.attitude is T^BE; T = T^EB
-            err = rotation_error_arcsec(o.t, t_true)
-            level, az = [err["east"], err["north"]], err["azimuth"]
-            z = [level[0] / sig[0], level[1] / sig[1], az / sig[2]]
-            t_true = t_true.tolist()
+        t_true: list | None = None
+        level: list[float | None] = [None, None]
+        az: float | None = None
+        z: list[float | None] = [None, None, None]
+        if world is not None:
+            t_be = world.attitude(o.t_ref).T  # world.attitude is T^BE; T = T^EB
+            err = rotation_error_arcsec(o.t, t_be)
+            e, n, az = err["east"], err["north"], err["azimuth"]
+            level, z = [e, n], [e / sig[0], n / sig[1], az / sig[2]]
+            t_true = t_be.tolist()
         out.append({
             "method": o.method,
             "estimator": o.estimator,

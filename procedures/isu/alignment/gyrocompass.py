@@ -154,23 +154,23 @@ def gyro_checks(e: str, model: dict, survey: SurveyResults | None, w_north: floa
     return out
 
 
-def gyrocompass_procedure(st: Station, run: Run, opts: AlignmentOptions,
+def gyrocompass_procedure(st: Station, run: Run, options: AlignmentOptions,
                           mirror: Outcome | None = None) -> list[Outcome]:
     """Tick Chart III-8; one Outcome (and Alignment Results Sheet) per technique that
-    ``opts`` asks for the gyrocompass method (the simple average when it names none).
+    ``options`` asks for the gyrocompass method (the simple average when it names none).
 
-    ``opts.tapes["gyrocompass"]``: the level tape for this experiment's K and Delta t
+    ``options.tapes["gyrocompass"]``: the level tape for this experiment's K and Delta t
     (hybrid). ``mirror``: the mirror alignment of this run, which T is checked against at
     step 10 (else the survey's prediction, if the survey was made in this run); |omega| and
     the colatitude are checked against the survey's Earth rate (the site's without one),
     |g| against the survey.
     """
-    noise, calib, survey, plan = opts.noise, opts.calib, opts.survey, opts.plan
-    calibration_id = opts.calibration_id
-    ests = opts.techniques("gyrocompass") or ("average",)
+    noise, calib, survey, plan = options.noise, options.calib, options.survey, options.plan
+    calibration_id = options.calibration_id
+    ests = options.techniques("gyrocompass") or ("average",)
     K, dt = plan.gyro_K, plan.gyro_dt_s
-    tapes = {e: t for e in ests if (t := opts.tape_for("gyrocompass", e)) is not None}
-    w_north, w_up = site_rates(survey, opts.site)
+    tapes = {e: t for e in ests if (t := options.tape_for("gyrocompass", e)) is not None}
+    w_north, w_up = site_rates(survey, options.site)
     opts: dict = {}
     if plan.known_colatitude:
         opts["colatitude_deg"] = math.degrees(math.atan2(w_north, w_up))

@@ -138,21 +138,21 @@ def level_checks(e: str, model: dict, survey: SurveyResults | None,
     return out
 
 
-def level_alignment_procedure(st: Station, run: Run, opts: AlignmentOptions,
+def level_alignment_procedure(st: Station, run: Run, options: AlignmentOptions,
                               mirror: Outcome | None = None) -> list[Outcome]:
     """Tick Chart III-4; one Outcome (and Alignment Results Sheet) per technique that
-    ``opts`` asks for the level method (the simple average when it names none).
+    ``options`` asks for the level method (the simple average when it names none).
 
-    ``opts.tapes["level"]``: the posterior mean's tape; its Chart I-8 parameters are checked
+    ``options.tapes["level"]``: the posterior mean's tape; its Chart I-8 parameters are checked
     against this experiment's at step 8, and a mismatch stops the step naming the parameter.
     ``mirror``: the mirror alignment of this run, which T is checked against at step 12
     (else the survey's prediction, if the survey was made in this run).
     """
-    noise, calib, survey, plan = opts.noise, opts.calib, opts.survey, opts.plan
-    calibration_id = opts.calibration_id
-    ests = opts.techniques("level") or ("average",)
+    noise, calib, survey, plan = options.noise, options.calib, options.survey, options.plan
+    calibration_id = options.calibration_id
+    ests = options.techniques("level") or ("average",)
     K, dt = plan.level_K, plan.level_dt_s
-    tapes = {e: t for e in ests if (t := opts.tape_for("level", e)) is not None}
+    tapes = {e: t for e in ests if (t := options.tape_for("level", e)) is not None}
     with run.sheet(CHART, TITLE) as sheet:
         with sheet.step("1", "Verify turn-on procedures and the Alignment Results Sheet "
                         "inputs are completed") as s:

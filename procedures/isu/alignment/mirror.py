@@ -69,14 +69,14 @@ def check_against_survey(t, predicted, survey: SurveyResults, position0: dict,
         ck.tilt_motion_arcsec(noise, t_ref - float(position0["t_s"])))
 
 
-def mirror_alignment_procedure(st: Station, run: Run, opts: AlignmentOptions) -> Outcome:
+def mirror_alignment_procedure(st: Station, run: Run, options: AlignmentOptions) -> Outcome:
     """Tick Chart III-2 and return the mirror alignment (Chart III-1 saved in the run).
 
     The readings must agree among themselves (``read_autocollimators``) and, when the survey
     was made in this run, T must agree with the survey's prediction (``checks``). Uses the
-    noise specification, the survey and the plan's number of readings of ``opts``."""
-    noise, survey = opts.noise, opts.survey
-    n = opts.plan.mirror_readings
+    noise specification, the survey and the plan's number of readings of ``options``."""
+    noise, survey = options.noise, options.survey
+    n = options.plan.mirror_readings
     with run.sheet(CHART, TITLE) as sheet:
         with sheet.step("1", "Verify turn-on procedures are completed (Part I, Section 1)") as s:
             s.reading = require_turn_on(run)

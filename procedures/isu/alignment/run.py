@@ -26,32 +26,32 @@ __all__ = ["DAY_ESTIMATORS", "PRIOR_SOURCE", "AlignmentOptions", "run_alignments
 PRIOR_SOURCE = "Chart I-4: survey T^BI at the nominal position-0 resolver angles (I-3.1, way 2)"
 
 
-def run_alignments(st: Station, run: Run, opts: AlignmentOptions) -> list[Outcome]:
-    """Run the alignments ``opts.estimators`` names (method -> techniques; default: all three
+def run_alignments(st: Station, run: Run, options: AlignmentOptions) -> list[Outcome]:
+    """Run the alignments ``options.estimators`` names (method -> techniques; default: all three
     methods, level and gyrocompass with both techniques on the same record).
 
-    Tapes missing from ``opts.tapes`` are produced by Chart I-7 in this run (into
-    ``opts.tape_dir``); without ``opts.survey``, the run's own Survey Results Sheet is used.
+    Tapes missing from ``options.tapes`` are produced by Chart I-7 in this run (into
+    ``options.tape_dir``); without ``options.survey``, the run's own Survey Results Sheet is used.
     """
-    if opts.survey is None:
-        opts = replace(opts, survey=run.sheets.get("survey_results"))
-    plan = opts.plan
+    if options.survey is None:
+        options = replace(options, survey=run.sheets.get("survey_results"))
+    plan = options.plan
     out: list[Outcome] = []
     mirror = None
-    if "mirror" in opts.estimators:
-        mirror = mirror_alignment_procedure(st, run, opts)
+    if "mirror" in options.estimators:
+        mirror = mirror_alignment_procedure(st, run, options)
         out.append(mirror)
-    need = opts.needs_tape()
+    need = options.needs_tape()
     if need:
-        c = calibration_constants(opts.calib, gyros=False)
+        c = calibration_constants(options.calib, gyros=False)
         dims = {"level": (plan.level_K, plan.level_dt_s),
                 "gyrocompass": (plan.gyro_K, plan.gyro_dt_s)}
-        exps = {m: (experiment_params(plan, opts.noise, opts.survey, c, *dims[m]),
+        exps = {m: (experiment_params(plan, options.noise, options.survey, c, *dims[m]),
                     PRIOR_SOURCE) for m in need}
-        made = parameter_evaluation(run, exps, opts.tape_dir)
-        opts = replace(opts, tapes={**opts.tapes, **made})
-    if "level" in opts.estimators:
-        out += level_alignment_procedure(st, run, opts, mirror)
-    if "gyrocompass" in opts.estimators:
-        out += gyrocompass_procedure(st, run, opts, mirror)
+        made = parameter_evaluation(run, exps, options.tape_dir)
+        options = replace(options, tapes={**options.tapes, **made})
+    if "level" in options.estimators:
+        out += level_alignment_procedure(st, run, options, mirror)
+    if "gyrocompass" in options.estimators:
+        out += gyrocompass_procedure(st, run, options, mirror)
     return out

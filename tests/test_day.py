@@ -52,6 +52,18 @@ def test_every_estimate_within_4_sigma_of_truth(day_a):
         assert (out / "sheets" / f"{name}.json").exists(), name
 
 
+def test_the_survey_records_the_configured_site(day_a):
+    """Chart I-2 step 3: the survey sheet carries the site's g and Earth-rate parts exactly
+    as the Site value gives them from the config."""
+    out, _ = day_a
+    sv = json.loads((out / "sheets" / "survey_results.json").read_text())
+    site = site_of(load_config(seed=2024))
+    assert (sv["g"], sv["omega_sin_lambda_deg_hr"], sv["omega_cos_lambda_deg_hr"]) == (
+        site.g, site.omega_sin_lambda, site.omega_cos_lambda)
+    # 42.36 deg N: below 45 deg the Earth rate leans more north than up
+    assert 0.99 < site.g < 1.01 and site.omega_sin_lambda > site.omega_cos_lambda > 0
+
+
 def test_same_seed_same_record_and_compare(day_a, tmp_path):
     out_a, _ = day_a
     run_day(DayRequest(load_config(seed=2024), tmp_path / "b", quiet=True), QUIET)

@@ -24,8 +24,9 @@ from pathlib import Path
 
 def one(seed: int) -> dict:
     from laboratory.isu.align import alignment_entries, day_alignments
-    from laboratory.isu.day import noise_spec, site_info
+    from laboratory.isu.spec import noise_spec, site_of
     from laboratory.isu.truth import calibration_truth
+    from procedures.isu.alignment.options import AlignmentOptions
     from procedures.isu.alignment.run import run_alignments
     from procedures.isu.computations import compute_calibration
     from procedures.isu.day import measure_day
@@ -44,9 +45,10 @@ def one(seed: int) -> dict:
         try:
             run = Run(st.clock, Journal(Path(d) / "day.jsonl"))
             plan = DayPlan()
-            site = site_info(cfg)
+            site = site_of(cfg)
             data = measure_day(st, run, plan, site, cfg.isu.accels[0].f0_hz)
-            calib = compute_calibration(run, data, plan, noise_spec(cfg), site)
+            calib = compute_calibration(run, data, plan, noise_spec(cfg),
+                                        site.survey_information())
             out["day"] = day_alignments(st, run, calib, cfg, rack.world)
             truth = calibration_truth(rack.world)
             exact = calib.model_copy(deep=True)
@@ -61,9 +63,10 @@ def one(seed: int) -> dict:
         try:
             run = Run(st.clock, Journal(Path(d) / "exact.jsonl"))
             turn_on(st, run, 1800.0)
-            oc = run_alignments(st, run, noise_spec(cfg), exact, survey, site_info(cfg),
-                                estimators={"level": ("average", "posterior"),
-                                            "gyrocompass": ("average", "hybrid")})
+            oc = run_alignments(st, run, AlignmentOptions(
+                noise_spec(cfg), exact, survey, site_of(cfg),
+                estimators={"level": ("average", "posterior"),
+                            "gyrocompass": ("average", "hybrid")}))
             ents = alignment_entries(oc, rack.world)
             for e, o in zip(ents, oc, strict=True):
                 e["parts"] = o.detail["parts"]

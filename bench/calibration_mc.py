@@ -20,11 +20,12 @@ from pathlib import Path
 def one(seed: int) -> dict:
     from rich.console import Console
 
-    from laboratory.isu.day import run_day
+    from laboratory.isu.day import DayRequest, run_day
     from station.config.isu import load_config
 
     with tempfile.TemporaryDirectory() as d:
-        res = run_day(load_config(seed=seed), Path(d), quiet=True, console=Console(quiet=True))
+        res = run_day(DayRequest(load_config(seed=seed), Path(d), quiet=True),
+                      Console(quiet=True))
     return res
 
 

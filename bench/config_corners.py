@@ -122,9 +122,9 @@ def run(lab: str, overrides: dict, out: Path) -> str:
     quiet = Console(quiet=True)
     try:
         if lab == "isu":
-            from laboratory.isu.day import run_day
+            from laboratory.isu.day import DayRequest, run_day
 
-            run_day(load_config(overrides=overrides), out, quiet=True, console=quiet)
+            run_day(DayRequest(load_config(overrides=overrides), out, quiet=True), quiet)
         elif lab == "cigtf":
             from dataclasses import replace
 

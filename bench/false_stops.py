@@ -65,7 +65,7 @@ def instrument() -> None:
 def one(seed: int) -> dict:
     from rich.console import Console
 
-    from laboratory.isu.day import run_day
+    from laboratory.isu.day import DayRequest, run_day
     from procedures.runner import ProcedureError
     from station.config.isu import load_config
 
@@ -74,7 +74,8 @@ def one(seed: int) -> dict:
     with tempfile.TemporaryDirectory() as d:
         stop = None
         try:
-            run_day(load_config(seed=seed), Path(d), quiet=True, console=Console(quiet=True))
+            run_day(DayRequest(load_config(seed=seed), Path(d), quiet=True),
+                    Console(quiet=True))
         except ProcedureError as e:
             stop = str(e)
         recs = [json.loads(x) for x in (Path(d) / "journal.jsonl").read_text().splitlines()]

@@ -18,7 +18,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from laboratory.isu.day import run_day
+from laboratory.isu.day import DayRequest, run_day
 from station.config.isu import load_config
 from station.hil import link_map
 from station.hil.twin import compare_rehearsal
@@ -61,8 +61,8 @@ def main(argv: list[str]) -> None:
         journal = [json.loads(x) for x in (run / "journal.jsonl").read_text().splitlines()]
         t0 = next(r for r in journal if r.get("event") == "start")["t_sim"]
         twin = base / "twin"
-        run_day(load_config(seed=seed), twin, quiet=True, only=("II-11", "II-13"),
-                positions=(7, 8), start_s=t0)
+        run_day(DayRequest(load_config(seed=seed), twin, quiet=True, only=("II-11", "II-13"),
+                           positions=(7, 8), start_s=t0))
         late, frac = [], []
         for name in sorted(p.stem for p in (run / "sheets").glob("check_*.json")):
             for x, y in zip(_sheet(run, name)["steps"], _sheet(twin, name)["steps"],

@@ -274,7 +274,7 @@ def day(
 
     Virtual time by default; with --links, in real time against a served rack (or hardware).
     """
-    from laboratory.isu.day import check_selection, run_day
+    from laboratory.isu.day import DayRequest, check_selection, run_day
 
     _check_seed(seed)
     if not (0.0 <= start_at < 1e7):
@@ -290,8 +290,9 @@ def day(
     target = _target(target, "day", cfg.seed)
     try:
         with _reported(lambda: target):
-            res = run_day(cfg, target, sel_only, resume is not None, console, quiet,
-                          links=links, positions=sel_pos, start_s=start_at)
+            res = run_day(DayRequest(cfg, target, only=sel_only, positions=sel_pos,
+                                     resume=resume is not None, links=links,
+                                     start_s=start_at, quiet=quiet), console)
     except typer.Exit as e:
         _release(target, fresh_dir and e.exit_code == 2)
         raise
@@ -316,7 +317,7 @@ def align(
     quiet: QuietOpt = False,
 ) -> None:
     """One alignment (Part III): mirror, level or gyrocompass, with the chosen estimator."""
-    from laboratory.isu.align import load_calibration, run_align
+    from laboratory.isu.align import AlignRequest, load_calibration, run_align
 
     _check_seed(seed)
     target, args = _new_or_resumed("align", out, resume, {
@@ -339,8 +340,9 @@ def align(
     target = _target(target, "align", cfg.seed)
     try:
         with _reported(lambda: target):
-            res = run_align(cfg, target, method, estimator, cal, console=console,
-                            quiet=quiet, links=links, resume=resume is not None)
+            res = run_align(AlignRequest(cfg, target, method, estimator, calibration=cal,
+                                         links=links, resume=resume is not None,
+                                         quiet=quiet), console)
     except typer.Exit as e:
         _release(target, fresh_dir and e.exit_code == 2)
         raise

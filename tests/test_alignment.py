@@ -27,10 +27,17 @@ import pytest
 from rich.console import Console
 
 from instruments.isu.ieu import load_dbc
-from laboratory.isu.align import alignment_entries, day_alignments, day_methods, run_align
-from laboratory.isu.day import noise_spec, site_info
+from laboratory.isu.align import (
+    AlignRequest,
+    alignment_entries,
+    day_alignments,
+    day_methods,
+    run_align,
+)
+from laboratory.isu.spec import noise_spec, site_of
 from laboratory.isu.truth import calibration_truth
 from procedures.isu.alignment import align_math as am
+from procedures.isu.alignment.options import AlignmentOptions
 from procedures.isu.alignment.parameter_sheet import write_tape
 from procedures.isu.alignment.preprocess import Constants, accel_integrals, gyro_integrals
 from procedures.isu.alignment.results_sheet import AlignPlan
@@ -136,9 +143,9 @@ def day(tmp_path_factory):
     try:
         run = Run(st.clock, Journal(out / "journal.jsonl"))
         plan = DayPlan()
-        site = site_info(cfg)
+        site = site_of(cfg)
         data = measure_day(st, run, plan, site, cfg.isu.accels[0].f0_hz)
-        calib = compute_calibration(run, data, plan, noise_spec(cfg), site)
+        calib = compute_calibration(run, data, plan, noise_spec(cfg), site.survey_information())
         entries = day_alignments(st, run, calib, cfg, rack.world, tape_dir=out / "tapes")
         yield {"out": out, "entries": entries, "calib": calib, "run": run,
                "survey": data.survey, "cfg": cfg}
@@ -200,8 +207,9 @@ def _level_run(day, tmp_path, hook=None, plan=SHORT):
     try:
         run = Run(st.clock, Journal(tmp_path / "j.jsonl"))
         turn_on(st, run, 60.0)
-        oc = run_alignments(st, run, noise_spec(cfg), day["calib"], day["survey"],
-                            site_info(cfg), plan, estimators={"level": ("average",)})
+        oc = run_alignments(st, run, AlignmentOptions(
+            noise_spec(cfg), day["calib"], day["survey"], site_of(cfg), plan,
+            estimators={"level": ("average",)}))
         return oc[0], run
     finally:
         st.close()
@@ -254,8 +262,9 @@ def _run_with(day, tmp_path, calib, estimators):
     try:
         run = Run(st.clock, Journal(tmp_path / "j.jsonl"))
         turn_on(st, run, 60.0)
-        return run_alignments(st, run, noise_spec(cfg), calib, day["survey"],
-                              site_info(cfg), SHORT, estimators=estimators), run
+        return run_alignments(st, run, AlignmentOptions(
+            noise_spec(cfg), calib, day["survey"], site_of(cfg), SHORT,
+            estimators=estimators)), run
     finally:
         st.close()
         rack.close()
@@ -294,7 +303,7 @@ def test_tape_for_another_experiment_is_refused(day, tmp_path):
     try:
         run = Run(st.clock, Journal(tmp_path / "j.jsonl"))
         turn_on(st, run, 60.0)
-        noise, site = noise_spec(cfg), site_info(cfg)
+        noise, site = noise_spec(cfg), site_of(cfg)
         from procedures.isu.alignment.common import calibration_constants, experiment_params
         from procedures.isu.alignment.parameter_evaluation import parameter_evaluation
 
@@ -304,8 +313,9 @@ def test_tape_for_another_experiment_is_refused(day, tmp_path):
             run, {"level": (experiment_params(other, noise, day["survey"], c, 25, 2.0), "x")})
         write_tape(tapes["level"], tmp_path / "tape.json")
         with pytest.raises(ProcedureError) as e:
-            run_alignments(st, run, noise, day["calib"], day["survey"], site, SHORT,
-                           estimators={"level": ("posterior",)}, tapes=tapes)
+            run_alignments(st, run, AlignmentOptions(
+                noise, day["calib"], day["survey"], site, SHORT,
+                estimators={"level": ("posterior",)}, tapes=tapes))
         assert (e.value.chart, e.value.step) == ("III-4", "8")
         assert "tape parameter K differs" in str(e.value)
     finally:
@@ -335,8 +345,9 @@ def test_missing_calibration_constants_stop_step_6(day, tmp_path):
         run = Run(st.clock, Journal(tmp_path / "j.jsonl"))
         turn_on(st, run, 60.0)
         with pytest.raises(ProcedureError) as e:
-            run_alignments(st, run, noise_spec(cfg), partial, day["survey"], site_info(cfg),
-                           SHORT, estimators={"level": ("average",)})
+            run_alignments(st, run, AlignmentOptions(
+                noise_spec(cfg), partial, day["survey"], site_of(cfg), SHORT,
+                estimators={"level": ("average",)}))
         assert (e.value.chart, e.value.step) == ("III-4", "6")
         assert "accel2 D0" in str(e.value)
     finally:
@@ -350,8 +361,8 @@ def test_station_align_writes_results(day, tmp_path):
     (cal / "sheets").mkdir(parents=True)
     (cal / "sheets" / "calibration_results.json").write_text(day["calib"].model_dump_json())
     (cal / "sheets" / "survey_results.json").write_text(day["survey"].model_dump_json())
-    res = run_align(load_config(seed=7), tmp_path / "out", "mirror", "average",
-                    calibration_dir=cal, console=QUIET, quiet=True, warmup_s=60.0)
+    res = run_align(AlignRequest(load_config(seed=7), tmp_path / "out", "mirror", "average",
+                                 calibration=cal, quiet=True, warmup_s=60.0), QUIET)
     saved = json.loads((tmp_path / "out" / "results.json").read_text())
     assert saved["alignment"] == json.loads(json.dumps(res["alignment"]))
     (e,) = saved["alignment"]
@@ -423,16 +434,16 @@ def test_station_align_uses_a_tape_from_an_earlier_run(day, tmp_path):
     (cal / "sheets" / "calibration_results.json").write_text(day["calib"].model_dump_json())
     (cal / "sheets" / "survey_results.json").write_text(day["survey"].model_dump_json())
     tapes = {p.name.split("-")[0]: p for p in (day["out"] / "tapes").iterdir()}
-    res = run_align(load_config(seed=8), tmp_path / "ok", "level", "posterior",
-                    calibration_dir=cal, tape=tapes["level"], console=QUIET, quiet=True,
-                    warmup_s=60.0)
+    res = run_align(AlignRequest(load_config(seed=8), tmp_path / "ok", "level", "posterior",
+                                 calibration=cal, tape=tapes["level"], quiet=True,
+                                 warmup_s=60.0), QUIET)
     (e,) = res["alignment"]
     assert (e["method"], e["estimator"], e["K"], e["dt"]) == ("level", "posterior", 150, 2.0)
     assert max(abs(x) for x in e["error_over_sigma"]) < 4
     assert not (tmp_path / "ok" / "tapes").exists()  # the tape given was used, none made
     with pytest.raises(ProcedureError) as err:  # the gyrocompass's tape: K = 120, dt = 5 s
-        run_align(load_config(seed=8), tmp_path / "bad", "level", "posterior",
-                  calibration_dir=cal, tape=tapes["gyrocompass"], console=QUIET, quiet=True,
-                  warmup_s=60.0)
+        run_align(AlignRequest(load_config(seed=8), tmp_path / "bad", "level", "posterior",
+                               calibration=cal, tape=tapes["gyrocompass"], quiet=True,
+                               warmup_s=60.0), QUIET)
     assert (err.value.chart, err.value.step) == ("III-4", "8")
     assert "tape parameter dt differs from the experiment's: tape 5" in str(err.value)

@@ -87,7 +87,8 @@ def test_the_default_configurations_are_inside_their_bounds():
     CigtfConfig.model_validate({k: getattr(p, k) for k in CigtfConfig.model_fields})
     e = EsgParams()
     EsgConfig.model_validate(
-        {**{k: getattr(e, k) for k in EsgConfig.model_fields if k not in ("pattern", "signal")},
+        {**{k: getattr(e.rotor, k) for k in EsgConfig.model_fields
+            if k not in ("pattern", "signal")},
          "pattern": {k: getattr(e.pattern, k) for k in PatternConfig.model_fields},
          "signal": {k: getattr(e.signal, k) for k in SignalConfig.model_fields}})
 

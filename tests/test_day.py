@@ -11,7 +11,8 @@ from typer.testing import CliRunner
 
 from laboratory.cli import app
 from laboratory.compare import differences
-from laboratory.isu.day import run_day, site_info
+from laboratory.isu.day import DayRequest, run_day
+from laboratory.isu.spec import site_of
 from procedures.isu.calibration import NoiseSpec
 from procedures.isu.computations import compute_calibration
 from procedures.isu.day import DayData
@@ -28,7 +29,7 @@ ROWS = 3 * 16 + 3 * 7  # Chart II-5: 16 gyro rows, 7 accelerometer rows, three i
 @pytest.fixture(scope="module")
 def day_a(tmp_path_factory):
     out = tmp_path_factory.mktemp("day_a")
-    res = run_day(load_config(seed=2024), out, quiet=True, console=QUIET)
+    res = run_day(DayRequest(load_config(seed=2024), out, quiet=True), QUIET)
     return out, res
 
 
@@ -51,21 +52,33 @@ def test_every_estimate_within_4_sigma_of_truth(day_a):
         assert (out / "sheets" / f"{name}.json").exists(), name
 
 
+def test_the_survey_records_the_configured_site(day_a):
+    """Chart I-2 step 3: the survey sheet carries the site's g and Earth-rate parts exactly
+    as the Site value gives them from the config."""
+    out, _ = day_a
+    sv = json.loads((out / "sheets" / "survey_results.json").read_text())
+    site = site_of(load_config(seed=2024))
+    assert (sv["g"], sv["omega_sin_lambda_deg_hr"], sv["omega_cos_lambda_deg_hr"]) == (
+        site.g, site.omega_sin_lambda, site.omega_cos_lambda)
+    # 42.36 deg N: below 45 deg the Earth rate leans more north than up
+    assert 0.99 < site.g < 1.01 and site.omega_sin_lambda > site.omega_cos_lambda > 0
+
+
 def test_same_seed_same_record_and_compare(day_a, tmp_path):
     out_a, _ = day_a
-    run_day(load_config(seed=2024), tmp_path / "b", quiet=True, console=QUIET)
+    run_day(DayRequest(load_config(seed=2024), tmp_path / "b", quiet=True), QUIET)
     assert differences(out_a, tmp_path / "b") == []
     runner = CliRunner()
     assert runner.invoke(app, ["compare", str(out_a), str(tmp_path / "b")]).exit_code == 0
-    run_day(load_config(seed=2025), tmp_path / "c", quiet=True, console=QUIET,
-            plan=DayPlan(), only=("II-11",))
+    run_day(DayRequest(load_config(seed=2025), tmp_path / "c", quiet=True, plan=DayPlan(),
+                       only=("II-11",)), QUIET)
     r = runner.invoke(app, ["compare", str(out_a), str(tmp_path / "c")])
     assert r.exit_code == 1 and "values differ" in r.output
 
 
 def test_partial_calibration_gives_chart_ii16_set(tmp_path):
-    res = run_day(load_config(seed=7), tmp_path, quiet=True, console=QUIET,
-                  only=("II-6", "II-11"))
+    res = run_day(DayRequest(load_config(seed=7), tmp_path, quiet=True,
+                             only=("II-6", "II-11")), QUIET)
     got = {(r["instrument"], r["parameter"]) for r in res["calibration"]
            if r["estimate"] is not None}
     gyro_ok = {"DeltaPhi", "G.B1", "G.B2", "G.B3", "R", "B_I", "B_O", "B_S", "C_II", "C_SS"}
@@ -80,7 +93,7 @@ def test_counter_that_never_reaches_preset_stops_the_step(tmp_path):
         rack.world.table.rotation_output = False  # the gate pulses never come
 
     with pytest.raises(ProcedureError) as e:
-        run_day(load_config(seed=3), tmp_path, quiet=True, console=QUIET, only=("II-6",),
+        run_day(DayRequest(load_config(seed=3), tmp_path, quiet=True, only=("II-6",)), QUIET,
                 rack_hook=dead_rotary_output)
     msg = str(e.value)
     assert "Chart II-6, step 9/m1" in msg and "counter1" in msg and "no reply" in msg
@@ -97,5 +110,6 @@ def test_computations_without_survey_name_the_chart(tmp_path):
     run = Run(VirtualClock(simpy.Environment()), Journal(tmp_path / "j.jsonl"))
     data = DayData(survey=None, s1=1e-6, f0=20000.0)
     with pytest.raises(ProcedureError) as e:
-        compute_calibration(run, data, DayPlan(), NoiseSpec(), site_info(cfg))
+        compute_calibration(run, data, DayPlan(), NoiseSpec(),
+                            site_of(cfg).survey_information())
     assert "Chart II-15, step 1" in str(e.value) and "Survey Results Sheet" in str(e.value)

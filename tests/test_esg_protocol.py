@@ -50,10 +50,10 @@ def exchange(drv, line: bytes) -> bytes:
 
 def spinning(st, rack) -> None:
     """Rotor at speed (the console's spin-up, if the world does not start spinning)."""
-    if rack.world.console_status()["spin_rps"] < 0.99 * rack.world.p.spin_rps:
+    if rack.world.console_status()["spin_rps"] < 0.99 * rack.world.p.rotor.spin_rps:
         st.console.spin_up()
-        st.clock.sleep(rack.world.p.spinup_s + 60.0)
-    assert st.console.speed() == pytest.approx(rack.world.p.spin_rps, rel=0.01)
+        st.clock.sleep(rack.world.p.rotor.spinup_s + 60.0)
+    assert st.console.speed() == pytest.approx(rack.world.p.rotor.spin_rps, rel=0.01)
 
 
 # ----------------------------------------------------------------------------- round trips
@@ -169,7 +169,7 @@ def test_console_spin_up_rises_to_250(st, rack):
     c.spin_up()
     speeds = []
     for _ in range(10):
-        st.clock.sleep(rack.world.p.spinup_s / 10)
+        st.clock.sleep(rack.world.p.rotor.spinup_s / 10)
         speeds.append(c.status()["spin_rps"])
     assert all(b > a for a, b in zip(speeds, speeds[1:], strict=False)), speeds
     assert speeds[0] == pytest.approx(25.0, abs=0.5)

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import math
-from dataclasses import replace
+from dataclasses import fields, replace
 
 import numpy as np
 import pytest
@@ -13,10 +13,11 @@ from sim.esg.case import CaseSpec
 from sim.esg.mount import MountSpec
 from sim.esg.pattern import EDGE_NAMES, Pattern, PatternSpec, nominal_pattern
 from sim.esg.processor import SignalSpec, default_logic_delay_us
+from sim.esg.rotor import LAB_LATITUDE_DEG, RotorSpec
 from sim.timebase import ticks
 from sim.units import ARCSEC, EARTH_RATE, HOUR
 
-LAT = math.radians(44.98)
+LAT = math.radians(LAB_LATITUDE_DEG)
 OMEGA = EARTH_RATE * np.array([0.0, math.cos(LAT), math.sin(LAT)])
 POLE = OMEGA / np.linalg.norm(OMEGA)
 DOWN = np.array([0.0, 0.0, -1.0])
@@ -27,11 +28,20 @@ def _advance(w: EsgWorld, dt: float) -> None:
     w.env.run(until=w.env.now + ticks(dt))
 
 
+ROTOR_FIELDS = {f.name for f in fields(RotorSpec)}
+
+
+def _params(**kw) -> EsgParams:
+    """EsgParams with ``kw`` set: the rotor's fields on its spec, the others on the params."""
+    rotor = RotorSpec(**{k: v for k, v in kw.items() if k in ROTOR_FIELDS})
+    return EsgParams(rotor=rotor, **{k: v for k, v in kw.items() if k not in ROTOR_FIELDS})
+
+
 def _running(seed: int = 1, **kw) -> EsgWorld:
     """A world whose rotor has just reached full speed and runs free."""
-    w = EsgWorld(seed, EsgParams(**kw))
+    w = EsgWorld(seed, _params(**kw))
     w.spin_up()
-    _advance(w, w.p.spinup_s + 1.0)
+    _advance(w, w.p.rotor.spinup_s + 1.0)
     assert w.rotor.free(w.now)
     return w
 
@@ -126,7 +136,7 @@ def test_spin_profile_matches_appendix_a():
     assert w.console_status()["spin_rps"] == pytest.approx(125.0, rel=1e-9)
     _advance(w, 900.0 + 2.15 * HOUR)
     assert w.console_status()["spin_rps"] == pytest.approx(244.0, abs=0.5)
-    k = w.rotor.k(w.p.spinup_s)
+    k = w.rotor.k(w.p.rotor.spinup_s)
     assert math.degrees(k) * HOUR == pytest.approx(12.67, abs=0.02)
 
 
@@ -144,19 +154,19 @@ def test_axis_follows_the_case_until_spinning():
 def test_spin_up_on_the_polar_axis_with_damping():
     """Step 2: damping-coil axis on the Earth's axis, spin up with damping on."""
     w = EsgWorld(3)
-    _wait(w, w.table_move(0.0, 44.98))
+    _wait(w, w.table_move(0.0, LAB_LATITUDE_DEG))
     w.set_damping(True)
     w.spin_up()
-    _advance(w, w.p.spinup_s + 300.0)
+    _advance(w, w.p.rotor.spinup_s + 300.0)
     c1 = w.case_to_lab(w.now)[:, 0]
     off = math.degrees(_angle(w.spin_axis_lab(w.now), c1))
     # unbalance drift against damping: k cos(lat) tau_d, about 0.15 deg
     assert 0.05 < off < 0.5
     # without damping the unbalance and Earth drifts carry it far off during the run-up
     v = EsgWorld(3)
-    _wait(v, v.table_move(0.0, 44.98))
+    _wait(v, v.table_move(0.0, LAB_LATITUDE_DEG))
     v.spin_up()
-    _advance(v, v.p.spinup_s + 300.0)
+    _advance(v, v.p.rotor.spinup_s + 300.0)
     assert math.degrees(_angle(v.spin_axis_lab(v.now), v.case_to_lab(v.now)[:, 0])) > 1.0
 
 
@@ -185,13 +195,13 @@ def test_polar_axis_drifts_west_at_k_cos_latitude():
 
 def test_damping_brings_axis_to_the_damping_coil_axis():
     w = _running(electric_deg_h=0.0, unbalance_dyne_cm=0.0)
-    _wait(w, w.table_move(0.0, 44.98))  # spindle (and c1) on the Earth's polar axis
+    _wait(w, w.table_move(0.0, LAB_LATITUDE_DEG))  # spindle (and c1) on the Earth's polar axis
     c1 = w.case_to_lab(w.now)[:, 0]
     s0 = c1 + np.array([0.15, -0.05, 0.0])
     w.place_spin_axis(s0)
     w.set_damping(True)
     assert w.console_status()["damping"]
-    _advance(w, 20 * w.p.damping_tau_s)
+    _advance(w, 20 * w.p.rotor.damping_tau_s)
     assert _angle(w.spin_axis_lab(w.now), c1) / ARCSEC < 1.0
 
 
@@ -226,7 +236,7 @@ def test_electric_drift_depends_on_the_case_attitude():
 def test_spindle_step_changes_pickoff_2_colatitude():
     mount = replace(MountSpec(), head_setting_arcsec=0.0, table_setting_arcsec=0.0)
     w = _running(electric_deg_h=0.0, unbalance_dyne_cm=0.0, mount=mount)
-    _wait(w, w.table_move(0.0, 44.98 - 90.0))  # spindle perpendicular to the polar axis
+    _wait(w, w.table_move(0.0, LAB_LATITUDE_DEG - 90.0))  # spindle perpendicular to the polar axis
     _wait(w, w.head_move(90.0))
     w.place_spin_axis(POLE)  # torque-free: the axis stays on the polar axis
     assert abs(w.spindle_axis_lab(w.now) @ POLE) < 1e-4

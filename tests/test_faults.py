@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from rich.console import Console
 
-from laboratory.isu.day import run_day
+from laboratory.isu.day import DayRequest, run_day
 from procedures.isu.alignment.sampling import collect, sample_outliers
 from procedures.isu.calibration.noise_spec import NoiseSpec
 from procedures.isu.turn_on import turn_on
@@ -45,8 +45,8 @@ def rig(faults: dict, seed: int | None = None):
 
 
 def day(faults: dict, out, seed: int | None = None) -> dict:
-    return run_day(faulty(faults, seed), out, only=("II-11",), quiet=True, console=QUIET,
-                   align=False)
+    return run_day(DayRequest(faulty(faults, seed), out, only=("II-11",), quiet=True,
+                              align=False), QUIET)
 
 
 def journal(out) -> list[dict]:

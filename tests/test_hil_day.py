@@ -20,7 +20,7 @@ from pathlib import Path
 import pytest
 from hil_helpers import start, stop, text
 
-from laboratory.isu.day import run_day
+from laboratory.isu.day import DayRequest, run_day
 from station.config.isu import StationConfig, load_config
 from station.hil.twin import compare_rehearsal
 
@@ -69,7 +69,7 @@ def rehearsal(tmp_path_factory):
         day = _station("day", "--links", str(links), "--seed", str(SEED), *DAY,
                        "--out", str(base / "run"), "--quiet")
         cal = base / "calibration"
-        run_day(load_config(seed=SEED), cal, quiet=True, align=False)  # virtual, for III-4
+        run_day(DayRequest(load_config(seed=SEED), cal, quiet=True, align=False))  # for III-4
         align = _station("align", "--method", "level", "--calibration", str(cal),
                          "--links", str(links), "--seed", str(SEED),
                          "--out", str(base / "align"), "--quiet")
@@ -87,8 +87,8 @@ def test_day_over_links_equals_its_virtual_twin(rehearsal, tmp_path):
     start = next(r for r in _journal(run) if r.get("event") == "start")
     assert start["links"] and start["session"]
     twin = tmp_path / "twin"
-    run_day(load_config(seed=SEED), twin, quiet=True, only=("II-11", "II-13"),
-            positions=(7, 8), start_s=start["t_sim"])
+    run_day(DayRequest(load_config(seed=SEED), twin, quiet=True, only=("II-11", "II-13"),
+                       positions=(7, 8), start_s=start["t_sim"]))
     assert compare_rehearsal(run, twin) == []
     cmp = _station("compare", "--rehearsal", str(run), str(twin), timeout=60)
     assert cmp.returncode == 0 and "equal within the real-time tolerances" in cmp.stdout
@@ -106,15 +106,15 @@ def test_twin_comparison_can_fail(rehearsal, tmp_path):
     """A twin begun at another instant, or of another seed, is told apart."""
     run = rehearsal["base"] / "run"
     early = tmp_path / "early"
-    run_day(load_config(seed=SEED), early, quiet=True, only=("II-11", "II-13"),
-            positions=(7, 8), start_s=0.0)
+    run_day(DayRequest(load_config(seed=SEED), early, quiet=True, only=("II-11", "II-13"),
+                       positions=(7, 8), start_s=0.0))
     assert any("from the twin" in p for p in compare_rehearsal(run, early))
     start = next(r for r in _journal(run) if r.get("event") == "start")["t_sim"]
     data = load_config(seed=SEED).model_dump()
     data["isu"]["gyros"][0]["R_deg_hr"] += 0.2  # 40 pulses in a 600 s gate
     other = tmp_path / "other"
-    run_day(StationConfig.model_validate(data), other, quiet=True, only=("II-11", "II-13"),
-            positions=(7, 8), start_s=start)
+    run_day(DayRequest(StationConfig.model_validate(data), other, quiet=True,
+                       only=("II-11", "II-13"), positions=(7, 8), start_s=start))
     problems = compare_rehearsal(run, other)
     assert problems and all("counter_outputs gyro" in p for p in problems), problems
 

@@ -23,7 +23,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as hs
 from rich.console import Console
 
-from laboratory.isu.day import run_day, site_info
+from laboratory.isu.day import DayRequest, run_day
+from laboratory.isu.spec import site_of
 from procedures.isu import plausibility as pl
 from procedures.isu.common import set_position
 from procedures.isu.system_survey import system_survey
@@ -230,7 +231,8 @@ def survey_levels(tmp_path, name: str, inject=None):
             inject(st)
         run = Run(st.clock, Journal(tmp_path / f"{name}.jsonl"))
         turn_on(st, run, warmup_s=10.0)
-        system_survey(st, run, site_info(cfg), n_readings=10, base_azimuth=False)
+        system_survey(st, run, site_of(cfg).survey_information(), n_readings=10,
+                      base_azimuth=False)
         return next(s.reading for s in run.check_sheets["I-2"].steps if s.number == "5")
 
 
@@ -266,7 +268,7 @@ def test_issue_case_bubble_level_drops_seed_1970(tmp_path):
     day ended with constants 18.8 sigma off. Now the survey reads them again."""
     cfg = load_config(seed=1970, overrides={"faults": {"bubble_levels": {"drop_rate": 1e-3}}})
     try:
-        run_day(cfg, tmp_path, only=("II-11",), quiet=True, console=QUIET, align=False)
+        run_day(DayRequest(cfg, tmp_path, only=("II-11",), quiet=True, align=False), QUIET)
     except ProcedureError as e:  # a stop is acceptable if it names the levels
         assert "bubble_levels (sim://bubble_levels" in str(e)
         return
@@ -308,8 +310,8 @@ def test_a_stall_under_a_rotary_gate_is_reported_as_the_tables(tmp_path):
     the stop names the table and the axis, not counter1's READ? timeout."""
     cfg = load_config(overrides={"faults": {"table": {"stall_axis": 2, "stall_after_s": 2100.0}}})
     with pytest.raises(ProcedureError) as e:
-        run_day(cfg, tmp_path, only=("II-6",), positions=(1,), quiet=True, console=QUIET,
-                align=False)
+        run_day(DayRequest(cfg, tmp_path, only=("II-6",), positions=(1,), quiet=True,
+                           align=False), QUIET)
     err = e.value
     assert (err.chart, err.step) == ("II-6", "9/m1")
     assert str(err.__cause__).startswith("table (sim://table")

@@ -19,7 +19,7 @@ from typer.testing import CliRunner
 
 from laboratory.cli import app
 from laboratory.compare import differences
-from laboratory.isu.day import run_day
+from laboratory.isu.day import DayRequest, run_day
 from laboratory.rundir import fresh
 from station.config.isu import load_config
 
@@ -40,8 +40,8 @@ def tree(d: Path) -> dict[str, str]:
 def finished(tmp_path_factory):
     """A finished short day (turn-on, survey, positions 7 and 8, computations, mirror)."""
     d = tmp_path_factory.mktemp("finished") / "D"
-    run_day(load_config(seed=SEED), d, only=("II-11",), positions=(7,), quiet=True,
-            console=QUIET)
+    run_day(DayRequest(load_config(seed=SEED), d, only=("II-11",), positions=(7,),
+                       quiet=True), QUIET)
     return d
 
 

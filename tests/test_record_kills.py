@@ -31,7 +31,7 @@ from laboratory.cigtf.gyrocompassing import analyse_journal, run_gyrocompass_tes
 from laboratory.cli import app
 from laboratory.compare import differences
 from laboratory.esg.calibration import run_esg_calibration
-from laboratory.isu.day import run_day
+from laboratory.isu.day import DayRequest, run_day
 from station.config.isu import load_config
 
 REPO = Path(__file__).resolve().parents[1]
@@ -130,8 +130,8 @@ def stratified(rng: random.Random, lo: int, hi: int, k: int) -> list[int]:
 @pytest.fixture(scope="module")
 def short_day(tmp_path_factory):
     ref = tmp_path_factory.mktemp("short") / "ref"
-    run_day(load_config(seed=DAY_SEED), ref, only=("II-11", "II-13"), positions=(7,),
-            quiet=True, console=QUIET)
+    run_day(DayRequest(load_config(seed=DAY_SEED), ref, only=("II-11", "II-13"),
+                       positions=(7,), quiet=True), QUIET)
     return ref, lines(ref / "journal.jsonl")
 
 
@@ -171,7 +171,7 @@ def test_full_day_killed_in_each_part_resumes_identical(tmp_path):
     """4 kills of the full day: in the measurement charts, in the computations and the
     parameter evaluation, in the level and gyrocompass alignments, in the final writes."""
     ref = tmp_path / "ref"
-    run_day(load_config(seed=FULL_SEED), ref, quiet=True, console=QUIET)
+    run_day(DayRequest(load_config(seed=FULL_SEED), ref, quiet=True), QUIET)
     recs = [json.loads(x) for x in (ref / "journal.jsonl").read_text().splitlines()]
     first = {c: next(i for i, r in enumerate(recs) if r.get("chart") == c)
              for c in ("II-6", "II-15", "III-4")}

@@ -7,7 +7,8 @@ and writes ``DIR/results.json`` with an ``alignment`` list, ``DIR/sheets/*.json`
 of the parameter evaluation in ``DIR/tapes`` and the journal.
 
 ``day_alignments`` is what ``station day`` calls after its calibration: all three methods,
-level and gyrocompass alignment each processed by both techniques.
+level and gyrocompass alignment each processed by both techniques. ``AlignRequest`` says what
+one `station align` run does, where and how; the procedures get one ``AlignmentOptions``.
 
 Errors are taken against the simulator's true attitude at the time each alignment refers to
 (``Outcome.t_ref``): the small rotation between the estimated and the true T in earth axes,
@@ -20,6 +21,7 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Callable
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TypeVar
 
@@ -29,15 +31,21 @@ from rich.console import Console
 from rich.table import Table
 
 from laboratory.connect import connect
+from laboratory.isu.display import DayDisplay
 from laboratory.isu.lab import LAB
+from laboratory.isu.spec import noise_spec, site_of
 from laboratory.record import write_results, write_sheets
 from laboratory.rundir import opened_journal, prepare, resume_note
 from procedures.isu.alignment.align_math import rotation_error_arcsec
 from procedures.isu.alignment.common import Outcome, canonical_estimator
+from procedures.isu.alignment.options import DAY_ESTIMATORS, AlignmentOptions
 from procedures.isu.alignment.parameter_sheet import Tape
 from procedures.isu.alignment.preprocess import Constants, MissingConstants
 from procedures.isu.alignment.results_sheet import AlignPlan
-from procedures.isu.alignment.run import DAY_ESTIMATORS, run_alignments
+from procedures.isu.alignment.run import run_alignments
+from procedures.isu.computations import compute_calibration
+from procedures.isu.day import measure_day
+from procedures.isu.plan import DayPlan
 from procedures.isu.sheets import ISU_SHEETS, CalibrationResults, SurveyResults
 from procedures.isu.turn_on import turn_on
 from procedures.runner import Run
@@ -56,14 +64,16 @@ def alignment_entries(outcomes: list[Outcome], world) -> list[dict]:
     out = []
     for o in outcomes:
         sig = o.predicted_sigma_arcsec
-        if world is None:
-            t_true, level, az, z = None, [None, None], None, [None, None, None]
-        else:
-            t_true = world.attitude(o.t_ref).T  # world.attitude is T^BE; T = T^EB
-            err = rotation_error_arcsec(o.t, t_true)
-            level, az = [err["east"], err["north"]], err["azimuth"]
-            z = [level[0] / sig[0], level[1] / sig[1], az / sig[2]]
-            t_true = t_true.tolist()
+        t_true: list | None = None
+        level: list[float | None] = [None, None]
+        az: float | None = None
+        z: list[float | None] = [None, None, None]
+        if world is not None:
+            t_be = world.attitude(o.t_ref).T  # world.attitude is T^BE; T = T^EB
+            err = rotation_error_arcsec(o.t, t_be)
+            e, n, az = err["east"], err["north"], err["azimuth"]
+            level, z = [e, n], [e / sig[0], n / sig[1], az / sig[2]]
+            t_true = t_be.tolist()
         out.append({
             "method": o.method,
             "estimator": o.estimator,
@@ -102,8 +112,6 @@ def gyrocompass_latitude_limit_deg(cfg: StationConfig, plan: AlignPlan | None = 
     III-11's limit, ``gyro_error_model``): sigma_az = noise / (Omega cos(latitude)). Where
     that floor alone passes AZIMUTH_SIGMA_LIMIT_DEG the small-angle error model behind
     the reported sigma no longer holds, and the result would be no alignment at all."""
-    from laboratory.isu.day import noise_spec
-
     plan = plan or AlignPlan()
     noise = noise_spec(cfg)
     span_h = plan.gyro_K * plan.gyro_dt_s / 3600.0
@@ -129,17 +137,16 @@ def day_alignments(st, run: Run, calib: CalibrationResults, cfg: StationConfig, 
     """After the calibration of ``station day``: the three alignments (those the
     calibration allows, ``day_methods``), as results entries. The gyrocompass alignment
     is skipped near a pole (``gyrocompass_refusal``), its entry saying why."""
-    from laboratory.isu.day import noise_spec, site_info  # (day_cmd may import this module)
-
     methods = day_methods(calib)
     skipped = []
     why = gyrocompass_refusal(cfg, plan)
     if "gyrocompass" in methods and why is not None:
         methods.pop("gyrocompass")
         skipped.append({"method": "gyrocompass", "skipped": why})
-    outcomes = run_alignments(st, run, noise_spec(cfg), calib, None, site_info(cfg), plan,
-                              estimators=methods, tape_dir=tape_dir,
-                              calibration_id="this run (Chart II-15)")
+    opts = AlignmentOptions(noise=noise_spec(cfg), calib=calib, site=site_of(cfg),
+                            plan=plan or AlignPlan(), estimators=methods, tape_dir=tape_dir,
+                            calibration_id="this run (Chart II-15)")
+    outcomes = run_alignments(st, run, opts)
     return alignment_entries(outcomes, world) + skipped
 
 
@@ -207,63 +214,74 @@ def render_alignment(console: Console, entries: list[dict]) -> None:
         console.print(f"{e['method']} alignment skipped: {e['skipped']}", markup=False)
 
 
-def run_align(
-    cfg: StationConfig,
-    out: Path,
-    method: str,
-    estimator: str,
-    calibration_dir: Path | None = None,
-    tape: Path | None = None,
-    plan: AlignPlan | None = None,
-    console: Console | None = None,
-    quiet: bool = False,
-    warmup_s: float | None = None,
-    rack_hook: Callable[[SimulatedRack], None] | None = None,
-    links: Path | None = None,
-    resume: bool = False,
-) -> dict:
-    """One alignment into ``out``; returns the results dict (also ``out/results.json``).
+@dataclass(frozen=True)
+class AlignRequest:
+    """One `station align` run: which alignment, after which calibration, where, and how.
 
     ``method``: mirror | level | gyrocompass; ``estimator``: average | posterior | hybrid
     (level's hybrid is its posterior mean, the gyrocompass's posterior mean its hybrid).
-    ``tape``: a parameter tape to use instead of producing one (checked against the
-    experiment: a mismatch stops Chart III-4 step 8 / III-8 step 7 naming the parameter).
-    ``rack_hook`` may inject faults into the simulated rack before anything runs.
-    ``links``: run over the links of a rack served under that directory (real time).
-    ``resume``: continue the interrupted alignment in ``out``. Every argument, the sheets
-    and the tape are checked before anything is written (ValueError, FileNotFoundError,
-    RunDirError); a gyrocompass alignment near a pole is refused (``gyrocompass_refusal``).
+    ``calibration``: a run directory whose Calibration Results (and Survey Results) sheets
+    to use; None: a full calibration day is measured first in the same run. ``tape``: a
+    parameter tape to use instead of producing one (checked against the experiment: a
+    mismatch stops Chart III-4 step 8 / III-8 step 7 naming the parameter). ``plan``: the
+    alignment plan (K, Delta t, IEU period, options). ``warmup_s``: the turn-on warm-up
+    after an earlier calibration (default the day plan's). ``links``: run over the links of
+    a rack served under that directory (real time). ``resume``: continue the interrupted
+    alignment in ``out``. ``quiet``: no live display.
     """
-    from laboratory.isu.day import DayDisplay, noise_spec, site_info
-    from procedures.isu.computations import compute_calibration
-    from procedures.isu.day import measure_day
-    from procedures.isu.plan import DayPlan
 
+    cfg: StationConfig
+    out: Path
+    method: str
+    estimator: str = "average"
+    calibration: Path | None = None
+    tape: Path | None = None
+    plan: AlignPlan = field(default_factory=AlignPlan)
+    warmup_s: float | None = None
+    links: Path | None = None
+    resume: bool = False
+    quiet: bool = False
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "out", Path(self.out))
+
+
+def run_align(req: AlignRequest, console: Console | None = None,
+              rack_hook: Callable[[SimulatedRack], None] | None = None) -> dict:
+    """The one alignment ``req`` asks for into ``req.out``; returns the results dict (also
+    ``out/results.json``). ``rack_hook`` may inject faults into the simulated rack before
+    anything runs.
+
+    Every field of the request, the sheets and the tape are checked before anything is
+    written (ValueError, FileNotFoundError, RunDirError); a gyrocompass alignment near a
+    pole is refused (``gyrocompass_refusal``).
+    """
+    cfg, method, estimator, plan = req.cfg, req.method, req.estimator, req.plan
+    calibration_dir, links, out = req.calibration, req.links, req.out
     est = canonical_estimator(method, estimator)
     if method == "gyrocompass" and (why := gyrocompass_refusal(cfg, plan)) is not None:
         raise ValueError(why)
     console = console or Console()
-    out = Path(out)
     day_plan = DayPlan()
     calib = survey = None
     if calibration_dir is not None:
         calib, survey = load_calibration(calibration_dir)
-    tapes = None
-    if tape is not None:
-        tapes = {method: load_tape(tape)}
-    prepare(out, resume, links)
+    tapes = {}
+    if req.tape is not None:
+        tapes = {method: load_tape(req.tape)}
+    prepare(out, req.resume, links)
     wall0 = time.perf_counter()
     conn = connect(LAB, cfg, links, rack_hook)
     st = conn.station
-    site = site_info(cfg)
+    site = site_of(cfg)
     noise = noise_spec(cfg)
     try:
-        with opened_journal(out, resume) as journal:
-            with DayDisplay(console, quiet) as display:
+        with opened_journal(out, req.resume) as journal:
+            with DayDisplay(console, req.quiet) as display:
                 run = Run(st.clock, journal, listener=display,
                           resume="replay" if conn.rack is not None else "skip",
                           sheet_models=ISU_SHEETS)
-                if resume:
+                if req.resume:
                     resume_note(run)
                 run.note(event="start", seed=cfg.seed, command="align", method=method,
                          estimator=est, estimator_requested=estimator,
@@ -272,15 +290,18 @@ def run_align(
                 if calib is None:
                     data = measure_day(st, run, day_plan, site, cfg.isu.accels[0].f0_hz,
                                        noise=noise)
-                    calib = compute_calibration(run, data, day_plan, noise, site)
+                    calib = compute_calibration(run, data, day_plan, noise,
+                                                site.survey_information())
                     survey = data.survey
                     cal_id = "this run (Chart II-15)"
                 else:
-                    turn_on(st, run, day_plan.warmup_s if warmup_s is None else warmup_s)
+                    turn_on(st, run, day_plan.warmup_s if req.warmup_s is None
+                            else req.warmup_s)
                     cal_id = str(calibration_dir)
-                outcomes = run_alignments(st, run, noise, calib, survey, site, plan,
-                                          estimators={method: (est,)}, tapes=tapes,
-                                          tape_dir=out / "tapes", calibration_id=cal_id)
+                opts = AlignmentOptions(noise=noise, calib=calib, survey=survey, site=site,
+                                        plan=plan, estimators={method: (est,)}, tapes=tapes,
+                                        tape_dir=out / "tapes", calibration_id=cal_id)
+                outcomes = run_alignments(st, run, opts)
             write_sheets(out, run)
             entries = alignment_entries(outcomes, conn.attitude_world)
             res = {
@@ -294,7 +315,7 @@ def run_align(
             }
             write_results(out, res)
             run.note(event="end", sim_seconds=st.clock.now())
-        if not quiet:
+        if not req.quiet:
             render_alignment(console, entries)
             if est != estimator:
                 console.print(f"note: {method} alignment with the {estimator} technique is "

@@ -23,6 +23,7 @@ from procedures.isu.nonlinearity import nonlinearity_experiment, q_is_experiment
 from procedures.isu.plan import DayPlan
 from procedures.isu.positions import resolver_settings
 from procedures.isu.sheets import CounterOutputs, SurveyResults
+from procedures.isu.site import Site
 from procedures.isu.system_survey import system_survey
 from procedures.isu.turn_on import oscillator_periods, turn_on
 from procedures.runner import Run
@@ -58,7 +59,7 @@ def _singles(all_: tuple[int, ...], positions: set[int] | None) -> tuple[int, ..
     return tuple(m for m in all_ if positions is None or m in positions)
 
 
-def measure_day(st, run: Run, plan: DayPlan, site: dict, f0: float,
+def measure_day(st, run: Run, plan: DayPlan, site: Site, f0: float,
                 only: tuple[str, ...] | None = None,
                 positions: tuple[int, ...] | None = None,
                 noise: NoiseSpec | None = None) -> DayData:
@@ -69,7 +70,7 @@ def measure_day(st, run: Run, plan: DayPlan, site: dict, f0: float,
     Every chart is a journaled block (``Run.block``), so a resume over links restores the
     charts already completed and repeats only the interrupted one. ``noise``: the lab's
     specification, which the survey's agreement checks judge its readings by (default:
-    ``NoiseSpec``'s defaults, the default lab's).
+    ``NoiseSpec``'s defaults, the default lab's). ``site``: what Chart I-2 step 3 records.
     """
     wanted = set(EXPERIMENTS if not only else only)
     unknown = wanted - set(EXPERIMENTS) - {"I-1", "I-2"}
@@ -80,7 +81,8 @@ def measure_day(st, run: Run, plan: DayPlan, site: dict, f0: float,
         raise ValueError(f"unknown position(s) {sorted(pos - set(range(1, 16)))}; "
                          "calibration positions are 1 to 15")
     run.block("I-1", lambda: turn_on(st, run, plan.warmup_s), lambda _: None)
-    survey = run.block("I-2", lambda: system_survey(st, run, site, noise=noise),
+    survey = run.block("I-2", lambda: system_survey(st, run, site.survey_information(),
+                                                      noise=noise),
                        SurveyResults.model_validate)
     s1, _ = oscillator_periods(run)  # as Chart I-1 step 3 read them (twice, agreeing)
     settings = resolver_settings(survey)
@@ -117,10 +119,10 @@ def measure_day(st, run: Run, plan: DayPlan, site: dict, f0: float,
             st, run, settings, plan, outputs, pairs)))
     if "II-7" in wanted:
         data.nonlinearity = chart("II-7", lambda: nonlinearity_experiment(
-            st, run, settings, plan, s1, site["omega_sin_lambda"]))
+            st, run, settings, plan, s1, site.omega_sin_lambda))
     if "II-7Q" in wanted:
         data.q_is = chart("II-7Q", lambda: q_is_experiment(
-            st, run, survey.t_bi, plan, s1, site["omega_sin_lambda"]))
+            st, run, survey.t_bi, plan, s1, site.omega_sin_lambda))
     if "II-10" in wanted:
         data.j_term = chart("II-10", lambda: j_experiment(st, run, settings, plan, s1))
     if "II-11" in wanted and (pairs := _pairs((7, 9, 11), pos)):

@@ -47,13 +47,17 @@ from sim.rng import stream
 from sim.units import DEG_PER_HR, EARTH_RATE, HOUR
 
 Vec = tuple[float, float, float]
+# The report's laboratory (Honeywell Aerospace Division, Minneapolis): the one place the ESG
+# laboratory's default latitude is written.
+LAB_LATITUDE_DEG = 44.98
 
 
 @dataclass(frozen=True)
 class RotorSpec:
-    """Rotor, unbalance, electric torque, damping and the console's spin profile."""
+    """Rotor, unbalance, electric torque, damping and the console's spin profile, and the
+    laboratory's latitude (the Earth rate the spin axis turns against in the lab)."""
 
-    latitude_deg: float = 44.98
+    latitude_deg: float = LAB_LATITUDE_DEG
     spin_rps: float = 250.0
     spinup_s: float = 1800.0
     rundown_tau_h: float = 88.0  # math.inf: no rundown

@@ -72,30 +72,27 @@ _TIME_SLACK = 1e-9  # s
 
 @dataclass(frozen=True)
 class EsgParams:
-    """Everything the ESG laboratory is made of, with the defaults listed in the module."""
+    """Everything the ESG laboratory is made of, with the defaults listed in the module.
 
-    latitude_deg: float = 44.98
-    spin_rps: float = 250.0
-    spinup_s: float = 1800.0
-    rundown_tau_h: float = 88.0  # math.inf: no rundown
-    inertia_g_cm2: float = 114.0
-    unbalance_dyne_cm: float = 11.0
-    electric_deg_h: float = 0.2
-    damping_tau_s: float = 60.0
-    rotor_step_s: float = 5.0
+    Each part's defaults live in its own spec (the rotor's, site latitude included, in
+    ``RotorSpec``); this holds the parts and the vacuum gauge's reading."""
+
+    rotor: RotorSpec = field(default_factory=RotorSpec)
     pressure_torr: float = 5e-7
     pattern: PatternSpec = field(default_factory=PatternSpec)
     mount: MountSpec = field(default_factory=MountSpec)
     case: CaseSpec = field(default_factory=CaseSpec)
     signal: SignalSpec = field(default_factory=SignalSpec)
 
-    def rotor_spec(self) -> RotorSpec:
-        return RotorSpec(latitude_deg=self.latitude_deg, spin_rps=self.spin_rps,
-                         spinup_s=self.spinup_s, rundown_tau_h=self.rundown_tau_h,
-                         inertia_g_cm2=self.inertia_g_cm2,
-                         unbalance_dyne_cm=self.unbalance_dyne_cm,
-                         electric_deg_h=self.electric_deg_h, damping_tau_s=self.damping_tau_s,
-                         step_s=self.rotor_step_s)
+    @property
+    def latitude_deg(self) -> float:
+        """The laboratory's latitude (where the rotor feels the Earth's rate)."""
+        return self.rotor.latitude_deg
+
+    @property
+    def spin_rps(self) -> float:
+        """The console's operating spin speed."""
+        return self.rotor.spin_rps
 
 
 def _azimuth_about(s: np.ndarray, p: np.ndarray) -> float:
@@ -120,7 +117,7 @@ class EsgWorld:
         self.pattern = Pattern(self.p.pattern, self.seed)
         self.case = GyroCase(self.p.case, self.seed)
         self.mount = Mount(self.p.mount, self.seed, self.case.mounting)
-        self.rotor = Rotor(self.p.rotor_spec(), self.seed, self.mount)
+        self.rotor = Rotor(self.p.rotor, self.seed, self.mount)
         self.clock = make_clock(self.seed, self.p.signal)
         sig = self.p.signal
         rng = stream(self.seed, "esg", "channels")

@@ -71,8 +71,11 @@ def _set(obj: _D, model: BaseModel) -> _D:
 
 
 def params_from(cfg: EsgConfig) -> EsgParams:
-    p = _set(EsgParams(), cfg)
-    return replace(p, pattern=_set(p.pattern, cfg.pattern), signal=_set(p.signal, cfg.signal))
+    """The default EsgParams with ``cfg`` applied: the section's scalars are the rotor's
+    (site latitude included), its tables the pattern's and the signal's."""
+    p = EsgParams()
+    return replace(p, rotor=_set(p.rotor, cfg), pattern=_set(p.pattern, cfg.pattern),
+                   signal=_set(p.signal, cfg.signal))
 
 
 def load_esg_params(path: str | Path | None) -> EsgParams:

@@ -20,6 +20,7 @@ from procedures.isu.calibration.noise_spec import NoiseSpec
 from procedures.isu.common import set_position
 from procedures.isu.readings import read_levels, read_mirror, resolvers
 from procedures.isu.sheets import CalibrationResults, SurveyResults
+from procedures.isu.site import Site
 from procedures.isu.system_survey import NOMINAL_AIM_DEG, POSITION0_DEG, acquire
 from procedures.isu.turn_on import oscillator_periods
 from procedures.runner import Run
@@ -157,12 +158,15 @@ def survey_g(survey: SurveyResults | None) -> float:
     return 1.0 if survey is None else float(survey.g)
 
 
-def site_rates(survey: SurveyResults | None, site: dict | None) -> tuple[float, float]:
-    """(omega^E sin lambda, omega^E cos lambda) in deg/hr: north and vertical components."""
-    src = site or {}
+def site_rates(survey: SurveyResults | None, site: Site | None) -> tuple[float, float]:
+    """(omega^E sin lambda, omega^E cos lambda) in deg/hr: north and vertical components,
+    as the survey recorded them (Chart I-2 step 3), else the site's."""
     if survey is not None:
         return survey.omega_sin_lambda_deg_hr, survey.omega_cos_lambda_deg_hr
-    return float(src["omega_sin_lambda"]), float(src["omega_cos_lambda"])
+    if site is None:
+        raise ValueError("the gyrocompass alignment needs the Earth rate: give the survey "
+                         "(Chart I-3) or the site")
+    return site.omega_sin_lambda, site.omega_cos_lambda
 
 
 def experiment_params(plan: AlignPlan, noise: NoiseSpec, survey: SurveyResults | None,

@@ -22,7 +22,6 @@ from procedures.isu.alignment.align_math import ARCSEC, gyrocompass_matrix
 from procedures.isu.alignment.common import (
     Outcome,
     calibration_constants,
-    canonical_estimator,
     check_ieu_lines,
     experiment_params,
     ieu_period_ticks,
@@ -33,6 +32,7 @@ from procedures.isu.alignment.common import (
     table_record,
 )
 from procedures.isu.alignment.level import ACCEL_KEYS, BIAS_KEYS, accel_x, check_record
+from procedures.isu.alignment.options import AlignmentOptions
 from procedures.isu.alignment.parameter_sheet import Tape, check_tape
 from procedures.isu.alignment.preprocess import (
     GYRO_PARAMS,
@@ -41,10 +41,9 @@ from procedures.isu.alignment.preprocess import (
     gyro_integrals,
 )
 from procedures.isu.alignment.preprocess import string_differences as p_of
-from procedures.isu.alignment.results_sheet import AlignmentResults, AlignPlan
+from procedures.isu.alignment.results_sheet import AlignmentResults
 from procedures.isu.alignment.sampling import IeuRecord, collect_checked
-from procedures.isu.calibration.noise_spec import NoiseSpec
-from procedures.isu.sheets import CalibrationResults, SurveyResults
+from procedures.isu.sheets import SurveyResults
 from procedures.runner import Run
 from station.errors import CheckFailed
 
@@ -156,31 +155,23 @@ def gyro_checks(e: str, model: dict, survey: SurveyResults | None, w_north: floa
     return out
 
 
-def gyrocompass_procedure(
-    st: IsuDrivers,
-    run: Run,
-    noise: NoiseSpec,
-    calib: CalibrationResults,
-    survey: SurveyResults | None = None,
-    site: dict | None = None,
-    plan: AlignPlan | None = None,
-    estimators: tuple[str, ...] = ("average",),
-    tapes: dict[str, Tape] | None = None,
-    calibration_id: str | None = None,
-    mirror: Outcome | None = None,
-) -> list[Outcome]:
-    """Tick Chart III-8; one Outcome (and Alignment Results Sheet) per estimator.
+def gyrocompass_procedure(st: IsuDrivers, run: Run, options: AlignmentOptions,
+                          mirror: Outcome | None = None) -> list[Outcome]:
+    """Tick Chart III-8; one Outcome (and Alignment Results Sheet) per technique that
+    ``options`` asks for the gyrocompass method (the simple average when it names none).
 
-    ``tapes``: estimator -> level tape for this experiment's K and Delta t (hybrid).
-    ``mirror``: the mirror alignment of this run, which T is checked against at step 10
-    (else the survey's prediction, if the survey was made in this run); |omega| and the
-    colatitude are checked against the site, |g| against the survey.
+    ``options.tapes["gyrocompass"]``: the level tape for this experiment's K and Delta t
+    (hybrid). ``mirror``: the mirror alignment of this run, which T is checked against at
+    step 10 (else the survey's prediction, if the survey was made in this run); |omega| and
+    the colatitude are checked against the survey's Earth rate (the site's without one),
+    |g| against the survey.
     """
-    plan = plan or AlignPlan()
-    ests = tuple(dict.fromkeys(canonical_estimator("gyrocompass", e) for e in estimators))
+    noise, calib, survey, plan = options.noise, options.calib, options.survey, options.plan
+    calibration_id = options.calibration_id
+    ests = options.techniques("gyrocompass") or ("average",)
     K, dt = plan.gyro_K, plan.gyro_dt_s
-    tapes = tapes or {}
-    w_north, w_up = site_rates(survey, site)
+    tapes = {e: t for e in ests if (t := options.tape_for("gyrocompass", e)) is not None}
+    w_north, w_up = site_rates(survey, options.site)
     opts: dict = {}
     if plan.known_colatitude:
         opts["colatitude_deg"] = math.degrees(math.atan2(w_north, w_up))

@@ -27,7 +27,6 @@ from procedures.isu.alignment.common import (
     ac_sigma_arcsec,
     acquire_mirrors,
     calibration_constants,
-    canonical_estimator,
     check_ieu_lines,
     experiment_params,
     ieu_period_ticks,
@@ -37,13 +36,13 @@ from procedures.isu.alignment.common import (
     survey_g,
     table_record,
 )
+from procedures.isu.alignment.options import AlignmentOptions
 from procedures.isu.alignment.parameter_sheet import Tape, check_tape
 from procedures.isu.alignment.preprocess import ACCEL_PARAMS, Constants, accel_integrals
 from procedures.isu.alignment.preprocess import string_differences as p_of
-from procedures.isu.alignment.results_sheet import AlignmentResults, AlignPlan
+from procedures.isu.alignment.results_sheet import AlignmentResults
 from procedures.isu.alignment.sampling import IeuRecord, collect_checked
-from procedures.isu.calibration.noise_spec import NoiseSpec
-from procedures.isu.sheets import CalibrationResults, SurveyResults
+from procedures.isu.sheets import SurveyResults
 from procedures.runner import Run
 from station.errors import CheckFailed
 
@@ -140,29 +139,21 @@ def level_checks(e: str, model: dict, survey: SurveyResults | None,
     return out
 
 
-def level_alignment_procedure(
-    st: IsuDrivers,
-    run: Run,
-    noise: NoiseSpec,
-    calib: CalibrationResults,
-    survey: SurveyResults | None = None,
-    plan: AlignPlan | None = None,
-    estimators: tuple[str, ...] = ("average",),
-    tapes: dict[str, Tape] | None = None,
-    calibration_id: str | None = None,
-    mirror: Outcome | None = None,
-) -> list[Outcome]:
-    """Tick Chart III-4; one Outcome (and Alignment Results Sheet) per estimator.
+def level_alignment_procedure(st: IsuDrivers, run: Run, options: AlignmentOptions,
+                              mirror: Outcome | None = None) -> list[Outcome]:
+    """Tick Chart III-4; one Outcome (and Alignment Results Sheet) per technique that
+    ``options`` asks for the level method (the simple average when it names none).
 
-    ``tapes``: estimator -> tape (posterior mean); its Chart I-8 parameters are checked
+    ``options.tapes["level"]``: the posterior mean's tape; its Chart I-8 parameters are checked
     against this experiment's at step 8, and a mismatch stops the step naming the parameter.
     ``mirror``: the mirror alignment of this run, which T is checked against at step 12
     (else the survey's prediction, if the survey was made in this run).
     """
-    plan = plan or AlignPlan()
-    ests = tuple(dict.fromkeys(canonical_estimator("level", e) for e in estimators))
+    noise, calib, survey, plan = options.noise, options.calib, options.survey, options.plan
+    calibration_id = options.calibration_id
+    ests = options.techniques("level") or ("average",)
     K, dt = plan.level_K, plan.level_dt_s
-    tapes = tapes or {}
+    tapes = {e: t for e in ests if (t := options.tape_for("level", e)) is not None}
     with run.sheet(CHART, TITLE) as sheet:
         with sheet.step("1", "Verify turn-on procedures and the Alignment Results Sheet "
                         "inputs are completed") as s:

@@ -25,7 +25,8 @@ from procedures.isu.alignment.common import (
     set_position0,
     table_record,
 )
-from procedures.isu.alignment.results_sheet import AlignmentResults, AlignPlan
+from procedures.isu.alignment.options import AlignmentOptions
+from procedures.isu.alignment.results_sheet import AlignmentResults
 from procedures.isu.calibration.noise_spec import NoiseSpec
 from procedures.isu.sheets import SurveyResults
 from procedures.runner import Run
@@ -68,15 +69,14 @@ def check_against_survey(t, predicted, survey: SurveyResults, position0: dict,
         ck.tilt_motion_arcsec(noise, t_ref - float(position0["t_s"])))
 
 
-def mirror_alignment_procedure(st: IsuDrivers, run: Run, noise: NoiseSpec,
-                               survey: SurveyResults | None = None,
-                               plan: AlignPlan | None = None) -> Outcome:
+def mirror_alignment_procedure(st: IsuDrivers, run: Run, options: AlignmentOptions) -> Outcome:
     """Tick Chart III-2 and return the mirror alignment (Chart III-1 saved in the run).
 
     The readings must agree among themselves (``read_autocollimators``) and, when the survey
-    was made in this run, T must agree with the survey's prediction (``checks``)."""
-    plan = plan or AlignPlan()
-    n = plan.mirror_readings
+    was made in this run, T must agree with the survey's prediction (``checks``). Uses the
+    noise specification, the survey and the plan's number of readings of ``options``."""
+    noise, survey = options.noise, options.survey
+    n = options.plan.mirror_readings
     with run.sheet(CHART, TITLE) as sheet:
         with sheet.step("1", "Verify turn-on procedures are completed (Part I, Section 1)") as s:
             s.reading = require_turn_on(run)

@@ -23,7 +23,7 @@ from pydantic import BaseModel, ConfigDict, Field, model_validator
 from procedures.isu.alignment.estimation import LevelParams, posterior_level
 from station.files import write_bytes
 
-TAPE_FORMAT = "isu-station alignment tape 1"
+TAPE_FORMAT: Literal["isu-station alignment tape 1"] = "isu-station alignment tape 1"
 REL_TOL = 1e-9  # parameters equal up to float round-off
 SCALAR_ABS_TOL = 1e-18
 SEQUENCE_ABS_TOL = 1e-12  # times the largest magnitude in the sequence

@@ -52,6 +52,8 @@ class AlignPlan(_Sheet):
     string registers' overflow (2 s).
     """
 
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
     mirror_readings: int = Field(8, ge=1, description="autocollimator readings per mirror")
     alpha_readings: int = Field(8, ge=1, description="mirror-1 azimuth readings (level)")
     level_K: int = Field(150, ge=1)

@@ -48,7 +48,7 @@ def one(seed: int) -> dict:
             site = site_of(cfg)
             data = measure_day(st, run, plan, site, cfg.isu.accels[0].f0_hz)
             calib = compute_calibration(run, data, plan, noise_spec(cfg),
-                                        site.survey_information())
+                                        site)
             out["day"] = day_alignments(st, run, calib, cfg, rack.world)
             truth = calibration_truth(rack.world)
             exact = calib.model_copy(deep=True)

@@ -145,7 +145,7 @@ def day(tmp_path_factory):
         plan = DayPlan()
         site = site_of(cfg)
         data = measure_day(st, run, plan, site, cfg.isu.accels[0].f0_hz)
-        calib = compute_calibration(run, data, plan, noise_spec(cfg), site.survey_information())
+        calib = compute_calibration(run, data, plan, noise_spec(cfg), site)
         entries = day_alignments(st, run, calib, cfg, rack.world, tape_dir=out / "tapes")
         yield {"out": out, "entries": entries, "calib": calib, "run": run,
                "survey": data.survey, "cfg": cfg}

@@ -148,7 +148,7 @@ def test_cigtf_figures_agree_with_the_test_plan():
 
 
 def test_esg_rotor_bounds_agree_with_the_plan():
-    plan = EsgPlan()
+    plan = EsgPlan(latitude_deg=EsgParams().latitude_deg)
 
     def bound(model, field, kind):
         return next(getattr(m, kind) for m in model.model_fields[field].metadata

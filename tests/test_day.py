@@ -111,5 +111,5 @@ def test_computations_without_survey_name_the_chart(tmp_path):
     data = DayData(survey=None, s1=1e-6, f0=20000.0)
     with pytest.raises(ProcedureError) as e:
         compute_calibration(run, data, DayPlan(), NoiseSpec(),
-                            site_of(cfg).survey_information())
+                            site_of(cfg))
     assert "Chart II-15, step 1" in str(e.value) and "Survey Results Sheet" in str(e.value)

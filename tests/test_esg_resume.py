@@ -19,6 +19,7 @@ from sim.esg.world import EsgParams
 from station.racks.esg import EsgRack, open_esg_drivers
 
 SEED = 11
+PLAN = acquisition.EsgPlan(latitude_deg=EsgParams().latitude_deg)
 STOP_IN = "11+"  # the scan the link is lost in, after STOP_AFTER of its readings
 STOP_AFTER = 12
 
@@ -33,7 +34,7 @@ def uninterrupted(tmp_path_factory):
     rack, st = _station(SEED)
     j = Journal(tmp_path_factory.mktemp("esg") / "journal.jsonl")
     run = Run(st.clock, j)
-    acq = acquire(st, run, acquisition.EsgPlan())
+    acq = acquire(st, run, PLAN)
     j.close()
     return acq, run
 
@@ -61,7 +62,7 @@ def interrupted(tmp_path, monkeypatch):
     monkeypatch.setattr(acquisition, "_read", read)
     j = Journal(path)
     with pytest.raises(ProcedureError, match=r"ESG-CAL, step 11\+\.(0[2-9]|1).*link lost"):
-        acquire(st, Run(st.clock, j, resume="skip"), acquisition.EsgPlan())
+        acquire(st, Run(st.clock, j, resume="skip"), PLAN)
     j.close()
     monkeypatch.undo()
     return rack, st, path
@@ -70,7 +71,7 @@ def interrupted(tmp_path, monkeypatch):
 def _resume(st, path, repeat=()):
     j = Journal(path, resume=True)
     run = Run(st.clock, j, resume="skip", repeat=repeat)
-    acq = acquire(st, run, acquisition.EsgPlan())
+    acq = acquire(st, run, PLAN)
     j.close()
     return acq, run
 

@@ -231,7 +231,7 @@ def survey_levels(tmp_path, name: str, inject=None):
             inject(st)
         run = Run(st.clock, Journal(tmp_path / f"{name}.jsonl"))
         turn_on(st, run, warmup_s=10.0)
-        system_survey(st, run, site_of(cfg).survey_information(), n_readings=10,
+        system_survey(st, run, site_of(cfg), n_readings=10,
                       base_azimuth=False)
         return next(s.reading for s in run.check_sheets["I-2"].steps if s.number == "5")
 

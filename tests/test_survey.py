@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 
 from procedures.isu import survey_math as sm
+from procedures.isu.site import Site
 from procedures.isu.system_survey import N_READINGS, TRUNNION_TILT_DEG, system_survey
 from procedures.isu.turn_on import turn_on
 from procedures.journal import Journal
@@ -59,15 +60,9 @@ def angle_arcsec(a, b) -> float:
     return math.degrees(math.atan2(np.linalg.norm(np.cross(a, b)), a @ b)) * 3600.0
 
 
-def site_of(cfg) -> dict:
-    """Chart I-2 step 3 entries for the configured site (lambda = colatitude in report 000)."""
-    lat = math.radians(cfg.site.latitude_deg)
-    w = cfg.site.earth_rate_deg_per_hr
-    return {
-        "g": cfg.site.g_local_mps2 / 9.80665,
-        "omega_sin_lambda": w * math.cos(lat),  # sin(colatitude): the north component
-        "omega_cos_lambda": w * math.sin(lat),  # cos(colatitude): the vertical component
-    }
+def site_of(cfg) -> Site:
+    """The configured site as Chart I-2 step 3 is given it."""
+    return Site(cfg.site.latitude_deg, cfg.site.g_local_mps2, cfg.site.earth_rate_deg_per_hr)
 
 
 def predicted_t_bi_error_arcsec(cfg, n: int = N_READINGS) -> float:

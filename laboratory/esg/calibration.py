@@ -191,8 +191,8 @@ def run_esg_calibration(seed: int, out: Path, params: EsgParams | None = None,
     """
     out = Path(out)
     params = params or EsgParams()
-    plan = plan or EsgPlan()
-    plan = replace(plan, latitude_deg=params.latitude_deg)
+    plan = (replace(plan, latitude_deg=params.latitude_deg) if plan is not None
+            else EsgPlan(latitude_deg=params.latitude_deg))
     prepare(out, resume, links)
     wall0 = time.perf_counter()
     conn = connect(LAB, Seeded(params, seed), links, rack_hook)

@@ -291,7 +291,7 @@ def run_align(req: AlignRequest, console: Console | None = None,
                     data = measure_day(st, run, day_plan, site, cfg.isu.accels[0].f0_hz,
                                        noise=noise)
                     calib = compute_calibration(run, data, day_plan, noise,
-                                                site.survey_information())
+                                                site)
                     survey = data.survey
                     cal_id = "this run (Chart II-15)"
                 else:

@@ -164,7 +164,7 @@ def _day(req: DayRequest, conn: Connection, journal: Journal, console: Console,
                  links=None if links is None else str(links))
         data = measure_day(st, run, req.plan, site, cfg.isu.accels[0].f0_hz, req.only,
                            req.positions, noise=noise)
-        calib = compute_calibration(run, data, req.plan, noise, site.survey_information())
+        calib = compute_calibration(run, data, req.plan, noise, site)
         alignment = []
         if req.align and data.survey is not None:
             alignment = day_alignments(st, run, calib, cfg, conn.attitude_world,

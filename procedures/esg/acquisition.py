@@ -41,7 +41,7 @@ MIRROR_ANGLE_DEG = 89.0 + 56.0 / 60.0 + 5.0 / 3600.0  # measured between the two
 class EsgPlan:
     """The laboratory's choices for one calibration (degrees, seconds, count ratio)."""
 
-    latitude_deg: float = 44.98
+    latitude_deg: float  # the site's (the laboratory's params give it: sim/esg/rotor.py)
     design_inclination_deg: float = 56.0  # great circle at the equator (pattern drawing)
     mirror_angle_deg: float = MIRROR_ANGLE_DEG
     lines_per_setting: int = 5
@@ -601,9 +601,8 @@ def calibration_scans(st: EsgDrivers, run: Run, plan: EsgPlan, sh: CheckSheetRun
                         _scan_offsets(first, last, inc), slope_g)
 
 
-def acquire(st: EsgDrivers, run: Run, plan: EsgPlan | None = None) -> Acquisition:
+def acquire(st: EsgDrivers, run: Run, plan: EsgPlan) -> Acquisition:
     """Sheets ESG-DP, ESG-CAL (steps 1-13) and ESG-PA; returns the acquisition record."""
-    plan = plan or EsgPlan()
     acq = Acquisition()
     acq.t_zero_s = run.block("ESG-DP", lambda: processor_setup(st, run, plan)["t_zero_s"],
                              float)

@@ -30,6 +30,7 @@ from procedures.isu.plan import DayPlan
 from procedures.isu.plausibility import Implausible
 from procedures.isu.settings import STRINGS
 from procedures.isu.sheets import CalibrationResults, ResultRow, SurveyResults
+from procedures.isu.site import Site
 from procedures.runner import Run
 from station.errors import CheckFailed
 
@@ -46,14 +47,14 @@ def _survey(data: DayData) -> SurveyResults:
     return data.survey
 
 
-def calibration_data(data: DayData, plan: DayPlan, site: dict,
+def calibration_data(data: DayData, plan: DayPlan, site: Site,
                      last_d1d3: dict[int, float] | None = None) -> CalibrationData:
     """Chart II-15 steps 3-7: the survey's constants and every position's counts."""
     sv = _survey(data)
     const = Constants(
-        g=site["g"],
-        w_sin_lambda=site["omega_sin_lambda"],
-        w_cos_lambda=site["omega_cos_lambda"],
+        g=site.g,
+        w_sin_lambda=site.omega_sin_lambda,
+        w_cos_lambda=site.omega_cos_lambda,
         s1_t=data.s1,
         s_phi=360.0 / plan.rotation_pulses_per_rev,
         t_br_column2={int(m): tuple(v) for m, v in sv.t_br_column2.items()},
@@ -111,7 +112,7 @@ def _check_speeds(chart: str, k: int, pts: list[dict], fit: NonlinearityFit) -> 
     return fit["residual_z"]
 
 
-def special_experiments(rows: list[ResultRow], data: DayData, plan: DayPlan, site: dict,
+def special_experiments(rows: list[ResultRow], data: DayData, plan: DayPlan, site: Site,
                         noise: NoiseSpec) -> dict[str, list[float]]:
     """Q_II from II-1.2 and J from II-1.3, in place (Chart II-16: special experiments); the
     z of each speed and gate pair against the others (a wrong count stops the step)."""
@@ -157,9 +158,9 @@ def special_experiments(rows: list[ResultRow], data: DayData, plan: DayPlan, sit
             # count noise, and the pier's tilt change seen by the horizontal input axis
             sig_c = math.hypot(_count_sigma(noise, gate, rdp.estimate),
                                _tilt_change_sigma_arcsec(noise, gate) / rdp.estimate)
-            j, sj = j_estimate(recs, c, rdp.estimate, g_r, site["omega_sin_lambda"],
+            j, sj = j_estimate(recs, c, rdp.estimate, g_r, site.omega_sin_lambda,
                                plan.j_accel_deg_s2, sig_c)
-            zs = j_pairs(recs, c, rdp.estimate, g_r, site["omega_sin_lambda"],
+            zs = j_pairs(recs, c, rdp.estimate, g_r, site.omega_sin_lambda,
                          plan.j_accel_deg_s2, sig_c)
             checks[f"II-10 gyro{k}"] = zs
             for i, z in enumerate(zs):
@@ -176,7 +177,7 @@ def special_experiments(rows: list[ResultRow], data: DayData, plan: DayPlan, sit
 
 
 def compute_calibration(run: Run, data: DayData, plan: DayPlan, noise: NoiseSpec,
-                        site: dict, last_d1d3: dict[int, float] | None = None
+                        site: Site, last_d1d3: dict[int, float] | None = None
                         ) -> CalibrationResults:
     with run.sheet("II-15", TITLE) as sheet:
         with sheet.step("1", "Prepare the data for entry") as s:

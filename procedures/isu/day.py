@@ -81,7 +81,7 @@ def measure_day(st, run: Run, plan: DayPlan, site: Site, f0: float,
         raise ValueError(f"unknown position(s) {sorted(pos - set(range(1, 16)))}; "
                          "calibration positions are 1 to 15")
     run.block("I-1", lambda: turn_on(st, run, plan.warmup_s), lambda _: None)
-    survey = run.block("I-2", lambda: system_survey(st, run, site.survey_information(),
+    survey = run.block("I-2", lambda: system_survey(st, run, site,
                                                       noise=noise),
                        SurveyResults.model_validate)
     s1, _ = oscillator_periods(run)  # as Chart I-1 step 3 read them (twice, agreeing)

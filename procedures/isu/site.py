@@ -48,9 +48,3 @@ class Site:
     def omega_cos_lambda(self) -> float:
         """omega^E cos(colatitude), deg/hr: the Earth rate's vertical component."""
         return self.earth_rate_deg_per_hr * math.sin(math.radians(self.latitude_deg))
-
-    def survey_information(self) -> dict[str, float]:
-        """The three numbers of Chart I-2 step 3 (g, omega^E sin and cos lambda), keyed as
-        ``system_survey`` and ``compute_calibration`` still take them."""
-        return {"g": self.g, "omega_sin_lambda": self.omega_sin_lambda,
-                "omega_cos_lambda": self.omega_cos_lambda}

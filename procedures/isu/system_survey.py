@@ -47,6 +47,7 @@ from procedures.isu.readings import (
     steady_resolvers,
 )
 from procedures.isu.sheets import SurveyResults
+from procedures.isu.site import Site
 from procedures.runner import Run
 from station.drivers.isu import AutocollimatorDriver
 from station.errors import CheckFailed, InstrumentRefused
@@ -253,13 +254,8 @@ def _angle_arcsec(a: ArrayLike, b: ArrayLike) -> float:
     return math.degrees(math.atan2(float(np.linalg.norm(np.cross(u, v))), float(u @ v))) * 3600.0
 
 
-def _check_site(site: dict) -> tuple[float, float, float]:
-    try:
-        g = float(site["g"])
-        ws = float(site["omega_sin_lambda"])
-        wc = float(site["omega_cos_lambda"])
-    except KeyError as e:
-        raise CheckFailed(f"site estimate {e.args[0]!r} missing") from None
+def _check_site(site: Site) -> tuple[float, float, float]:
+    g, ws, wc = site.g, site.omega_sin_lambda, site.omega_cos_lambda
     if not 0.99 <= g <= 1.01:
         raise CheckFailed(f"g = {g} is not in g units (expected about 1)")
     w = math.hypot(ws, wc)
@@ -274,7 +270,7 @@ def _check_site(site: dict) -> tuple[float, float, float]:
 def system_survey(
     station: IsuDrivers,
     run: Run,
-    site: dict,
+    site: Site,
     n_readings: int = N_READINGS,
     search_step_deg: float = SEARCH_STEP_DEG,
     search_radius_deg: float = SEARCH_RADIUS_DEG,
@@ -284,8 +280,9 @@ def system_survey(
 ) -> SurveyResults:
     """Tick Chart I-2 and return the Survey Results Sheet (Chart I-3).
 
-    ``site``: ``g`` (g units), ``omega_sin_lambda`` and ``omega_cos_lambda`` (deg/hr; lambda
-    is the colatitude in report 000, so these are the north and vertical Earth-rate parts).
+    ``site``: the laboratory's site; step 3 enters its ``g`` (g units), ``omega_sin_lambda``
+    and ``omega_cos_lambda`` (deg/hr; lambda is the colatitude in report 000, so these are the
+    north and vertical Earth-rate parts).
     """
     st = station
     if n_readings < 1:

@@ -15,7 +15,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from laboratory.cigtf.lab import LAB
+from laboratory import registry
 from laboratory.connect import connect, journaled_run
 from laboratory.record import write_json, write_sheets
 from laboratory.rundir import JOURNAL, RunDirError, prepare
@@ -223,7 +223,7 @@ def run_gyrocompass_test(seed: int, out: Path, params: CigtfParams | None = None
     prepare(out, resume, links)
     wall0 = time.perf_counter()
     digest = params_digest("cigtf", params)
-    conn = connect(LAB, Seeded(params, seed), links, rack_hook)
+    conn = connect(registry.get("cigtf"), Seeded(params, seed), links, rack_hook)
     st, world = conn.drivers, conn.coefficient_world
     with journaled_run(out, conn, resume, renew=RENEW, seed=seed,
                        test="gyrocompass", params_digest=digest) as (run, extra, t_start):

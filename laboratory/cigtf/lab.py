@@ -13,6 +13,7 @@ from laboratory.seeded import Seeded, seeded
 
 if TYPE_CHECKING:
     import simpy
+    import typer
 
     from sim.cigtf.world import CigtfParams, CigtfWorld
     from station.clock import Clock
@@ -66,9 +67,16 @@ def truth(world: CigtfWorld) -> dict[str, float]:
     return {"theta_arcsec": world.truth_theta_arcsec()}
 
 
+def _commands(app: typer.Typer) -> None:
+    from laboratory.cigtf.cli import add_commands
+
+    add_commands(app)
+
+
 LAB = Laboratory(
     name="cigtf", title="CIGTF gyrocompassing test (report 001)",
     config_help="TOML with a [cigtf] section (site, gyro model, fixture)",
     load_config=_load, seed_of=lambda cfg: cfg.seed, digest=_digest,
     build_rack=_rack, drivers=_drivers, links=_links, assemble=_assemble, truth=truth,
+    add_commands=_commands,
 )

@@ -25,8 +25,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from laboratory import registry
 from laboratory.connect import connect, journaled_run
-from laboratory.esg.lab import LAB
 from laboratory.esg.truth import true_pickoff1_coning_arcsec
 from laboratory.record import write_json, write_sheets
 from laboratory.rundir import prepare
@@ -195,7 +195,7 @@ def run_esg_calibration(seed: int, out: Path, params: EsgParams | None = None,
             else EsgPlan(latitude_deg=params.latitude_deg))
     prepare(out, resume, links)
     wall0 = time.perf_counter()
-    conn = connect(LAB, Seeded(params, seed), links, rack_hook)
+    conn = connect(registry.get("esg"), Seeded(params, seed), links, rack_hook)
     st, served, world = conn.drivers, conn.served, conn.coefficient_world
     with journaled_run(out, conn, resume, renew=RENEW, seed=seed,
                        test="esg-calibration") as (

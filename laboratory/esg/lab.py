@@ -13,6 +13,7 @@ from laboratory.seeded import Seeded, seeded
 
 if TYPE_CHECKING:
     import simpy
+    import typer
 
     from sim.esg.world import EsgParams, EsgWorld
     from station.clock import Clock
@@ -68,9 +69,16 @@ def truth(world: EsgWorld) -> dict[str, float]:
     return {"pickoff1_coning_arcsec": true_pickoff1_coning_arcsec(world)}
 
 
+def _commands(app: typer.Typer) -> None:
+    from laboratory.esg.cli import add_commands
+
+    add_commands(app)
+
+
 LAB = Laboratory(
     name="esg", title="ESG readout laboratory (report 004)",
     config_help="TOML with an [esg] section (site, rotor, [esg.pattern], [esg.signal])",
     load_config=_load, seed_of=lambda cfg: cfg.seed, digest=_digest,
     build_rack=_rack, drivers=_drivers, links=_links, assemble=_assemble, truth=truth,
+    add_commands=_commands,
 )

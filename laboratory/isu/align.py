@@ -30,9 +30,9 @@ from rich import box
 from rich.console import Console
 from rich.table import Table
 
+from laboratory import registry
 from laboratory.connect import connect
 from laboratory.isu.display import DayDisplay
-from laboratory.isu.lab import LAB
 from laboratory.isu.spec import noise_spec, site_of
 from laboratory.record import write_results, write_sheets
 from laboratory.rundir import opened_journal, prepare, resume_note
@@ -271,7 +271,7 @@ def run_align(req: AlignRequest, console: Console | None = None,
         tapes = {method: load_tape(req.tape)}
     prepare(out, req.resume, links)
     wall0 = time.perf_counter()
-    conn = connect(LAB, cfg, links, rack_hook)
+    conn = connect(registry.get("isu"), cfg, links, rack_hook)
     st = conn.station
     site = site_of(cfg)
     noise = noise_spec(cfg)

@@ -17,10 +17,10 @@ from rich import box
 from rich.console import Console
 from rich.table import Table
 
+from laboratory import registry
 from laboratory.connect import Connection, connect
 from laboratory.isu.align import day_alignments, render_alignment
 from laboratory.isu.display import DayDisplay
-from laboratory.isu.lab import LAB
 from laboratory.isu.plots import nonlinearity_plot
 from laboratory.isu.spec import noise_spec, site_of
 from laboratory.isu.truth import calibration_truth
@@ -137,7 +137,7 @@ def run_day(req: DayRequest, console: Console | None = None,
     console = console or Console()
     prepare(req.out, req.resume, req.links)
     wall0 = time.perf_counter()
-    conn = connect(LAB, req.cfg, req.links, rack_hook, req.start_s)
+    conn = connect(registry.get("isu"), req.cfg, req.links, rack_hook, req.start_s)
     try:
         with opened_journal(req.out, req.resume) as journal:
             return _day(req, conn, journal, console, wall0)

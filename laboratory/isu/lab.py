@@ -12,6 +12,7 @@ from laboratory.registry import Laboratory
 
 if TYPE_CHECKING:
     import simpy
+    import typer
 
     from sim.isu.world import World
     from station.clock import Clock
@@ -79,10 +80,17 @@ def truth(world: World) -> dict[str, float]:
     return {f"{inst}.{name}": v for (inst, name), v in calibration_truth(world).items()}
 
 
+def _commands(app: typer.Typer) -> None:
+    from laboratory.isu.cli import add_commands
+
+    add_commands(app)
+
+
 LAB = Laboratory(
     name="isu", title="strapdown ISU calibration laboratory (report 000)",
     config_help="station config TOML (merged over the embedded default)",
     load_config=_load, seed_of=lambda cfg: cfg.seed, digest=_digest,
     build_rack=_rack, drivers=_drivers, links=_links, assemble=_assemble, truth=truth,
     simulated=simulated,
+    add_commands=_commands,
 )

@@ -1,0 +1,76 @@
+"""The CIGTF laboratory's command: `station gyrocompass-test`."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from laboratory.app import (
+    OutOpt,
+    ResumeOpt,
+    check_seed,
+    command,
+    console,
+    new_or_resumed,
+    reported,
+    station_run,
+)
+
+
+def add_commands(app: typer.Typer) -> None:
+    """Register this laboratory's commands on the station's command line."""
+
+    @command(app, "gyrocompass-test")
+    def gyrocompass_test(
+        seed: Annotated[int | None, typer.Option("--seed", help="run seed (default 1; when "
+                        "resuming, the run's)")] = None,
+        out: OutOpt = None,
+        resume: ResumeOpt = None,
+        analyse: Annotated[Path | None, typer.Option(
+            "--analyse", help="recompute the phase analysis from the journal in this "
+            "directory (e.g. after a stop)")] = None,
+        config: Annotated[Path | None, typer.Option("--config", help="TOML with a [cigtf] "
+                          "section (latitude_deg, noise and misalignment magnitudes)")] = None,
+        links: Annotated[Path | None, typer.Option("--links", help="run against the rack "
+                         "`station serve --station cigtf --links DIR` serves (real time)")] = None,
+    ) -> None:
+        """The CIGTF gyrocompassing accuracy test (report 001) on the simulated fixture."""
+        from laboratory.cigtf.gyrocompassing import (
+            analyse_journal,
+            render_tables,
+            run_gyrocompass_test,
+        )
+        from station.config.cigtf import load_cigtf_params
+
+        check_seed(seed)
+        if analyse is not None:
+            with reported(lambda: None):
+                res = analyse_journal(analyse, load_cigtf_params(config))
+            for p in res["phases"]:
+                typer.echo(f"{p['phase']:>9}: theta {p['theta_arcsec']:+.2f} +/- "
+                           f"{p['sigma_arcsec']:.2f} arcsec (n = {p['n']}, from the journal)")
+            for m in res["incomplete_phases"]:
+                typer.echo(f"{m} (from the journal)")
+            typer.echo(f"{len(res['runs'])} completed runs; written "
+                       f"{analyse / 'gyrocompass_analysis.json'}")
+            return
+        target, args = new_or_resumed("gyrocompass-test", out, resume, {"seed": seed})
+        run_seed = 1 if args["seed"] is None else args["seed"]
+        res, target = station_run(
+            load_cigtf_params, config, "gyrocompass", run_seed, target, resume is not None,
+            lambda params, d: run_gyrocompass_test(run_seed, d, params=params, links=links,
+                                                   resume=resume is not None))
+        render_tables(console, res)
+        for p in res["phases"]:
+            console.print(f"{p['phase']:>9}: theta {p['theta_arcsec']:+.2f} +/- "
+                          f"{p['sigma_arcsec']:.2f} arcsec (n = {p['n']})")
+        truth = res["truth"]["theta_arcsec"]
+        console.print(f"truth (eq. 26) {'absent' if truth is None else f'{truth:+.2f} arcsec'}; "
+                      f"delta {res['delta_arcsec']:.2f}, Delta {res['Delta_arcsec']:.2f} arcsec")
+        if "served" in res:
+            console.print(f"served rack (session {res['served']['session']}): "
+                          f"{res['served']['note']}", markup=False)
+        typer.echo(f"{res['sim_seconds'] / 3600:.1f} h simulated in {res['wall_seconds']:.1f} s; "
+                   f"record in {target}")

@@ -1,0 +1,126 @@
+"""The ISU calibration laboratory's commands: `station day` and `station align`."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from laboratory.app import (
+    ConfigOpt,
+    LinksOpt,
+    OutOpt,
+    QuietOpt,
+    ResumeOpt,
+    SeedOpt,
+    check_seed,
+    command,
+    console,
+    fail,
+    load_isu_config,
+    new_or_resumed,
+    release,
+    reported,
+    target_dir,
+)
+
+
+def add_commands(app: typer.Typer) -> None:
+    """Register this laboratory's commands on the station's command line."""
+
+    @command(app)
+    def day(
+        config: ConfigOpt = None,
+        seed: SeedOpt = None,
+        out: OutOpt = None,
+        only: Annotated[list[str] | None, typer.Option("--only", help="measure only these charts "
+                        "(II-6, II-7, II-7Q, II-10, II-11..II-14); repeatable")] = None,
+        positions: Annotated[list[int] | None, typer.Option("--positions", help="only these "
+                             "calibration positions (1-15; a pair m, m+1 is measured whole); "
+                             "repeatable")] = None,
+        resume: ResumeOpt = None,
+        links: LinksOpt = None,
+        start_at: Annotated[float, typer.Option("--start-at", help="virtual run: begin at this "
+                            "simulated time, s (to compare with a rehearsal that began then)")
+                            ] = 0.0,
+        quiet: QuietOpt = False,
+    ) -> None:
+        """The full calibration day: turn-on, survey, positions 1-15, computations, alignments.
+
+        Virtual time by default; with --links, in real time against a served rack (or hardware).
+        """
+        from laboratory.isu.day import DayRequest, check_selection, run_day
+
+        check_seed(seed)
+        if not (0.0 <= start_at < 1e7):
+            fail(f"--start-at must be between 0 and 1e7 s, got {start_at:g}")
+        target, args = new_or_resumed("day", out, resume, {
+            "seed": seed, "only": only or None, "positions": positions or None})
+        sel_only = tuple(args["only"]) if args["only"] else None
+        sel_pos = tuple(args["positions"]) if args["positions"] else None
+        with reported(lambda: None):
+            check_selection(sel_only, sel_pos)
+        cfg = load_isu_config(config, args["seed"])
+        fresh_dir = target is None
+        target = target_dir(target, "day", cfg.seed)
+        try:
+            with reported(lambda: target):
+                res = run_day(DayRequest(cfg, target, only=sel_only, positions=sel_pos,
+                                         resume=resume is not None, links=links,
+                                         start_s=start_at, quiet=quiet), console)
+        except typer.Exit as e:
+            release(target, fresh_dir and e.exit_code == 2)
+            raise
+        typer.echo(f"{res['sim_seconds'] / 3600:.2f} h simulated in {res['wall_seconds']:.1f} s; "
+                   f"record in {target}")
+
+
+    @command(app)
+    def align(
+        method: Annotated[str | None, typer.Option("--method", help="mirror | level | "
+                          "gyrocompass (required for a new run)")] = None,
+        estimator: Annotated[str | None, typer.Option("--estimator", help="average | posterior | "
+                             "hybrid (default average)")] = None,
+        calibration: Annotated[Path | None, typer.Option("--calibration", help="run directory "
+                               "whose Calibration Results Sheet to use (default: calibrate "
+                               "first)")] = None,
+        config: ConfigOpt = None,
+        seed: SeedOpt = None,
+        out: OutOpt = None,
+        resume: ResumeOpt = None,
+        links: LinksOpt = None,
+        quiet: QuietOpt = False,
+    ) -> None:
+        """One alignment (Part III): mirror, level or gyrocompass, with the chosen estimator."""
+        from laboratory.isu.align import AlignRequest, load_calibration, run_align
+
+        check_seed(seed)
+        target, args = new_or_resumed("align", out, resume, {
+            "seed": seed, "method": method, "estimator_requested": estimator,
+            "calibration": None if calibration is None else str(calibration)})
+        method = args["method"]
+        estimator = args["estimator_requested"] or "average"
+        if method is None:
+            fail("--method is required: mirror, level or gyrocompass")
+        if method not in ("mirror", "level", "gyrocompass"):
+            fail(f"--method: unknown method {method!r}: mirror, level or gyrocompass")
+        if estimator not in ("average", "posterior", "hybrid"):
+            fail(f"--estimator: unknown estimator {estimator!r}: average, posterior or hybrid")
+        cal = None if args["calibration"] is None else Path(args["calibration"])
+        if cal is not None:
+            with reported(lambda: None):
+                load_calibration(cal)
+        cfg = load_isu_config(config, args["seed"])
+        fresh_dir = target is None
+        target = target_dir(target, "align", cfg.seed)
+        try:
+            with reported(lambda: target):
+                res = run_align(AlignRequest(cfg, target, method, estimator, calibration=cal,
+                                             links=links, resume=resume is not None,
+                                             quiet=quiet), console)
+        except typer.Exit as e:
+            release(target, fresh_dir and e.exit_code == 2)
+            raise
+        typer.echo(f"{res['sim_seconds'] / 3600:.2f} h simulated in {res['wall_seconds']:.1f} s; "
+                   f"record in {target}")

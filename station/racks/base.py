@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import itertools
 from collections import defaultdict
-from collections.abc import Iterable, Iterator, Mapping
+from collections.abc import Callable, Iterable, Iterator, Mapping
 from typing import Any, Protocol
 
 import simpy
@@ -107,3 +107,19 @@ def rack_clock(rack: Rack | None, clock: Clock | None, what: str) -> Clock:
     if rack is None:
         raise ValueError(f"a {what} station on links needs its clock")
     return VirtualClock(rack.env)
+
+
+def open_sim_drivers(instruments: Mapping[str, DriverFactory], assemble: Callable[..., Any],
+                     what: str, rack: Rack | None, timeout: float,
+                     links: Mapping[str, Any] | None, clock: Clock | None) -> Any:
+    """A laboratory of serial instruments only (CIGTF, ESG): its driver set on ``rack``
+    (its ``sim://`` links; the clock defaults to its virtual clock) or on ``links``
+    (instrument -> pyserial URL, e.g. the ptys of a served rack) with ``clock`` (a
+    WallClock on the served rack's time). ``assemble(clock, drivers)`` makes the set."""
+    if links is None:
+        if rack is None:
+            raise ValueError(f"open the {what} station on a rack or on links")
+        links = sim_links(instruments, rack)
+    clock = rack_clock(rack, clock, what)
+    return assemble(clock, open_drivers(instruments, pick_links(instruments, links, what),
+                                        clock, timeout))

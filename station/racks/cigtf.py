@@ -17,7 +17,7 @@ from sim.cigtf.world import CigtfParams, CigtfWorld
 from station.clock import Clock
 from station.drivers.cigtf import CigtfDrivers, DvmDriver, FixtureDriver, GyroPowerDriver
 from station.drivers.driver_set import DriverFactory
-from station.racks.base import SimRack, open_drivers, pick_links, rack_clock, sim_links
+from station.racks.base import SimRack, open_sim_drivers
 
 LATENCY_S = 0.01
 INSTRUMENTS: dict[str, DriverFactory] = {
@@ -40,16 +40,7 @@ class CigtfRack(SimRack):
 def open_cigtf_drivers(rack: CigtfRack | None = None, timeout: float = 5.0,
                        links: dict[str, Any] | None = None,
                        clock: Clock | None = None) -> CigtfDrivers:
-    """Drivers of the fixture, DVM and gyro power supply.
-
-    On ``rack`` (its ``sim://`` links; the clock defaults to its virtual clock), or on
-    ``links`` (instrument -> pyserial URL, e.g. the ptys of a served rack) with ``clock``
-    (a WallClock on the served rack's time).
-    """
-    if links is None:
-        if rack is None:
-            raise ValueError("open the CIGTF station on a rack or on links")
-        links = sim_links(INSTRUMENTS, rack)
-    clock = rack_clock(rack, clock, "CIGTF")
-    d = open_drivers(INSTRUMENTS, pick_links(INSTRUMENTS, links, "CIGTF"), clock, timeout)
-    return CigtfDrivers.assemble(clock, d)
+    """The CIGTF driver set on a local rack or on links (``racks.base.open_sim_drivers``)."""
+    drivers: CigtfDrivers = open_sim_drivers(INSTRUMENTS, CigtfDrivers.assemble, "CIGTF", rack,
+                                      timeout, links, clock)
+    return drivers

@@ -24,7 +24,7 @@ from station.drivers.esg import (
     TheodoliteDriver,
     TurntableDriver,
 )
-from station.racks.base import SimRack, open_drivers, pick_links, rack_clock, sim_links
+from station.racks.base import SimRack, open_sim_drivers
 
 LATENCY_S = 0.01
 INSTRUMENTS: dict[str, DriverFactory] = {
@@ -51,16 +51,7 @@ class EsgRack(SimRack):
 def open_esg_drivers(rack: EsgRack | None = None, timeout: float = 5.0,
                      links: dict[str, Any] | None = None,
                      clock: Clock | None = None) -> EsgDrivers:
-    """Drivers of the five ESG instruments.
-
-    On ``rack`` (its ``sim://`` links; the clock defaults to its virtual clock), or on
-    ``links`` (instrument -> pyserial URL, e.g. the ptys of a served rack) with ``clock``
-    (a WallClock on the served rack's time).
-    """
-    if links is None:
-        if rack is None:
-            raise ValueError("open the ESG station on a rack or on links")
-        links = sim_links(INSTRUMENTS, rack)
-    clock = rack_clock(rack, clock, "ESG")
-    d = open_drivers(INSTRUMENTS, pick_links(INSTRUMENTS, links, "ESG"), clock, timeout)
-    return EsgDrivers.assemble(clock, d)
+    """The ESG driver set on a local rack or on links (``racks.base.open_sim_drivers``)."""
+    drivers: EsgDrivers = open_sim_drivers(INSTRUMENTS, EsgDrivers.assemble, "ESG", rack,
+                                      timeout, links, clock)
+    return drivers

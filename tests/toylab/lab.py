@@ -8,18 +8,11 @@ from typing import Annotated, Any
 
 import typer
 
-from laboratory.registry import Laboratory
-from laboratory.seeded import Seeded, seeded
-from station.racks.base import Rack, sim_links
+from laboratory.seeded import Seeded, SerialParts, serial_laboratory
 from toylab.rack import ThermometerDriver, ToyDrivers, ToyRack
+from toylab.world import ToyParams
 
 DRIVERS: dict[str, Any] = {"thermometer": ThermometerDriver}
-
-
-def _links(cfg: Seeded[None], rack: Rack | None) -> dict[str, Any]:
-    if rack is None:
-        raise ValueError("the toy laboratory has no hardware: serve its rack")
-    return dict(sim_links(DRIVERS, rack))
 
 
 def run_bath(seed: int, out: Path, links: Path | None = None, n: int = 10) -> dict:
@@ -30,7 +23,7 @@ def run_bath(seed: int, out: Path, links: Path | None = None, n: int = 10) -> di
     from toylab.procedure import bath_temperature
 
     prepare(out, False, links)
-    conn = connect(LAB, Seeded(None, seed), links)
+    conn = connect(LAB, Seeded(ToyParams(), seed), links)
     world = conn.coefficient_world
     with journaled_run(out, conn, seed=seed, test="toy-bath") as (run, extra, _):
         res = bath_temperature(conn.drivers, run, n)
@@ -53,11 +46,7 @@ def add_commands(app: Any) -> None:
         typer.echo(json.dumps(res))
 
 
-LAB = Laboratory(
-    name="toy", title="toy laboratory (one thermometer)", config_help="(no config)",
-    load_config=lambda path, seed: seeded(None, seed), seed_of=lambda cfg: cfg.seed,
-    digest=lambda cfg: f"toy-{cfg.seed}",
-    build_rack=lambda cfg, env: ToyRack(cfg.seed, env), drivers=lambda: DRIVERS, links=_links,
-    assemble=lambda clock, opened, links: ToyDrivers.assemble(clock, opened),
-    truth=lambda world: {"bath_k": world.true_k}, add_commands=add_commands,
-)
+LAB = serial_laboratory(
+    "toy", "toy laboratory (one thermometer)", "(no config)",
+    lambda: SerialParts(lambda path: ToyParams(), ToyRack, DRIVERS, ToyDrivers),
+    truth=lambda world: {"bath_k": world.true_k}, add_commands=add_commands)

@@ -11,7 +11,7 @@ from station.drivers.replies import Form, fixed
 from station.drivers.serial_base import SerialDriver
 from station.racks.base import SimRack
 from toylab.thermometer import Thermometer
-from toylab.world import BathWorld
+from toylab.world import BathWorld, ToyParams
 
 TEMPERATURE = Form([fixed("temperature, K", 4, 0.0, 1000.0)])
 
@@ -31,6 +31,7 @@ class ToyDrivers(DriverSet):
 class ToyRack(SimRack):
     prefix = "toy"
 
-    def __init__(self, seed: int, env: simpy.Environment | None = None) -> None:
-        w = BathWorld(seed, env)
+    def __init__(self, seed: int, params: ToyParams | None = None,
+                 env: simpy.Environment | None = None) -> None:
+        w = BathWorld(seed, params, env)
         super().__init__(w, {"thermometer": Thermometer("thermometer", w, 0.01)})

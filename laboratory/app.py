@@ -19,7 +19,7 @@ from typing import Annotated, Any, NoReturn
 import typer
 from rich.console import Console
 
-from station.config.isu import ConfigError, load_config
+from station.config.isu import ConfigError, StationConfig, load_config
 from station.errors import BadArgument, OperatorError, UseError
 
 app = typer.Typer(add_completion=False, no_args_is_help=True,
@@ -78,7 +78,7 @@ def fail(msg: object) -> NoReturn:
     end(BadArgument(one_line(msg)))
 
 
-def load_isu_config(config: Path | None, seed: int | None = None):
+def load_isu_config(config: Path | None, seed: int | None = None) -> StationConfig:
     check_seed(seed)
     try:
         return load_config(config, seed=seed)

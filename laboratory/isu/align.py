@@ -23,7 +23,7 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TypeVar
+from typing import TYPE_CHECKING, TypeVar
 
 from pydantic import BaseModel, ValidationError
 from rich import box
@@ -52,13 +52,17 @@ from procedures.runner import Run
 from station.config.isu import StationConfig
 from station.racks.isu import SimulatedRack
 
+if TYPE_CHECKING:
+    from sim.isu.world import World
+    from station.drivers.isu import IsuDrivers
+
 T = TypeVar("T", bound=BaseModel)
 # The largest azimuth sigma (1 sigma, from the gyros' noise alone) at which a gyrocompass
 # alignment is still reported: beyond it the mirror alignment is the laboratory's way.
 AZIMUTH_SIGMA_LIMIT_DEG = 1.0
 
 
-def alignment_entries(outcomes: list[Outcome], world) -> list[dict]:
+def alignment_entries(outcomes: list[Outcome], world: World | None) -> list[dict]:
     """results.json entries: estimate against the true attitude at each ``t_ref``
     (``world`` None, over links: the attitude is the server's, errors are absent)."""
     out = []
@@ -132,7 +136,8 @@ def gyrocompass_refusal(cfg: StationConfig, plan: AlignPlan | None = None) -> st
             "alignment)")
 
 
-def day_alignments(st, run: Run, calib: CalibrationResults, cfg: StationConfig, world,
+def day_alignments(st: IsuDrivers, run: Run, calib: CalibrationResults, cfg: StationConfig,
+                   world: World | None,
                    tape_dir: Path | None = None, plan: AlignPlan | None = None) -> list[dict]:
     """After the calibration of ``station day``: the three alignments (those the
     calibration allows, ``day_methods``), as results entries. The gyrocompass alignment
@@ -198,7 +203,7 @@ def render_alignment(console: Console, entries: list[dict]) -> None:
             continue
         z = e["error_over_sigma"]
 
-        def f(x, zz):
+        def f(x: float | None, zz: float) -> str:  # zz: x over its sigma (given with x)
             if x is None:
                 return "-"
             s = f"{x:+.2f}"

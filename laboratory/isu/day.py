@@ -30,7 +30,7 @@ from procedures.isu.alignment.results_sheet import AlignPlan
 from procedures.isu.computations import compute_calibration
 from procedures.isu.day import EXPERIMENTS, measure_day
 from procedures.isu.plan import DayPlan
-from procedures.isu.sheets import ISU_SHEETS
+from procedures.isu.sheets import ISU_SHEETS, CalibrationResults
 from procedures.journal import Journal
 from procedures.runner import Run
 from station.config.isu import StationConfig
@@ -74,7 +74,8 @@ class DayRequest:
             object.__setattr__(self, name, None if v is None else tuple(v))
 
 
-def results_rows(calib, truth: dict) -> list[dict]:
+def results_rows(calib: CalibrationResults, truth: dict[tuple[str, str], float]
+                 ) -> list[dict]:
     rows = []
     for r in calib.rows:
         tv = truth.get((r.instrument, r.parameter))
@@ -94,7 +95,7 @@ def render_results(console: Console, rows: list[dict]) -> None:
         t.add_column(c, justify="left" if c in ("inst", "param", "units") else "right",
                      no_wrap=True)
     for r in rows:
-        def g(x, fmt):
+        def g(x: float | None, fmt: str) -> str:
             return "-" if x is None else format(x, fmt)
         z = None
         if r["error"] is not None and r["sigma"]:

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from procedures.isu import settings as st_settings
 from procedures.isu.accel_static import accel_positions_7_12, accel_positions_13_14
@@ -27,6 +27,9 @@ from procedures.isu.site import Site
 from procedures.isu.system_survey import system_survey
 from procedures.isu.turn_on import oscillator_periods, turn_on
 from procedures.runner import Run
+
+if TYPE_CHECKING:
+    from station.drivers.isu import IsuDrivers
 
 EXPERIMENTS = ("II-6", "II-7", "II-7Q", "II-10", "II-11", "II-12", "II-13", "II-14")
 
@@ -59,7 +62,7 @@ def _singles(all_: tuple[int, ...], positions: set[int] | None) -> tuple[int, ..
     return tuple(m for m in all_ if positions is None or m in positions)
 
 
-def measure_day(st, run: Run, plan: DayPlan, site: Site, f0: float,
+def measure_day(st: IsuDrivers, run: Run, plan: DayPlan, site: Site, f0: float,
                 only: tuple[str, ...] | None = None,
                 positions: tuple[int, ...] | None = None,
                 noise: NoiseSpec | None = None) -> DayData:

@@ -23,6 +23,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from procedures.isu.survey_math import direction, mirror_alignment
 
@@ -48,7 +49,7 @@ def _unit(v: np.ndarray, what: str) -> np.ndarray:
 
 
 def level_matrix(
-    g_b,
+    g_b: ArrayLike,
     alpha1_deg: float,
     *,
     theta1_deg: float | None = None,
@@ -85,8 +86,8 @@ def level_matrix(
 
 
 def gyrocompass_matrix(
-    g_b,
-    w_b,
+    g_b: ArrayLike,
+    w_b: ArrayLike,
     *,
     colatitude_deg: float | None = None,
     g_survey: float | None = None,
@@ -118,13 +119,13 @@ def gyrocompass_matrix(
     return first @ rows
 
 
-def rotation_error(t_est, t_true) -> np.ndarray:
+def rotation_error(t_est: ArrayLike, t_true: ArrayLike) -> np.ndarray:
     """Small rotation phi (U, E, N components, rad) with T_est = (I + [phi x]) T_true."""
     r = np.asarray(t_est, dtype=float) @ np.asarray(t_true, dtype=float).T
     return 0.5 * np.array([r[2, 1] - r[1, 2], r[0, 2] - r[2, 0], r[1, 0] - r[0, 1]])
 
 
-def rotation_error_arcsec(t_est, t_true) -> dict[str, float]:
+def rotation_error_arcsec(t_est: ArrayLike, t_true: ArrayLike) -> dict[str, float]:
     """Level errors about east and north and the azimuth error (about up), arcsec."""
     phi = rotation_error(t_est, t_true) / ARCSEC
     return {"east": float(phi[1]), "north": float(phi[2]), "azimuth": float(phi[0])}

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -27,6 +28,9 @@ from procedures.isu.alignment.preprocess import Constants
 from procedures.isu.calibration.noise_spec import NoiseSpec
 from procedures.isu.plausibility import Implausible
 from procedures.isu.sheets import SurveyResults
+
+if TYPE_CHECKING:
+    from procedures.isu.alignment.common import Outcome
 
 K_RESULT = 6.0  # a result this many of its sigmas from what is known stops the step
 AXES = ("about east", "about north", "about up (azimuth)")
@@ -109,8 +113,9 @@ def angle_deg(a: np.ndarray, b: np.ndarray) -> float:
     return math.degrees(math.atan2(float(np.linalg.norm(np.cross(a, b))), float(a @ b)))
 
 
-def attitude_reference(survey: SurveyResults | None, surveyed_here: bool, mirror,
-                       position0: dict, noise: NoiseSpec, t_result: float
+def attitude_reference(survey: SurveyResults | None, surveyed_here: bool,
+                       mirror: Outcome | None, position0: dict, noise: NoiseSpec,
+                       t_result: float
                        ) -> tuple[np.ndarray, list[float], str, tuple[float, float, float]] | None:
     """What an alignment's T is compared with: the mirror alignment of this run (``mirror``,
     an Outcome), else the survey's prediction at the alignment's own setting when the survey

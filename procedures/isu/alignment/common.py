@@ -4,6 +4,7 @@ experiment's Chart I-8 parameters, and the outcome of one alignment."""
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from functools import partial
 from typing import TYPE_CHECKING
@@ -94,12 +95,12 @@ def mirror_aims(survey: SurveyResults | None) -> dict[int, tuple[float, float]]:
     return {1: (a1, t1), 2: (a2, t2)}
 
 
-def acquire_mirrors(st: IsuDrivers, ks, survey: SurveyResults | None) -> dict:
+def acquire_mirrors(st: IsuDrivers, ks: Sequence[int], survey: SurveyResults | None) -> dict:
     aims = mirror_aims(survey)
     return {str(k): acquire(st.autocollimators[k], k, *aims[k]) for k in ks}
 
 
-def read_autocollimators(st: IsuDrivers, ks, n: int, survey: SurveyResults | None,
+def read_autocollimators(st: IsuDrivers, ks: Sequence[int], n: int, survey: SurveyResults | None,
                          noise: NoiseSpec | None = None) -> dict:
     """``n`` readings of each autocollimator in ``ks``, alternating; means, times, spread.
 

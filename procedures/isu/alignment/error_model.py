@@ -29,12 +29,14 @@ integrals have exactly that covariance: 2v on the diagonal, -v next to it.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from procedures.isu.alignment import estimation as es
 from procedures.isu.alignment.align_math import ARCSEC, rotation_error
+from procedures.isu.alignment.preprocess import Constants
 from procedures.isu.calibration.noise_spec import NoiseSpec
 
 RAD_S_TO_DEG_HR = 180.0 / math.pi * 3600.0
@@ -42,7 +44,7 @@ RAD_S_TO_DEG_HR = 180.0 / math.pi * 3600.0
 # M and A^-1 of the default experiments change by under 0.3 % against the table over the
 # whole record at 20 points per cycle, and the tape (with its sheet) stays near 100 kB
 # instead of 10 MB.
-VIBRATION_TABLE = {"vibration_max_lag_s": 5.0, "vibration_points_per_cycle": 10}
+VIBRATION_TABLE: es.TableOptions = {"vibration_max_lag_s": 5.0, "vibration_points_per_cycle": 10}
 
 
 # ----------------------------------------------------------------------------- noise models
@@ -68,7 +70,7 @@ def level_params(
     dt: float,
     K: int,
     *,
-    t1,
+    t1: ArrayLike,
     g_tilde_g: float,
     sigma_g_g: float,
     sigma_theta_arcsec: float,
@@ -91,7 +93,7 @@ def level_params(
     return p.model_copy(update={"phi_n": quantization_table(v, dt, q)})
 
 
-def tilt_motion_cov(noise: NoiseSpec, times, t_ref: float) -> np.ndarray:
+def tilt_motion_cov(noise: NoiseSpec, times: ArrayLike, t_ref: float) -> np.ndarray:
     """Covariance (E, N; rad^2) of mean_i tilt(t_i) - tilt(t_ref)."""
     t = np.asarray(times, dtype=float)
     lag = t[:, None] - t[None, :]
@@ -125,7 +127,8 @@ def gyro_rate_variance(noise: NoiseSpec, span_s: float, dphi_arcsec: float) -> d
 
 
 # ----------------------------------------------------------------------------- Jacobians
-def jacobian(f: Callable[[np.ndarray], np.ndarray], x0, steps) -> np.ndarray:
+def jacobian(f: Callable[[np.ndarray], np.ndarray], x0: ArrayLike, steps: ArrayLike
+             ) -> np.ndarray:
     """Central-difference Jacobian of f at x0 (columns per input)."""
     x0 = np.asarray(x0, dtype=float)
     cols = []
@@ -136,12 +139,14 @@ def jacobian(f: Callable[[np.ndarray], np.ndarray], x0, steps) -> np.ndarray:
     return np.column_stack(cols)
 
 
-def phi_of(t_ref: np.ndarray, make_t: Callable[[np.ndarray], np.ndarray]):
+def phi_of(t_ref: np.ndarray, make_t: Callable[[np.ndarray], np.ndarray]
+           ) -> Callable[[np.ndarray], np.ndarray]:
     """x -> rotation error (U, E, N; rad) of make_t(x) against t_ref."""
     return lambda x: rotation_error(make_t(x), t_ref)
 
 
-def calibration_terms(constants, solve: Callable, keys) -> dict[tuple[str, str], np.ndarray]:
+def calibration_terms(constants: Constants, solve: Callable[[Constants], np.ndarray],
+                      keys: Iterable[tuple[str, str]]) -> dict[tuple[str, str], np.ndarray]:
     """phi change (rad) when each constant in ``keys`` moves by its sigma.
 
     ``solve(constants) -> T``. Central differences, one constant at a time.
@@ -158,7 +163,7 @@ def calibration_terms(constants, solve: Callable, keys) -> dict[tuple[str, str],
     return out
 
 
-def cov_of(terms) -> np.ndarray:
+def cov_of(terms: Iterable[np.ndarray]) -> np.ndarray:
     c = np.zeros((3, 3))
     for v in terms:
         c += np.outer(v, v)

@@ -110,10 +110,13 @@ computation asks for. The integrals are composite Simpson sums on nodes spaced l
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from functools import cached_property
+from typing import TypedDict, Unpack
 
 import numpy as np
+from numpy.typing import ArrayLike
 from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
 from scipy import linalg as sla
 
@@ -124,6 +127,8 @@ MICRO_G = 1e-6 * G0
 MAX_NODES = 20000  # Simpson subintervals per dt, at most
 _CHUNK = 4_000_000  # lag evaluations per block of the Toeplitz integrals
 Row3 = tuple[float, float, float]
+# lags -> the covariance functions at them, one array per function (same shape as the lags)
+LagFunctions = Callable[[np.ndarray], tuple[np.ndarray, ...]]
 
 
 # ---------------------------------------------------------------------------------------------
@@ -174,7 +179,7 @@ class CovarianceTable(_Model):
     def has_table(self) -> bool:
         return bool(np.any(self._arrays[1] != 0.0))
 
-    def evaluate(self, tau, name: str = "table") -> np.ndarray:
+    def evaluate(self, tau: ArrayLike, name: str = "table") -> np.ndarray:
         """The tabulated (non-white) part at lags tau (any shape)."""
         lags, vals = self._arrays
         return _interp(np.abs(np.asarray(tau, dtype=float)), lags, vals, self.zero_beyond, name)
@@ -220,7 +225,7 @@ class TiltCovarianceTable(_Model):
         lags = self._arrays[0]
         return float(np.min(np.diff(lags))) if lags.size > 1 else None
 
-    def evaluate(self, tau) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def evaluate(self, tau: ArrayLike) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(phi_EE, phi_NN, phi_EN) at lags tau."""
         lags, ee, nn, en = self._arrays
         t = np.abs(np.asarray(tau, dtype=float))
@@ -232,7 +237,9 @@ class TiltCovarianceTable(_Model):
         )
 
 
-def _interp(t: np.ndarray, lags: np.ndarray, vals: np.ndarray, zero_beyond: bool, name: str):
+def _interp(
+    t: np.ndarray, lags: np.ndarray, vals: np.ndarray, zero_beyond: bool, name: str
+) -> np.ndarray:
     last = lags[-1]
     out = np.interp(t, lags, vals)
     if t.size and float(t.max()) > last * (1 + 1e-12) + 1e-12:
@@ -266,7 +273,7 @@ class LevelParams(_Model):
 
     @field_validator("T1")
     @classmethod
-    def _near_rotation(cls, v):
+    def _near_rotation(cls, v: tuple[Row3, Row3, Row3]) -> tuple[Row3, Row3, Row3]:
         t = np.asarray(v, dtype=float)
         if np.max(np.abs(t.T @ t - np.eye(3))) > 1e-3 or np.linalg.det(t) < 0:
             raise ValueError("T1 must be (nearly) a proper rotation matrix")
@@ -300,7 +307,7 @@ def _simpson(n: int, h: float) -> np.ndarray:
     return w * (h / 3.0)
 
 
-def _toeplitz_rows(evaluate, dt: float, K: int, n: int) -> np.ndarray:
+def _toeplitz_rows(evaluate: LagFunctions, dt: float, K: int, n: int) -> np.ndarray:
     """int_{-dt}^{dt} (dt - |u|) phi(u + m dt) du for m = 0..K-1; evaluate returns a tuple."""
     u = np.linspace(-dt, dt, 2 * n + 1)
     w_half = _simpson(n, dt / n)
@@ -317,7 +324,9 @@ def _toeplitz_rows(evaluate, dt: float, K: int, n: int) -> np.ndarray:
     return np.concatenate(parts, axis=1)
 
 
-def _point_interval(evaluate, dt: float, K: int, t_star: float, n: int) -> np.ndarray:
+def _point_interval(
+    evaluate: LagFunctions, dt: float, K: int, t_star: float, n: int
+) -> np.ndarray:
     """c_j = int_0^dt phi(u + (j-1) dt - t*) du, j = 1..K (Chart I-9)."""
     u = np.linspace(0.0, dt, n + 1)
     w = _simpson(n, dt / n)
@@ -463,7 +472,7 @@ def hybrid_gyrocompass(
     return M, np.concatenate((np.asarray(b_level, dtype=float), np.zeros(3)))
 
 
-def predicted_level_sigma_arcsec(cov: np.ndarray, g) -> tuple[float, float]:
+def predicted_level_sigma_arcsec(cov: np.ndarray, g: ArrayLike) -> tuple[float, float]:
     """Tilt errors (arcsec, 1 sigma) of the vertical implied by a g-estimate covariance.
 
     ``g``: body components of the specific force (3,). With u = g/|g|, h1 is the horizontal
@@ -560,7 +569,7 @@ def chart_i9_quantities(params: LevelParams) -> ChartI9:
 # ---------------------------------------------------------------------------------------------
 # Tables from the lab's NoiseSpec
 # ---------------------------------------------------------------------------------------------
-def band_covariance(tau, rms: float, f_lo: float, f_hi: float) -> np.ndarray:
+def band_covariance(tau: ArrayLike, rms: float, f_lo: float, f_hi: float) -> np.ndarray:
     """rms^2 E[cos(2 pi f tau)] for f uniform on [f_lo, f_hi] (tones uniform in the band)."""
     t = np.abs(np.asarray(tau, dtype=float))
     if f_hi <= f_lo:
@@ -574,6 +583,14 @@ def band_covariance(tau, rms: float, f_lo: float, f_hi: float) -> np.ndarray:
 def _grid(extent: float, h: float) -> np.ndarray:
     n = int(math.ceil(extent / h - 1e-9))
     return np.arange(n + 1) * h
+
+
+class TableOptions(TypedDict, total=False):
+    """The optional keywords of ``tables_from_noise_spec`` (how finely the tables are made)."""
+
+    vibration_max_lag_s: float | None
+    vibration_points_per_cycle: int
+    tilt_points_per_period: int
 
 
 def tables_from_noise_spec(
@@ -635,10 +652,10 @@ def level_params_from_noise_spec(
     *,
     g_tilde: float,
     sigma_g: float,
-    T1,
+    T1: ArrayLike,
     sigma_theta: float,
     eps_t: float = 0.0,
-    **table_options,
+    **table_options: Unpack[TableOptions],
 ) -> LevelParams:
     """``LevelParams`` whose three tables come from ``tables_from_noise_spec``."""
     phi_n, phi_alpha, phi_theta = tables_from_noise_spec(noise, dt, K, eps_t, **table_options)

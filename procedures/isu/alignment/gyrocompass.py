@@ -48,6 +48,7 @@ from procedures.runner import Run
 from station.errors import CheckFailed
 
 if TYPE_CHECKING:
+    from procedures.isu.calibration.noise_spec import NoiseSpec
     from station.drivers.isu import IsuDrivers
 
 CHART = "III-8"
@@ -61,7 +62,8 @@ def gyro_x(record: IeuRecord, c: Constants) -> np.ndarray:
     return gyro_integrals(record.gyro, record.dt, u, c).T.reshape(-1)
 
 
-def matrices(estimator: str, K: int, dt: float, tape: Tape | None):
+def matrices(estimator: str, K: int, dt: float, tape: Tape | None
+             ) -> tuple[np.ndarray, np.ndarray]:
     """(M, b), 6 x 6K, acting on (accelerometers in m/s^2 s, gyros in arcsec)."""
     if estimator == "average":
         return es.simple_average(K, dt, n_axes=6)
@@ -71,18 +73,21 @@ def matrices(estimator: str, K: int, dt: float, tape: Tape | None):
     return es.hybrid_gyrocompass(M, b, K, dt)
 
 
-def gyro_solution(record: IeuRecord, c: Constants, M, b, opts: dict):
+def gyro_solution(record: IeuRecord, c: Constants, M: np.ndarray, b: np.ndarray,
+                  opts: dict[str, float]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(T, g_B in g, omega_B in deg/hr)."""
     est = M @ np.concatenate((accel_x(record, c), gyro_x(record, c))) + b
     g_b, w_b = est[:3] / es.G0, est[3:]
     return gyrocompass_matrix(g_b, w_b, **opts), g_b, w_b
 
 
-def gyro_error_model(record, c, M, b, opts, params, noise, w_horizontal: float) -> dict:
+def gyro_error_model(record: IeuRecord, c: Constants, M: np.ndarray, b: np.ndarray,
+                     opts: dict[str, float], params: es.LevelParams, noise: NoiseSpec,
+                     w_horizontal: float) -> dict:
     """Predicted phi covariance (U, E, N) and the physical limits (Chart III-11)."""
     t0, g_b, w_b = gyro_solution(record, c, M, b, opts)
 
-    def solve(cc):
+    def solve(cc: Constants) -> np.ndarray:
         return gyro_solution(record, cc, M, b, opts)[0]
 
     cal = em.calibration_terms(c, solve, ACCEL_KEYS + GYRO_KEYS)
@@ -172,7 +177,7 @@ def gyrocompass_procedure(st: IsuDrivers, run: Run, options: AlignmentOptions,
     K, dt = plan.gyro_K, plan.gyro_dt_s
     tapes = {e: t for e in ests if (t := options.tape_for("gyrocompass", e)) is not None}
     w_north, w_up = site_rates(survey, options.site)
-    opts: dict = {}
+    opts: dict[str, float] = {}
     if plan.known_colatitude:
         opts["colatitude_deg"] = math.degrees(math.atan2(w_north, w_up))
     if plan.surveyed_g:

@@ -47,6 +47,7 @@ from procedures.runner import Run
 from station.errors import CheckFailed
 
 if TYPE_CHECKING:
+    from procedures.isu.calibration.noise_spec import NoiseSpec
     from station.drivers.isu import IsuDrivers
 
 CHART = "III-4"
@@ -55,7 +56,8 @@ ACCEL_KEYS = [(f"accel{k}", p) for k in (1, 2, 3) for p in ACCEL_PARAMS]
 BIAS_KEYS = [(f"accel{k}", p) for k in (1, 2, 3) for p in ("D0", "A.B1", "A.B2", "A.B3")]
 
 
-def estimator_matrices(estimator: str, K: int, dt: float, tape: Tape | None):
+def estimator_matrices(estimator: str, K: int, dt: float, tape: Tape | None
+                       ) -> tuple[np.ndarray, np.ndarray]:
     """(M, b) acting on X in m/s^2 s (SI, as the tapes)."""
     if estimator == "average":
         return es.simple_average(K, dt)
@@ -77,19 +79,20 @@ def check_record(record: IeuRecord, K: int, dt: float) -> None:
                           f"{record.dt.max()} s, not K = {K} of {dt} s")
 
 
-def level_solution(record: IeuRecord, c: Constants, M, b, alpha1: float,
+def level_solution(record: IeuRecord, c: Constants, M: np.ndarray, b: np.ndarray, alpha1: float,
                    theta1: float | None, g_survey: float | None) -> tuple[np.ndarray, np.ndarray]:
     """(T, g_B in g) from a record, the constants and the estimator (Charts III-5..III-7)."""
     g_b = (M @ accel_x(record, c) + b) / es.G0
     return level_matrix(g_b, alpha1, theta1_deg=theta1, g_survey=g_survey), g_b
 
 
-def level_error_model(record, c, M, b, alpha1, theta1, g_survey, params, noise,
-                      n_alpha: int) -> dict:
+def level_error_model(record: IeuRecord, c: Constants, M: np.ndarray, b: np.ndarray,
+                      alpha1: float, theta1: float | None, g_survey: float | None,
+                      params: es.LevelParams, noise: NoiseSpec, n_alpha: int) -> dict:
     """Predicted phi covariance (U, E, N) of one level alignment and its physical limit."""
     t0, g_b = level_solution(record, c, M, b, alpha1, theta1, g_survey)
 
-    def solve(cc):
+    def solve(cc: Constants) -> np.ndarray:
         return level_solution(record, cc, M, b, alpha1, theta1, g_survey)[0]
 
     cal = em.calibration_terms(c, solve, ACCEL_KEYS)

@@ -8,6 +8,7 @@ nearly linear and cancels about that time; what remains is in the error model.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -38,7 +39,8 @@ CHART = "III-2"
 TITLE = "Mirror alignment"
 
 
-def mirror_error_model(ac_deg, times, t_ref: float, n: int, noise: NoiseSpec) -> dict:
+def mirror_error_model(ac_deg: tuple[float, float, float, float], times: Sequence[float],
+                       t_ref: float, n: int, noise: NoiseSpec) -> dict:
     """Predicted covariance of phi (U, E, N) and the physical limit, for Chart III-3."""
     x0 = np.asarray(ac_deg, dtype=float)
     t0 = mirror_alignment(*x0)
@@ -56,7 +58,8 @@ def mirror_error_model(ac_deg, times, t_ref: float, n: int, noise: NoiseSpec) ->
             "motion_arcsec": [float(np.sqrt(motion[i, i]) / ARCSEC) for i in (0, 1)]}
 
 
-def check_against_survey(t, predicted, survey: SurveyResults, position0: dict,
+def check_against_survey(t: np.ndarray, predicted: Sequence[float], survey: SurveyResults,
+                         position0: dict,
                          noise: NoiseSpec, t_ref: float) -> dict:
     """The mirror alignment's T against the survey's prediction at the same setting, with
     the pier's tilt change between the levelling and the readings."""

@@ -14,8 +14,9 @@ covariance A^-1 (3 x 3).
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from pathlib import Path
-from typing import Literal
+from typing import Literal, TypeGuard
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, model_validator
@@ -104,22 +105,22 @@ def check_tape(tape: Tape, expected_params: LevelParams | AlignmentParameterShee
     _compare("", tape.sheet.params, expected)
 
 
-def _fmt(x) -> str:
+def _fmt(x: object) -> str:
     return repr(x) if not isinstance(x, float) else f"{x:.17g}"
 
 
-def _differs(name: str, tape_value, expected) -> ValueError:
+def _differs(name: str, tape_value: object, expected: object) -> ValueError:
     return ValueError(
         f"tape parameter {name} differs from the experiment's: "
         f"tape {_fmt(tape_value)}, experiment {_fmt(expected)}"
     )
 
 
-def _is_number(x) -> bool:
+def _is_number(x: object) -> TypeGuard[int | float]:
     return isinstance(x, int | float) and not isinstance(x, bool)
 
 
-def _compare(name: str, a, b) -> None:
+def _compare(name: str, a: object, b: object) -> None:
     if isinstance(a, BaseModel) and isinstance(b, BaseModel):
         for field in type(a).model_fields:
             _compare(f"{name}.{field}" if name else field, getattr(a, field), getattr(b, field))
@@ -138,12 +139,14 @@ def _compare(name: str, a, b) -> None:
         raise _differs(name, a, b)
 
 
-def _compare_sequence(name: str, a, b) -> None:
+def _compare_sequence(name: str, a: Sequence[object], b: Sequence[object]) -> None:
     if len(a) != len(b):
         raise ValueError(
             f"tape parameter {name} differs from the experiment's: "
             f"tape has {len(a)} entries, experiment {len(b)}"
         )
+    x: object  # both sequences as arrays when all numbers, else each pair of entries
+    y: object
     if all(_is_number(x) for x in a) and all(_is_number(x) for x in b):
         x, y = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
         scale = max(float(np.max(np.abs(x), initial=0.0)), float(np.max(np.abs(y), initial=0.0)))

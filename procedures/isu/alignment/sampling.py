@@ -22,12 +22,16 @@ times, each recorded) and then stops naming the IEU and the sample.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from procedures.isu import plausibility as pl
 from procedures.isu.calibration.noise_spec import NoiseSpec
 from station.errors import DriverError
+
+if TYPE_CHECKING:
+    from station.drivers.isu import IsuDrivers
 
 SIGNALS = ("gyro 1", "gyro 2", "gyro 3", "A1S1", "A1S2", "A2S1", "A2S2", "A3S1", "A3S2")
 NEIGHBOURS = 31  # samples in the running median a count is compared with
@@ -112,7 +116,7 @@ def sample_outliers(counts: np.ndarray, seqs: np.ndarray, noise: NoiseSpec,
 
 
 def collect(
-    st,
+    st: IsuDrivers,
     period_ticks: int,
     samples_per_interval: int,
     K: int,
@@ -187,7 +191,7 @@ def collect(
     )
 
 
-def collect_checked(st, period_ticks: int, samples_per_interval: int, K: int,
+def collect_checked(st: IsuDrivers, period_ticks: int, samples_per_interval: int, K: int,
                     recover: bool, s2: float, noise: NoiseSpec, retakes: int,
                     timeout: float = 5.0) -> IeuRecord:
     """``collect``, refusing a record with samples off their neighbours: it is taken again

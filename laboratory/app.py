@@ -20,7 +20,7 @@ import typer
 from rich.console import Console
 
 from station.config.isu import ConfigError, StationConfig, load_config
-from station.errors import BadArgument, OperatorError, UseError
+from station.errors import BadArgument, OperatorError, UseError, VerdictFailed
 
 app = typer.Typer(add_completion=False, no_args_is_help=True,
                   help="The simulated inertial-instrument laboratories.")
@@ -60,11 +60,21 @@ def end(e: OperatorError, run_dir: Path | None = None) -> NoReturn:
         typer.echo(line)
     elif isinstance(e, UseError):
         typer.echo(f"error: {line}", err=True)
+    elif isinstance(e, VerdictFailed):
+        typer.echo(f"verdict: {line}", err=True)
     else:
         keep = (f" (the journal keeps every completed step: {run_dir / 'journal.jsonl'}; "
                 f"continue with --resume {run_dir})") if run_dir is not None else ""
         typer.echo(f"stopped: {line}{keep}", err=True)
     raise typer.Exit(e.exit_code) from None
+
+
+def verdict_exit(res: dict) -> None:
+    """End a completed run whose verdict is FAIL with exit 3 and its line (the record and
+    the report are complete by then); nothing otherwise."""
+    v = res.get("verdict") or {}
+    if v.get("outcome") == "FAIL":
+        end(VerdictFailed(v["failed"]))
 
 
 def refused(e: Exception, run_dir: Path | None = None) -> NoReturn:

@@ -53,6 +53,17 @@ class BadArgument(UseError):
     """A command-line argument that cannot be used as given."""
 
 
+class VerdictFailed(OperatorError):
+    """A run that completed, its record whole, with a result row outside its acceptance
+    limit (exit 3): the message lists the failed rows."""
+
+    exit_code: ClassVar[int] = 3
+
+    def __init__(self, failed: list[str]) -> None:
+        self.failed = list(failed)
+        super().__init__(f"FAIL ({len(self.failed)} rows: {', '.join(self.failed)})")
+
+
 class StopError(OperatorError):
     """A procedure stopped: what it measured so far stays in its journal."""
 

@@ -16,6 +16,7 @@ from laboratory.app import (
     new_or_resumed,
     reported,
     station_run,
+    verdict_exit,
 )
 
 
@@ -43,6 +44,7 @@ def add_commands(app: typer.Typer) -> None:
             run_gyrocompass_test,
         )
         from station.config.cigtf import load_cigtf_params
+        from station.config.limits import load_cigtf_limits
 
         check_seed(seed)
         if analyse is not None:
@@ -58,10 +60,12 @@ def add_commands(app: typer.Typer) -> None:
             return
         target, args = new_or_resumed("gyrocompass-test", out, resume, {"seed": seed})
         run_seed = 1 if args["seed"] is None else args["seed"]
+        with reported(lambda: None):
+            limits = load_cigtf_limits(config)
         res, target = station_run(
             load_cigtf_params, config, "gyrocompass", run_seed, target, resume is not None,
             lambda params, d: run_gyrocompass_test(run_seed, d, params=params, links=links,
-                                                   resume=resume is not None))
+                                                   resume=resume is not None, limits=limits))
         render_tables(console, res)
         for p in res["phases"]:
             console.print(f"{p['phase']:>9}: theta {p['theta_arcsec']:+.2f} +/- "
@@ -74,3 +78,4 @@ def add_commands(app: typer.Typer) -> None:
                           f"{res['served']['note']}", markup=False)
         typer.echo(f"{res['sim_seconds'] / 3600:.1f} h simulated in {res['wall_seconds']:.1f} s; "
                    f"record in {target}")
+        verdict_exit(res)

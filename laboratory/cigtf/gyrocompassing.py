@@ -20,11 +20,13 @@ from laboratory.connect import connect, journaled_run
 from laboratory.record import write_json, write_sheets
 from laboratory.rundir import JOURNAL, RunDirError, prepare
 from laboratory.seeded import Seeded
+from laboratory.verdicts import judge_phases, run_verdict
 from procedures.cigtf.analysis import phase_values, run_values
 from procedures.cigtf.procedure import TestData, TestPlan, gyrocompass_test
 from procedures.cigtf.significance import TestOutcome, judge_phase, shutdown_f_test
 from procedures.journal import JournalError, scan
 from sim.cigtf.world import CigtfParams
+from station.config.limits import CigtfLimits
 from station.files import atomic_path
 from station.hil.session import params_digest
 from station.racks.cigtf import CigtfRack
@@ -210,8 +212,10 @@ def render_tables(console: Console, res: dict) -> None:
 def run_gyrocompass_test(seed: int, out: Path, params: CigtfParams | None = None,
                          plan: TestPlan | None = None,
                          rack_hook: Callable[[CigtfRack], None] | None = None,
-                         links: Path | None = None, resume: bool = False) -> dict:
-    """Run the whole test into ``out``; ``rack_hook`` may inject faults into the rack.
+                         links: Path | None = None, resume: bool = False,
+                         limits: CigtfLimits | None = None) -> dict:
+    """Run the whole test into ``out``; ``rack_hook`` may inject faults into the rack;
+    ``limits``: the acceptance limits of delta and Delta (default: station/config/limits.py).
 
     ``links``: run against the CIGTF rack served there instead (see the module doc);
     raises ``NoServedRack`` or ``WrongStation`` (both OSError/ValueError) if it is not.
@@ -229,6 +233,8 @@ def run_gyrocompass_test(seed: int, out: Path, params: CigtfParams | None = None
                        test="gyrocompass", params_digest=digest) as (run, extra, t_start):
         data = gyrocompass_test(st, run, plan)
         runs, phases, tests, conclusions = analyse(data)
+        truth = world.truth_theta_arcsec() if world is not None else None
+        judge_phases(phases, truth, limits or CigtfLimits())
         run.save_sheet("gyrocompass_runs", runs)
         run.save_sheet("gyrocompass_phases", phases)
         run.save_sheet("gyrocompass_conclusions", conclusions)
@@ -241,8 +247,8 @@ def run_gyrocompass_test(seed: int, out: Path, params: CigtfParams | None = None
             "delta_arcsec": conclusions.get("operating_instability_arcsec"),
             "Delta_arcsec": conclusions.get("shutdown_instability_arcsec"),
             "tests": tests,
-            "truth": {"theta_arcsec": world.truth_theta_arcsec()
-                      if world is not None else None},
+            "truth": {"theta_arcsec": truth},
+            "verdict": run_verdict(phases),
             "sim_seconds": st.clock.now() - t_start,
             "wall_seconds": time.perf_counter() - wall0,
             **extra,

@@ -31,10 +31,12 @@ from laboratory.esg.truth import true_pickoff1_coning_arcsec
 from laboratory.record import write_json, write_sheets
 from laboratory.rundir import prepare
 from laboratory.seeded import Seeded
+from laboratory.verdicts import judge_schedules, run_verdict
 from procedures.esg import strategy
 from procedures.esg.acquisition import RENEW, Acquisition, EsgPlan, acquire
 from procedures.esg.calibration import SCHEDULES, ScheduleResult, assign, calibrate, nominal
 from sim.esg.world import EsgParams, EsgWorld
+from station.config.limits import EsgLimits
 from station.files import atomic_path
 from station.racks.esg import EsgRack
 
@@ -181,13 +183,14 @@ def run_esg_calibration(seed: int, out: Path, params: EsgParams | None = None,
                         plan: EsgPlan | None = None,
                         rack_hook: Callable[[EsgRack], None] | None = None,
                         with_study: bool = True, links: Path | None = None,
-                        resume: bool = False) -> dict:
+                        resume: bool = False, limits: EsgLimits | None = None) -> dict:
     """The whole ESG calibration into ``out``; ``rack_hook`` may inject faults.
 
     ``links``: run against the ESG rack served there instead (see the module doc);
     raises ``NoServedRack`` or ``WrongStation`` (both OSError/ValueError) if it is not.
     ``resume``: continue the interrupted calibration in ``out`` (replayed and checked
     against its journal in virtual time); ``out`` must hold no record otherwise.
+    ``limits``: the acceptance limits (default: the readout goal, station/config/limits.py).
     """
     out = Path(out)
     params = params or EsgParams()
@@ -214,7 +217,8 @@ def run_esg_calibration(seed: int, out: Path, params: EsgParams | None = None,
                 no_truth(res.readout)
             run.save_sheet(f"esg_calibration_{res.name}", res.calibration)
             run.save_sheet(f"esg_readout_{res.name}", res.readout)
-        schedules = [schedule_summary(r) for r in results]
+        schedules = judge_schedules([schedule_summary(r) for r in results],
+                                    limits or EsgLimits())
         run.save_sheet("esg_schedules", schedules)
         res_json = {
             "seed": seed,
@@ -237,6 +241,7 @@ def run_esg_calibration(seed: int, out: Path, params: EsgParams | None = None,
                        "head_arcsec": bud.head_deg * 3600.0,
                        "drift_bound_deg_hr": bud.drift_bound_deg_s * 3600.0},
             "goal_arcsec": GOAL_ARCSEC,
+            "verdict": run_verdict(schedules),
             **extra,
         }
         if with_study:

@@ -14,7 +14,9 @@ from laboratory.app import (
     command,
     console,
     new_or_resumed,
+    reported,
     station_run,
+    verdict_exit,
 )
 
 
@@ -35,14 +37,17 @@ def add_commands(app: typer.Typer) -> None:
         """The strapdown ESG pattern calibration and readout study (report 004)."""
         from laboratory.esg.calibration import render_tables, run_esg_calibration
         from station.config.esg import load_esg_params
+        from station.config.limits import load_esg_limits
 
         check_seed(seed)
         target, args = new_or_resumed("esg-calibration", out, resume, {"seed": seed})
         run_seed = 1 if args["seed"] is None else args["seed"]
+        with reported(lambda: None):
+            limits = load_esg_limits(config)
         res, target = station_run(
             load_esg_params, config, "esg", run_seed, target, resume is not None,
             lambda params, d: run_esg_calibration(run_seed, d, params=params, links=links,
-                                                  resume=resume is not None))
+                                                  resume=resume is not None, limits=limits))
         render_tables(console, res)
         if "served" in res:
             console.print(f"served rack (session {res['served']['session']}): "
@@ -50,3 +55,4 @@ def add_commands(app: typer.Typer) -> None:
                           "depend on the served rack's path and are left out)", markup=False)
         typer.echo(f"{res['sim_seconds'] / 3600:.1f} h simulated in {res['wall_seconds']:.1f} s; "
                    f"record in {target}")
+        verdict_exit(res)

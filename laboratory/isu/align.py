@@ -36,6 +36,7 @@ from laboratory.isu.display import DayDisplay
 from laboratory.isu.spec import noise_spec, site_of
 from laboratory.record import write_results, write_sheets
 from laboratory.rundir import opened_journal, prepare, resume_note
+from laboratory.verdicts import judge_alignments, run_verdict
 from procedures.isu.alignment.align_math import rotation_error_arcsec
 from procedures.isu.alignment.common import Outcome, canonical_estimator
 from procedures.isu.alignment.options import DAY_ESTIMATORS, AlignmentOptions
@@ -152,7 +153,7 @@ def day_alignments(st: IsuDrivers, run: Run, calib: CalibrationResults, cfg: Sta
                             plan=plan or AlignPlan(), estimators=methods, tape_dir=tape_dir,
                             calibration_id="this run (Chart II-15)")
     outcomes = run_alignments(st, run, opts)
-    return alignment_entries(outcomes, world) + skipped
+    return judge_alignments(alignment_entries(outcomes, world), cfg.limits) + skipped
 
 
 def _sheet(f: Path, model: type[T]) -> T:
@@ -308,7 +309,8 @@ def run_align(req: AlignRequest, console: Console | None = None,
                                         tape_dir=out / "tapes", calibration_id=cal_id)
                 outcomes = run_alignments(st, run, opts)
             write_sheets(out, run)
-            entries = alignment_entries(outcomes, conn.attitude_world)
+            entries = judge_alignments(alignment_entries(outcomes, conn.attitude_world),
+                                       cfg.limits)
             res = {
                 "seed": cfg.seed,
                 "sim_seconds": st.clock.now(),
@@ -317,6 +319,7 @@ def run_align(req: AlignRequest, console: Console | None = None,
                 "estimator_requested": estimator,
                 "alignment": entries,
                 "links": None if links is None else str(links),
+                "verdict": run_verdict(entries),
             }
             write_results(out, res)
             run.note(event="end", sim_seconds=st.clock.now())

@@ -23,6 +23,7 @@ from laboratory.app import (
     release,
     reported,
     target_dir,
+    verdict_exit,
 )
 
 
@@ -74,6 +75,7 @@ def add_commands(app: typer.Typer) -> None:
             raise
         typer.echo(f"{res['sim_seconds'] / 3600:.2f} h simulated in {res['wall_seconds']:.1f} s; "
                    f"record in {target}")
+        verdict_exit(res)
 
 
     @command(app)
@@ -124,3 +126,4 @@ def add_commands(app: typer.Typer) -> None:
             raise
         typer.echo(f"{res['sim_seconds'] / 3600:.2f} h simulated in {res['wall_seconds']:.1f} s; "
                    f"record in {target}")
+        verdict_exit(res)

@@ -26,6 +26,7 @@ from laboratory.isu.spec import noise_spec, site_of
 from laboratory.isu.truth import calibration_truth
 from laboratory.record import write_results, write_sheets
 from laboratory.rundir import opened_journal, prepare, resume_note
+from laboratory.verdicts import judge_constants, run_verdict
 from procedures.isu.alignment.results_sheet import AlignPlan
 from procedures.isu.computations import compute_calibration
 from procedures.isu.day import EXPERIMENTS, measure_day
@@ -174,7 +175,8 @@ def _day(req: DayRequest, conn: Connection, journal: Journal, console: Console,
     with atomic_path(out / "nonlinearity.png") as tmp:
         nonlinearity_plot(data.nonlinearity, tmp)
     world = conn.coefficient_world
-    rows = results_rows(calib, calibration_truth(world) if world else {})
+    rows = judge_constants(results_rows(calib, calibration_truth(world) if world else {}),
+                           cfg.limits)
     res = {
         "seed": cfg.seed,
         "sim_seconds": st.clock.now(),
@@ -183,6 +185,7 @@ def _day(req: DayRequest, conn: Connection, journal: Journal, console: Console,
         "alignment": alignment,
         "links": None if links is None else str(links),
         "restored_charts": run.restored,
+        "verdict": run_verdict(rows, alignment),
     }
     write_results(out, res)
     run.note(event="end", sim_seconds=st.clock.now())

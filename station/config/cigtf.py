@@ -28,6 +28,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationInfo, field_validat
 from sim.cigtf.world import MA, CigtfParams
 from sim.units import ARCSEC, EARTH_RATE
 from station.config.isu import read_section
+from station.config.limits import CigtfLimits
 
 # The test plan's figures (procedures.cigtf.procedure.TestPlan; a test checks
 # they agree): averages per orientation, operating runs, the GSF turn.
@@ -112,10 +113,13 @@ class CigtfConfig(BaseModel):
                 f"({GSF_REL_ERROR_MAX:.0%} of the turn's current change)")
         return v
 
+    limits: CigtfLimits = CigtfLimits()  # acceptance limits (station/config/limits.py)
+
 
 def load_cigtf_params(path: str | Path | None) -> CigtfParams:
     """The default CigtfParams with the file's [cigtf] settings applied."""
     if path is None:
         return CigtfParams()
     cfg = read_section(path, "cigtf", CigtfConfig, "CIGTF")
-    return replace(CigtfParams(), **{k: v for k, v in cfg.model_dump().items() if v is not None})
+    return replace(CigtfParams(), **{k: v for k, v in cfg.model_dump(exclude={"limits"}).items()
+                                    if v is not None})

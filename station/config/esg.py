@@ -24,6 +24,7 @@ from pydantic import BaseModel, ConfigDict, Field
 
 from sim.esg.world import EsgParams
 from station.config.isu import read_section
+from station.config.limits import EsgLimits
 
 if TYPE_CHECKING:
     from _typeshed import DataclassInstance
@@ -62,6 +63,7 @@ class EsgConfig(BaseModel):
     damping_tau_s: float | None = Field(None, ge=10.0, le=300.0)
     pattern: PatternConfig = PatternConfig.model_validate({})
     signal: SignalConfig = SignalConfig.model_validate({})
+    limits: EsgLimits = EsgLimits()  # acceptance limits (station/config/limits.py)
 
 
 def _set(obj: _D, model: BaseModel) -> _D:

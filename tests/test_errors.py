@@ -42,6 +42,7 @@ from station.errors import (
     StepName,
     StopError,
     UseError,
+    VerdictFailed,
     current_step,
 )
 from station.hil.links_dir import LinksDirError
@@ -58,6 +59,7 @@ EXIT_CODES: dict[type[OperatorError], int] = {
     CheckFailed: 1, Implausible: 1, TooFewLines: 1, ProcedureError: 1, DriverError: 1,
     LinkTimeout: 1, MalformedReply: 1, ReadingOutOfRange: 1, InstrumentRefused: 1,
     GarbledFrame: 1, FailedCheck: 1, Deadlock: 1,
+    VerdictFailed: 3,  # completed, a result row outside its limit (laboratory/verdicts.py)
 }
 ROOTS = {OperatorError, UseError, StopError, StationError}
 # exception classes that are not OperatorErrors, and why

@@ -16,14 +16,11 @@ import pytest
 from laboratory.cigtf.gyrocompassing import run_gyrocompass_test
 from laboratory.esg.calibration import run_esg_calibration
 from laboratory.verdicts import judge_constant, judge_constants, run_verdict, truth_check
+from station.config.cigtf import load_cigtf_limits
+from station.config.esg import load_esg_limits
 from station.config.file import ConfigError
 from station.config.isu import load_config
-from station.config.limits import (
-    ConstantLimit,
-    IsuLimits,
-    load_cigtf_limits,
-    load_esg_limits,
-)
+from station.config.limits import ConstantLimit, IsuLimits
 from station.errors import VerdictFailed
 
 REPO = Path(__file__).resolve().parents[1]

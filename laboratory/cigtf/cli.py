@@ -43,8 +43,7 @@ def add_commands(app: typer.Typer) -> None:
             render_tables,
             run_gyrocompass_test,
         )
-        from station.config.cigtf import load_cigtf_params
-        from station.config.limits import load_cigtf_limits
+        from station.config.cigtf import load_cigtf_limits, load_cigtf_params
 
         check_seed(seed)
         if analyse is not None:

@@ -36,8 +36,7 @@ def add_commands(app: typer.Typer) -> None:
     ) -> None:
         """The strapdown ESG pattern calibration and readout study (report 004)."""
         from laboratory.esg.calibration import render_tables, run_esg_calibration
-        from station.config.esg import load_esg_params
-        from station.config.limits import load_esg_limits
+        from station.config.esg import load_esg_limits, load_esg_params
 
         check_seed(seed)
         target, args = new_or_resumed("esg-calibration", out, resume, {"seed": seed})

@@ -123,3 +123,10 @@ def load_cigtf_params(path: str | Path | None) -> CigtfParams:
     cfg = read_section(path, "cigtf", CigtfConfig, "CIGTF")
     return replace(CigtfParams(), **{k: v for k, v in cfg.model_dump(exclude={"limits"}).items()
                                     if v is not None})
+
+
+def load_cigtf_limits(path: str | Path | None) -> CigtfLimits:
+    """The ``[cigtf.limits]`` of a CIGTF file (defaults without one)."""
+    if path is None:
+        return CigtfLimits()
+    return read_section(path, "cigtf", CigtfConfig, "CIGTF").limits

@@ -86,3 +86,10 @@ def load_esg_params(path: str | Path | None) -> EsgParams:
         return EsgParams()
     cfg = read_section(path, "esg", EsgConfig, "ESG")
     return params_from(cfg)
+
+
+def load_esg_limits(path: str | Path | None) -> EsgLimits:
+    """The ``[esg.limits]`` of an ESG file (defaults without one)."""
+    if path is None:
+        return EsgLimits()
+    return read_section(path, "esg", EsgConfig, "ESG").limits

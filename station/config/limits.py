@@ -15,11 +15,9 @@ from __future__ import annotations
 
 import math
 import re
-from pathlib import Path
+from typing import Annotated
 
 from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
-
-from station.config.file import read_section
 
 _STRICT = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False, strict=True)
 
@@ -29,6 +27,10 @@ GYRO_PARAMETERS = ("DeltaPhi", "G.B1", "G.B2", "G.B3", "R", "B_I", "B_O", "B_S",
 ACCEL_PARAMETERS = ("D1", "A.B1", "A.B2", "A.B3", "D0", "D2", "D3")
 INSTRUMENTS = 3  # three gyros and three accelerometers (report 000)
 METHODS = ("mirror", "level", "gyrocompass")
+# Bounds: far beyond any constant of the sheet (D1 is about 2000) and any attitude sigma.
+Value = Annotated[float, Field(ge=-1e6, le=1e6)]
+Width = Annotated[float, Field(gt=0, le=1e6)]
+Arcsec = Annotated[float, Field(gt=0, le=36000.0)]  # 10 deg
 _KEY = re.compile(r"(gyro|accel)([1-9]?)\.(.+)")
 
 
@@ -36,10 +38,10 @@ class ConstantLimit(BaseModel):
     """A band on one constant's estimate and, optionally, its required accuracy."""
 
     model_config = _STRICT
-    nominal: float | None = None  # centre of max_abs (0 when not given)
-    max_abs: float | None = Field(None, gt=0)  # |estimate - nominal| <= max_abs
-    interval: list[float] | None = None  # [low, high]: low <= estimate <= high
-    max_sigma: float | None = Field(None, gt=0)  # the calibration's 1 sigma <= max_sigma
+    nominal: Value | None = None  # centre of max_abs (0 when not given)
+    max_abs: Width | None = None  # |estimate - nominal| <= max_abs
+    interval: list[Value] | None = None  # [low, high]: low <= estimate <= high
+    max_sigma: Width | None = None  # the calibration's 1 sigma <= max_sigma
 
     @field_validator("interval")
     @classmethod
@@ -61,7 +63,7 @@ class AlignmentLimit(BaseModel):
     """The largest predicted 1-sigma attitude error of an alignment, per axis, arcsec."""
 
     model_config = _STRICT
-    max_sigma_arcsec: list[float]
+    max_sigma_arcsec: list[Arcsec]
 
     @field_validator("max_sigma_arcsec")
     @classmethod
@@ -121,8 +123,8 @@ class CigtfLimits(BaseModel):
     shows about 5."""
 
     model_config = _STRICT
-    max_operating_instability_arcsec: float | None = Field(20.0, gt=0)  # delta
-    max_shutdown_instability_arcsec: float | None = Field(20.0, gt=0)  # Delta
+    max_operating_instability_arcsec: float | None = Field(20.0, gt=0, le=3600.0)  # delta
+    max_shutdown_instability_arcsec: float | None = Field(20.0, gt=0, le=3600.0)  # Delta
 
 
 class EsgLimits(BaseModel):
@@ -130,22 +132,4 @@ class EsgLimits(BaseModel):
     readout to an accuracy of 15 arc-seconds or better" (the program goal)."""
 
     model_config = _STRICT
-    readout_rms_arcsec: float | None = Field(15.0, gt=0)
-
-
-def load_cigtf_limits(path: str | Path | None) -> CigtfLimits:
-    """The ``[cigtf.limits]`` of a CIGTF file (defaults without one)."""
-    from station.config.cigtf import CigtfConfig
-
-    if path is None:
-        return CigtfLimits()
-    return read_section(path, "cigtf", CigtfConfig, "CIGTF").limits
-
-
-def load_esg_limits(path: str | Path | None) -> EsgLimits:
-    """The ``[esg.limits]`` of an ESG file (defaults without one)."""
-    from station.config.esg import EsgConfig
-
-    if path is None:
-        return EsgLimits()
-    return read_section(path, "esg", EsgConfig, "ESG").limits
+    readout_rms_arcsec: float | None = Field(15.0, gt=0, le=3600.0)

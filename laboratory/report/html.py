@@ -232,6 +232,7 @@ def build(run_dir: Path) -> dict:
     truth_tables: list[dict] = []
     alignments: list[dict] = []
     summaries: list[dict] = []
+    truth_summaries: list[dict] = []
     figures: list[tuple[str, str, str]] = []
     verdict = None
     for name, res in results.items():
@@ -249,9 +250,13 @@ def build(run_dir: Path) -> dict:
             elif isinstance(value, dict):
                 flat = [(k, fmt(v, k)) for k, v in value.items()
                         if not (isinstance(v, list) and v and isinstance(v[0], dict))]
+                title = f"{key.replace('_', ' ')} ({name})"
+                known = [(k, v) for k, v in flat if key == "truth" or _is_truth(k)]
+                flat = [(k, v) for k, v in flat if (k, v) not in known]
                 if flat:
-                    summaries.append({"title": f"{key.replace('_', ' ')} ({name})",
-                                      "items": flat})
+                    summaries.append({"title": title, "items": flat})
+                if known and any(v != fmt(None) for _, v in known):
+                    truth_summaries.append({"title": title, "items": known})
                 for k, v in value.items():
                     if isinstance(v, list) and v and all(isinstance(r, dict) for r in v):
                         t, tt = result_tables(f"{key} {k}", v)
@@ -302,7 +307,8 @@ def build(run_dir: Path) -> dict:
         "journal": _journal_end(d), "outcome": outcome, "outcome_cls":
         _verdict_class(outcome or ""), "failed": failed, "missing": missing,
         "tables": tables, "truth_tables": truth_tables, "alignments": alignments,
-        "summaries": summaries, "figures": figures, "checks": checks, "others": others,
+        "summaries": summaries, "truth_summaries": truth_summaries, "figures": figures,
+        "checks": checks, "others": others,
         "plots": plots, "config_text": config_text,
     }
 

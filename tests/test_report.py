@@ -203,3 +203,24 @@ def test_report_refusals(args: list[str], message: str, tmp_path: Path) -> None:
     assert p.returncode == 2
     assert p.stderr.count("\n") == 1 and p.stderr.startswith("error: ")
     assert message.replace("nowhere", str(tmp_path / "nowhere")) in p.stderr
+
+
+def test_a_stopped_run_has_its_report(tmp_path: Path) -> None:
+    """A run that stops (a DVM falls silent mid-test) still leaves report.html: the stop, the
+    completed check-sheets, no results."""
+    from laboratory.cigtf.gyrocompassing import run_gyrocompass_test
+    from procedures.runner import ProcedureError
+    from station.racks.cigtf import CigtfRack
+
+    def hook(rack: CigtfRack) -> None:
+        def silence():  # type: ignore[no-untyped-def]
+            yield rack.env.timeout(int((2 * 3600 + 4 * 950.0) * 1e9))
+            rack.dvm.silent = True
+        rack.env.process(silence())
+
+    with pytest.raises(ProcedureError):
+        run_gyrocompass_test(2, tmp_path, rack_hook=hook)
+    html = (tmp_path / "report.html").read_text(encoding="utf-8")
+    assert "stopped: " in html and "dvm" in html
+    assert "results: no results.json" in html
+    assert 'data-sheet="check_4.0"' in html and 'data-sheet="check_4.3-R01"' in html

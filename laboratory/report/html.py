@@ -165,12 +165,29 @@ def _read_json(path: Path, missing: list[str]) -> Any:
         return None
 
 
+def _journal_sheets(d: Path) -> list[tuple[str, Any]]:
+    """The sheets the journal holds (its sheet records, the last of each name): a stopped
+    run's completed check-sheets, which it never wrote to sheets/."""
+    path = d / "journal.jsonl"
+    found: dict[str, Any] = {}
+    if path.is_file():
+        for line in path.read_text(encoding="utf-8", errors="replace").splitlines():
+            try:
+                rec = json.loads(line)
+            except ValueError:
+                continue
+            if isinstance(rec, dict) and rec.get("kind") == "sheet" and "name" in rec:
+                found[str(rec["name"])] = rec.get("data")
+    return list(found.items())
+
+
 def _journal_end(d: Path) -> dict:
-    """How the journal says the run ended: an end note, or the last step it recorded."""
+    """How the journal says the run ended: an end note, or the stop (its failed record) and
+    the last step it recorded."""
     path = d / "journal.jsonl"
     if not path.is_file():
-        return {"ended": None, "last_step": None}
-    last, ended = None, False
+        return {"ended": None, "last_step": None, "failed": None}
+    last, ended, failed = None, False, None
     for line in path.read_text(encoding="utf-8", errors="replace").splitlines():
         try:
             rec = json.loads(line)
@@ -182,7 +199,9 @@ def _journal_end(d: Path) -> dict:
             last = f"Chart {rec.get('chart')}, step {rec.get('step')}"
         if rec.get("kind") == "note" and rec.get("event") == "end":
             ended = True
-    return {"ended": ended, "last_step": last}
+        if rec.get("kind") == "failed":
+            failed = str(rec.get("error"))
+    return {"ended": ended, "last_step": last, "failed": failed}
 
 
 def _sheet_sort_key(item: tuple[str, Any]) -> tuple[float, str]:
@@ -281,6 +300,8 @@ def build(run_dir: Path) -> dict:
         s = _read_json(f, missing)
         if s is not None:
             loaded.append((f.stem, s))
+    have = {name for name, _ in loaded}
+    loaded += [(n, s) for n, s in _journal_sheets(d) if n not in have and s is not None]
     for name, s in sorted(loaded, key=_sheet_sort_key):
         if isinstance(s, dict) and "chart" in s and "steps" in s:
             checks.append(check_sheet(name, s))

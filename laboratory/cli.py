@@ -178,6 +178,18 @@ def compare(
     raise typer.Exit(1)
 
 
+@command(app)
+def report(
+    run_dir: Path,
+    out: Annotated[Path | None, typer.Option("--out", help="the HTML file to write (default: "
+                   "RUN_DIR/report.html)")] = None,
+) -> None:
+    """Write the run's report: one self-contained HTML file rendered from its record alone."""
+    from laboratory.report import write_report
+
+    typer.echo(f"report written: {write_report(run_dir, out)}")
+
+
 def _usage_error() -> type[Exception]:
     """The parser's usage-error class (typer's own click, or click before typer 0.2x)."""
     import importlib

@@ -20,6 +20,7 @@ from pathlib import Path
 from typing import Any
 
 from laboratory.registry import Laboratory
+from laboratory.report import report_after
 from laboratory.rundir import opened_journal, resume_note
 from procedures.runner import Run
 from station.clock import Clock, WallClock
@@ -171,3 +172,4 @@ def journaled_run(out: Path, conn: Connection, resume: bool = False,
             yield run, extra, t_start
     finally:
         conn.close()
+        report_after(out)  # report.html of what the record holds, however it ended

@@ -35,6 +35,7 @@ from laboratory.connect import connect
 from laboratory.isu.display import DayDisplay
 from laboratory.isu.spec import noise_spec, site_of
 from laboratory.record import write_results, write_sheets
+from laboratory.report import report_after
 from laboratory.rundir import opened_journal, prepare, resume_note
 from laboratory.verdicts import judge_alignments, run_verdict
 from procedures.isu.alignment.align_math import rotation_error_arcsec
@@ -331,3 +332,4 @@ def run_align(req: AlignRequest, console: Console | None = None,
         return res
     finally:
         conn.close()
+        report_after(out)  # report.html of what the record holds, however it ended

@@ -25,6 +25,7 @@ from laboratory.isu.plots import nonlinearity_plot
 from laboratory.isu.spec import noise_spec, site_of
 from laboratory.isu.truth import calibration_truth
 from laboratory.record import write_results, write_sheets
+from laboratory.report import report_after
 from laboratory.rundir import opened_journal, prepare, resume_note
 from laboratory.verdicts import judge_constants, run_verdict
 from procedures.isu.alignment.results_sheet import AlignPlan
@@ -145,6 +146,7 @@ def run_day(req: DayRequest, console: Console | None = None,
             return _day(req, conn, journal, console, wall0)
     finally:
         conn.close()
+        report_after(req.out)  # report.html of what the record holds, however it ended
 
 
 def _day(req: DayRequest, conn: Connection, journal: Journal, console: Console,

@@ -83,13 +83,13 @@ def dumps(doc: dict[str, Any]) -> str:
 
 def _cigtf_fields() -> dict[str, Any]:
     p = CigtfParams()
-    return {k: getattr(p, k) for k in CigtfConfig.model_fields}
+    return {k: getattr(p, k) for k in CigtfConfig.model_fields if k != "limits"}
 
 
 def _esg_fields() -> dict[str, Any]:
     p = EsgParams()
     top = {k: getattr(p.rotor, k) for k in EsgConfig.model_fields
-           if k not in ("pattern", "signal")}
+           if k not in ("pattern", "signal", "limits")}
     top["pattern"] = {k: getattr(p.pattern, k) for k in PatternConfig.model_fields}
     top["signal"] = {k: getattr(p.signal, k) for k in SignalConfig.model_fields}
     return top

@@ -49,6 +49,7 @@ from station.config.file import (
     read_section,
     validate,
 )
+from station.config.identity import IsuIdentity
 from station.drivers.isu import SERIAL_INSTRUMENTS
 
 __all__ = ["ConfigError", "StationConfig", "default_dict", "load_config", "read_section"]
@@ -212,6 +213,7 @@ class StationConfig(BaseModel):
     instruments: InstrumentSettings
     links: Links
     faults: dict[Annotated[str, AfterValidator(_fault_instrument)], FaultSpec] = {}
+    identity: IsuIdentity
 
     @field_validator("faults")
     @classmethod

@@ -23,10 +23,12 @@ import uuid
 from collections.abc import Iterator, Mapping
 from contextlib import contextmanager
 from contextvars import ContextVar
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from importlib import metadata
 from pathlib import Path
-from typing import Any
+from typing import Annotated, Any
+
+import typer
 
 from laboratory.record import write_json
 from station.errors import OperatorError, StopError
@@ -45,20 +47,29 @@ class Invocation:
     """Who ran the command and how: the operator (None: the environment's) and argv."""
 
     operator: str | None = None
-    argv: list[str] = field(default_factory=list)
+    argv: tuple[str, ...] = ()
+    identity: Any = None  # a CIGTF or ESG file's [identity] (None: the defaults)
 
 
-_INVOCATION: ContextVar[Invocation] = ContextVar("invocation", default=Invocation())
+_INVOCATION: ContextVar[Invocation | None] = ContextVar("invocation", default=None)
 
 
 @contextmanager
-def invoked(operator: str | None, argv: list[str] | None = None) -> Iterator[None]:
-    """Runs inside are the command line's: ``--operator`` and ``argv`` (default sys.argv)."""
-    token = _INVOCATION.set(Invocation(operator, list(sys.argv if argv is None else argv)))
+def invoked(operator: str | None, argv: list[str] | None = None, identity: Any = None
+            ) -> Iterator[None]:
+    """Runs inside are the command line's: ``--operator``, ``argv`` (default sys.argv) and
+    the config file's ``[identity]`` (CIGTF, ESG)."""
+    token = _INVOCATION.set(Invocation(operator, tuple(sys.argv if argv is None else argv),
+                                       identity))
     try:
         yield
     finally:
         _INVOCATION.reset(token)
+
+
+OperatorOpt = Annotated[str | None, typer.Option(
+    "--operator", help="the principal operator on the record and the sheets (default: "
+    "$STATION_OPERATOR, else the login name)")]
 
 
 def operator_name(given: str | None = None) -> str:
@@ -91,10 +102,13 @@ def vcs_revision(tree: Path = SOURCE_TREE) -> str | None:
 
 
 def package_version() -> str:
+    """The installed package's version, else the source tree's."""
     try:
-        return metadata.version("station")
+        return metadata.version("isu-station")
     except metadata.PackageNotFoundError:
-        return "unknown"
+        import station
+
+        return station.__version__
 
 
 # ----------------------------------------------------------------------------- TOML
@@ -240,12 +254,12 @@ def identified(out: Path, laboratory: str, command: str, seed: int, config: Mapp
     however the block ends (the exception goes on). ``config``: the resolved configuration
     as a document."""
     out = Path(out)
-    inv = _INVOCATION.get()
+    inv = _INVOCATION.get() or Invocation()
     text = to_toml(config).encode("utf-8")
     uid, old = previous_uid(out, journal_records or []) if resume else (None, {})
     record: dict[str, Any] = {
         "run_uid": uid or uuid.uuid4().hex, "laboratory": laboratory, "command": command,
-        "argv": inv.argv, "started_utc": old.get("started_utc") or _now(), "ended_utc": None,
+        "argv": list(inv.argv), "started_utc": old.get("started_utc") or _now(), "ended_utc": None,
         "version": package_version(), "vcs_revision": vcs_revision(), "seed": seed,
         "config_file": CONFIG_TOML, "config_digest": hashlib.sha256(text).hexdigest(),
         "station_id": station_id, "unit": dict(unit),
@@ -256,12 +270,44 @@ def identified(out: Path, laboratory: str, command: str, seed: int, config: Mapp
     write_bytes(out / CONFIG_TOML, text)
     ident = RunIdentity(out, record)
     ident.write()
+    token = _CURRENT.set(ident)
     try:
         yield ident
     except BaseException as e:
         _close(ident, e)
         raise
+    finally:
+        _CURRENT.reset(token)
     _close(ident, None)
+
+
+_CURRENT: ContextVar[RunIdentity | None] = ContextVar("run_identity", default=None)
+
+
+def current() -> RunIdentity | None:
+    """The identity of the run in progress (None outside one): where a verdict is set."""
+    return _CURRENT.get()
+
+
+@dataclass(frozen=True)
+class Identifying:
+    """What ``identified`` needs of a CIGTF or ESG run (journaled_run's ``identify``)."""
+
+    laboratory: str
+    command: str
+    seed: int
+    section: str
+    model: type[Any]  # the section's config model (CigtfConfig, EsgConfig)
+    params: Any
+
+    def config(self) -> tuple[dict[str, Any], str, dict[str, str]]:
+        """The resolved config document, station_id and unit serials."""
+        from station.config.identity import load_identity
+
+        inv = _INVOCATION.get() or Invocation()
+        ident = inv.identity or load_identity(None, self.section.upper())
+        return (section_config(self.section, self.model, self.params, ident),
+                ident.station_id, ident.unit.model_dump())
 
 
 def _close(ident: RunIdentity, e: BaseException | None) -> None:
@@ -286,4 +332,25 @@ def isu_config(cfg: Any) -> dict[str, Any]:
 
 
 def isu_identity(cfg: Any) -> tuple[str, dict[str, str]]:
+    """station_id and unit serials of an ISU StationConfig."""
     return cfg.identity.station_id, cfg.identity.unit.model_dump()
+
+
+def section_config(section: str, model: type[Any], params: Any, identity: Any) -> dict[str, Any]:
+    """A CIGTF or ESG run's params as its ``[section]`` (each field of the section's
+    ``model`` read from ``params`` or its sub-dataclasses) with ``[identity]``."""
+    def pick(m: type[Any], *sources: Any) -> dict[str, Any]:
+        out: dict[str, Any] = {}
+        for name, f in m.model_fields.items():
+            sub = f.annotation if isinstance(f.annotation, type) else None
+            if sub is not None and hasattr(sub, "model_fields"):
+                out[name] = pick(sub, *(getattr(s, name) for s in sources if hasattr(s, name)))
+                continue
+            for s in sources:
+                if hasattr(s, name):
+                    out[name] = getattr(s, name)
+                    break
+        return out
+
+    sources = [params] + [getattr(params, n) for n in ("rotor",) if hasattr(params, n)]
+    return {section: pick(model, *sources), "identity": identity.model_dump(mode="json")}

@@ -17,6 +17,7 @@ from laboratory.app import (
     reported,
     station_run,
 )
+from laboratory.identity import OperatorOpt, invoked
 
 
 def add_commands(app: typer.Typer) -> None:
@@ -35,6 +36,7 @@ def add_commands(app: typer.Typer) -> None:
                           "section (latitude_deg, noise and misalignment magnitudes)")] = None,
         links: Annotated[Path | None, typer.Option("--links", help="run against the rack "
                          "`station serve --station cigtf --links DIR` serves (real time)")] = None,
+        operator: OperatorOpt = None,
     ) -> None:
         """The CIGTF gyrocompassing accuracy test (report 001) on the simulated fixture."""
         from laboratory.cigtf.gyrocompassing import (
@@ -58,10 +60,15 @@ def add_commands(app: typer.Typer) -> None:
             return
         target, args = new_or_resumed("gyrocompass-test", out, resume, {"seed": seed})
         run_seed = 1 if args["seed"] is None else args["seed"]
-        res, target = station_run(
-            load_cigtf_params, config, "gyrocompass", run_seed, target, resume is not None,
-            lambda params, d: run_gyrocompass_test(run_seed, d, params=params, links=links,
-                                                   resume=resume is not None))
+        from station.config.identity import load_identity
+
+        with reported(lambda: None):
+            unit = load_identity(config, "CIGTF")
+        with invoked(operator, identity=unit):
+            res, target = station_run(
+                load_cigtf_params, config, "gyrocompass", run_seed, target, resume is not None,
+                lambda params, d: run_gyrocompass_test(run_seed, d, params=params, links=links,
+                                                       resume=resume is not None))
         render_tables(console, res)
         for p in res["phases"]:
             console.print(f"{p['phase']:>9}: theta {p['theta_arcsec']:+.2f} +/- "

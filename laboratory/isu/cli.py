@@ -24,6 +24,7 @@ from laboratory.app import (
     reported,
     target_dir,
 )
+from laboratory.identity import OperatorOpt, invoked
 
 
 def add_commands(app: typer.Typer) -> None:
@@ -45,6 +46,7 @@ def add_commands(app: typer.Typer) -> None:
                             "simulated time, s (to compare with a rehearsal that began then)")
                             ] = 0.0,
         quiet: QuietOpt = False,
+        operator: OperatorOpt = None,
     ) -> None:
         """The full calibration day: turn-on, survey, positions 1-15, computations, alignments.
 
@@ -65,7 +67,7 @@ def add_commands(app: typer.Typer) -> None:
         fresh_dir = target is None
         target = target_dir(target, "day", cfg.seed)
         try:
-            with reported(lambda: target):
+            with reported(lambda: target), invoked(operator):
                 res = run_day(DayRequest(cfg, target, only=sel_only, positions=sel_pos,
                                          resume=resume is not None, links=links,
                                          start_s=start_at, quiet=quiet), console)
@@ -91,6 +93,7 @@ def add_commands(app: typer.Typer) -> None:
         resume: ResumeOpt = None,
         links: LinksOpt = None,
         quiet: QuietOpt = False,
+        operator: OperatorOpt = None,
     ) -> None:
         """One alignment (Part III): mirror, level or gyrocompass, with the chosen estimator."""
         from laboratory.isu.align import AlignRequest, load_calibration, run_align
@@ -115,7 +118,7 @@ def add_commands(app: typer.Typer) -> None:
         fresh_dir = target is None
         target = target_dir(target, "align", cfg.seed)
         try:
-            with reported(lambda: target):
+            with reported(lambda: target), invoked(operator):
                 res = run_align(AlignRequest(cfg, target, method, estimator, calibration=cal,
                                              links=links, resume=resume is not None,
                                              quiet=quiet), console)

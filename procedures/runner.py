@@ -181,8 +181,9 @@ class Run:
 
     def save_sheet(self, name: str, model: Any) -> None:
         if (self.header is not None and isinstance(model, BaseModel)
-                and "header" in type(model).model_fields and model.header is None):
-            model.header = self.header_for(name)
+                and "header" in type(model).model_fields
+                and getattr(model, "header", None) is None):
+            setattr(model, "header", self.header_for(name))  # noqa: B010 - any sheet model
         self.sheets[name] = model
         self._saved.append(name)
         self._emit({"kind": "sheet", "name": name, "data": model})

@@ -3,7 +3,8 @@
 The regression-test use of the product: the same procedure, seed and config must give the
 same record; a code change shows here as the list of values it moved. The record is every
 sheet and the results file of each laboratory (results.json, gyrocompass.json, esg.json);
-wall-clock fields are ignored.
+wall-clock fields are ignored, and so are run.json's run-specific stamps (run uid, start
+and end times, VCS revision, argv) and the sheets' header dates.
 """
 
 from __future__ import annotations
@@ -12,14 +13,22 @@ import json
 from pathlib import Path
 
 IGNORED = {"wall", "wall_seconds", "t_wall"}
+# run-specific stamps (laboratory.identity.STAMPS) and a sheet header's date, by path
+IGNORED_PATHS = {*(f"run.{k}" for k in ("run_uid", "started_utc", "ended_utc",
+                                       "vcs_revision", "argv"))}
+
+
+def _ignored(path: str) -> bool:
+    return path in IGNORED_PATHS or (path.startswith("sheets/") and path.endswith(".header.date"))
 
 
 def _flatten(x: object, prefix: str, out: dict) -> None:
     if isinstance(x, dict):
         for k, v in x.items():
-            if k in IGNORED:
+            path = f"{prefix}.{k}" if prefix else str(k)
+            if k in IGNORED or _ignored(path):
                 continue
-            _flatten(v, f"{prefix}.{k}" if prefix else str(k), out)
+            _flatten(v, path, out)
     elif isinstance(x, list):
         for i, v in enumerate(x):
             key = _row_key(v, i)
@@ -34,7 +43,7 @@ def _row_key(v: object, i: int) -> str:
     return str(i)
 
 
-RESULT_FILES = ("results.json", "gyrocompass.json", "esg.json")
+RESULT_FILES = ("results.json", "gyrocompass.json", "esg.json", "run.json")
 
 
 def _read_json(f: Path) -> object:

@@ -14,11 +14,12 @@ to the server, so that truth is absent over links.
 from __future__ import annotations
 
 from collections.abc import Callable, Iterator
-from contextlib import contextmanager
+from contextlib import ExitStack, contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from laboratory.identity import Identifying, identified
 from laboratory.registry import Laboratory
 from laboratory.report import report_after
 from laboratory.rundir import opened_journal, resume_note
@@ -147,7 +148,8 @@ def served_session(records: list[dict]) -> str | None:
 
 @contextmanager
 def journaled_run(out: Path, conn: Connection, resume: bool = False,
-                  renew: tuple[str, ...] = (), sheet_models: Any = None, **start: Any
+                  renew: tuple[str, ...] = (), sheet_models: Any = None,
+                  identify: Identifying | None = None, **start: Any
                   ) -> Iterator[tuple[Run, dict, float]]:
     """The journal and Run of a run on ``conn``: ``(run, served_record, t_start)``; the
     start note carries ``start`` and the served rack's record; the journal and the
@@ -155,13 +157,22 @@ def journaled_run(out: Path, conn: Connection, resume: bool = False,
     rack's time when served. ``resume``: the journal in ``out`` is continued, replayed in
     virtual time (each step checked against it), with its completed blocks restored over
     links; ``renew`` names the blocks a restarted rack (another session) must repeat even
-    if completed (a warm-up)."""
+    if completed (a warm-up). ``identify``: the run's identity (run.json, config.toml) is
+    written around it and its run_uid goes in the start note."""
     st, served = conn.drivers, conn.served
     try:
-        with opened_journal(out, resume) as journal:
+        with opened_journal(out, resume) as journal, ExitStack() as stack:
+            stack.callback(report_after, out)  # after run.json closes; not for a refused run
+            kw: dict[str, Any] = {} if sheet_models is None else {"sheet_models": sheet_models}
+            if identify is not None:
+                doc, station_id, unit = identify.config()
+                ident = stack.enter_context(identified(
+                    out, identify.laboratory, identify.command, identify.seed, doc,
+                    station_id, unit, resume, journal.records))
+                start = {"run_uid": ident.run_uid, **start}
+                kw["header"] = ident.header(f"{identify.command} (station {identify.command})")
             now = served.session.session if served is not None else None
             renewed = renew if resume and now != served_session(journal.records) else ()
-            kw = {} if sheet_models is None else {"sheet_models": sheet_models}
             run = Run(st.clock, journal, resume="replay" if served is None else "skip",
                       repeat=renewed, **kw)
             if resume:
@@ -172,4 +183,3 @@ def journaled_run(out: Path, conn: Connection, resume: bool = False,
             yield run, extra, t_start
     finally:
         conn.close()
-        report_after(out)  # report.html of what the record holds, however it ended

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 from collections.abc import Iterable
 
+from laboratory import identity
 from station.config.limits import CigtfLimits, ConstantLimit, EsgLimits, IsuLimits
 
 PASS, FAIL, NO_LIMIT = "PASS", "FAIL", "NO LIMIT"
@@ -148,4 +149,7 @@ def run_verdict(*groups: Iterable[dict]) -> dict:
     failed = [label(r) for r in rows if r["verdict"] == FAIL]
     outcome = FAIL if failed else PASS if any(r["verdict"] == PASS for r in rows) \
         else "NO LIMITS"
+    ident = identity.current()
+    if ident is not None:  # run.json carries the verdict (and exit 3 for a FAIL)
+        ident.verdict = outcome
     return {"outcome": outcome, "failed": failed}

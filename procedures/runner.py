@@ -28,10 +28,10 @@ from contextlib import contextmanager
 from fnmatch import fnmatchcase
 from typing import Any, TypeVar
 
-from pydantic import ValidationError
+from pydantic import BaseModel, ValidationError
 
 from procedures.journal import Journal, JournalError, dumps
-from procedures.sheets import SHEET_MODELS, CheckSheet, Sheet, StepRecord
+from procedures.sheets import SHEET_MODELS, CheckSheet, Sheet, SheetHeader, StepRecord
 from station.clock import Clock
 from station.errors import StepName, StopError, UseError, current_step
 
@@ -54,7 +54,13 @@ class ResumeMismatch(UseError):
 
 
 def _stable(rec: dict) -> dict:
-    return {k: v for k, v in json.loads(dumps(rec)).items() if k not in VOLATILE}
+    """A record as a replay compares it: no wall stamp, and no sheet header (the run's
+    identity, not a measurement: a resume by another operator on another day is the same
+    run)."""
+    out = {k: v for k, v in json.loads(dumps(rec)).items() if k not in VOLATILE}
+    if isinstance(out.get("data"), dict):
+        out["data"] = {k: v for k, v in out["data"].items() if k != "header"}
+    return out
 
 
 def _sheet_value(journal: Journal, rec: dict, line: int,
@@ -90,9 +96,14 @@ class Run:
         resume: str = "replay",
         repeat: tuple[str, ...] = (),
         sheet_models: Mapping[str, type[Sheet]] = SHEET_MODELS,
+        header: Mapping[str, Any] | None = None,
+        sheets_used: Callable[[str], list[str]] | None = None,
     ) -> None:
         """``sheet_models``: the laboratory's sheet models by name, to restore its sheets
-        from the journal (skip mode) as models rather than plain data."""
+        from the journal (skip mode) as models rather than plain data. ``header``: the
+        heading every new sheet with a ``header`` field gets (SheetHeader's fields; None:
+        no headers); ``sheets_used(name)`` its "Sheet Used" cross-references by sheet name
+        (``check_<chart>`` for a check-sheet)."""
         if resume not in RESUME_MODES:
             raise ValueError(f"resume mode must be one of {RESUME_MODES}, got {resume!r}")
         self.clock = clock
@@ -100,6 +111,8 @@ class Run:
         self.listener = listener
         self.resume = resume
         self.repeat = set(repeat)
+        self.header = dict(header) if header is not None else None
+        self.sheets_used = sheets_used
         old = journal.records
         lines = journal.lines or list(range(1, len(old) + 1))
         self._blocks = {r["key"]: r for r in old if r.get("kind") == "block"}
@@ -148,7 +161,7 @@ class Run:
 
     @contextmanager
     def sheet(self, chart: str, title: str) -> Iterator[CheckSheetRun]:
-        cs = CheckSheet(chart=chart, title=title)
+        cs = CheckSheet(chart=chart, title=title, header=self.header_for(f"check_{chart}"))
         self.check_sheets[chart] = cs
         if self.listener:
             self.listener({"kind": "sheet_start", "chart": chart, "title": title})
@@ -159,7 +172,18 @@ class Run:
             self._open.pop()
         self.save_sheet(f"check_{chart}", cs)
 
+    def header_for(self, name: str) -> SheetHeader | None:
+        """The heading of the sheet ``name`` (None when the run has no header)."""
+        if self.header is None:
+            return None
+        used = self.sheets_used(name) if self.sheets_used is not None else []
+        return SheetHeader.model_validate({**self.header, "sheets_used": used})
+
     def save_sheet(self, name: str, model: Any) -> None:
+        if (self.header is not None and isinstance(model, BaseModel)
+                and "header" in type(model).model_fields
+                and getattr(model, "header", None) is None):
+            setattr(model, "header", self.header_for(name))  # noqa: B010 - any sheet model
         self.sheets[name] = model
         self._saved.append(name)
         self._emit({"kind": "sheet", "name": name, "data": model})

@@ -16,6 +16,19 @@ class Sheet(BaseModel):
     model_config = ConfigDict(extra="forbid")
 
 
+class SheetHeader(Sheet):
+    """The heading of a chart's sheet (Experiment, Principal Operator, Date, Identification,
+    the "... Sheet Used" cross-references, Special Procedures), filled from the run's
+    identity; None on records made before headers existed."""
+
+    experiment: str
+    principal_operator: str
+    date: str  # UTC date the run started, ISO 8601
+    identification: str  # the unit under test's serial number
+    sheets_used: list[str] = Field(default_factory=list)  # chart names, e.g. "Chart I-3"
+    special_procedures: str | None = None
+
+
 class StepRecord(Sheet):
     number: str
     text: str
@@ -30,6 +43,7 @@ class CheckSheet(Sheet):
     chart: str
     title: str
     steps: list[StepRecord] = Field(default_factory=list)
+    header: SheetHeader | None = None
 
 
 SHEET_MODELS: dict[str, type[Sheet]] = {"check": CheckSheet}  # every check_<chart> sheet

@@ -18,6 +18,7 @@ from laboratory.app import (
     station_run,
     verdict_exit,
 )
+from laboratory.identity import OperatorOpt, invoked
 
 
 def add_commands(app: typer.Typer) -> None:
@@ -36,6 +37,7 @@ def add_commands(app: typer.Typer) -> None:
                           "section (latitude_deg, noise and misalignment magnitudes)")] = None,
         links: Annotated[Path | None, typer.Option("--links", help="run against the rack "
                          "`station serve --station cigtf --links DIR` serves (real time)")] = None,
+        operator: OperatorOpt = None,
     ) -> None:
         """The CIGTF gyrocompassing accuracy test (report 001) on the simulated fixture."""
         from laboratory.cigtf.gyrocompassing import (
@@ -59,12 +61,16 @@ def add_commands(app: typer.Typer) -> None:
             return
         target, args = new_or_resumed("gyrocompass-test", out, resume, {"seed": seed})
         run_seed = 1 if args["seed"] is None else args["seed"]
+        from station.config.identity import load_identity
+
         with reported(lambda: None):
             limits = load_cigtf_limits(config)
-        res, target = station_run(
-            load_cigtf_params, config, "gyrocompass", run_seed, target, resume is not None,
-            lambda params, d: run_gyrocompass_test(run_seed, d, params=params, links=links,
-                                                   resume=resume is not None, limits=limits))
+            unit = load_identity(config, "CIGTF")
+        with invoked(operator, identity=unit):
+            res, target = station_run(
+                load_cigtf_params, config, "gyrocompass", run_seed, target, resume is not None,
+                lambda params, d: run_gyrocompass_test(run_seed, d, params=params, links=links,
+                                                       resume=resume is not None, limits=limits))
         render_tables(console, res)
         for p in res["phases"]:
             console.print(f"{p['phase']:>9}: theta {p['theta_arcsec']:+.2f} +/- "

@@ -17,6 +17,7 @@ from typing import TYPE_CHECKING
 
 from laboratory import registry
 from laboratory.connect import connect, journaled_run
+from laboratory.identity import Identifying
 from laboratory.record import write_json, write_sheets
 from laboratory.rundir import JOURNAL, RunDirError, prepare
 from laboratory.seeded import Seeded
@@ -26,6 +27,7 @@ from procedures.cigtf.procedure import TestData, TestPlan, gyrocompass_test
 from procedures.cigtf.significance import TestOutcome, judge_phase, shutdown_f_test
 from procedures.journal import JournalError, scan
 from sim.cigtf.world import CigtfParams
+from station.config.cigtf import CigtfConfig
 from station.config.limits import CigtfLimits
 from station.files import atomic_path
 from station.hil.session import params_digest
@@ -230,7 +232,9 @@ def run_gyrocompass_test(seed: int, out: Path, params: CigtfParams | None = None
     conn = connect(registry.get("cigtf"), Seeded(params, seed), links, rack_hook)
     st, world = conn.drivers, conn.coefficient_world
     with journaled_run(out, conn, resume, renew=RENEW, seed=seed,
-                       test="gyrocompass", params_digest=digest) as (run, extra, t_start):
+                       test="gyrocompass", params_digest=digest,
+                       identify=Identifying("cigtf", "gyrocompass-test", seed, "cigtf",
+                                            CigtfConfig, params)) as (run, extra, t_start):
         data = gyrocompass_test(st, run, plan)
         runs, phases, tests, conclusions = analyse(data)
         truth = world.truth_theta_arcsec() if world is not None else None

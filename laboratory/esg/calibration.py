@@ -28,6 +28,7 @@ import numpy as np
 from laboratory import registry
 from laboratory.connect import connect, journaled_run
 from laboratory.esg.truth import true_pickoff1_coning_arcsec
+from laboratory.identity import Identifying
 from laboratory.record import write_json, write_sheets
 from laboratory.rundir import prepare
 from laboratory.seeded import Seeded
@@ -36,6 +37,7 @@ from procedures.esg import strategy
 from procedures.esg.acquisition import RENEW, Acquisition, EsgPlan, acquire
 from procedures.esg.calibration import SCHEDULES, ScheduleResult, assign, calibrate, nominal
 from sim.esg.world import EsgParams, EsgWorld
+from station.config.esg import EsgConfig
 from station.config.limits import EsgLimits
 from station.files import atomic_path
 from station.racks.esg import EsgRack
@@ -201,7 +203,9 @@ def run_esg_calibration(seed: int, out: Path, params: EsgParams | None = None,
     conn = connect(registry.get("esg"), Seeded(params, seed), links, rack_hook)
     st, served, world = conn.drivers, conn.served, conn.coefficient_world
     with journaled_run(out, conn, resume, renew=RENEW, seed=seed,
-                       test="esg-calibration") as (
+                       test="esg-calibration",
+                       identify=Identifying("esg", "esg-calibration", seed, "esg",
+                                            EsgConfig, params)) as (
             run, extra, t_start):
         acq = acquire(st, run, plan)
         points, bud = assign(acq, plan, plan.lines_per_setting)

@@ -18,6 +18,7 @@ from laboratory.app import (
     station_run,
     verdict_exit,
 )
+from laboratory.identity import OperatorOpt, invoked
 
 
 def add_commands(app: typer.Typer) -> None:
@@ -33,6 +34,7 @@ def add_commands(app: typer.Typer) -> None:
                           "section (site, rotor, [esg.pattern], [esg.signal])")] = None,
         links: Annotated[Path | None, typer.Option("--links", help="run against the rack "
                          "`station serve --station esg --links DIR` serves (real time)")] = None,
+        operator: OperatorOpt = None,
     ) -> None:
         """The strapdown ESG pattern calibration and readout study (report 004)."""
         from laboratory.esg.calibration import render_tables, run_esg_calibration
@@ -41,12 +43,16 @@ def add_commands(app: typer.Typer) -> None:
         check_seed(seed)
         target, args = new_or_resumed("esg-calibration", out, resume, {"seed": seed})
         run_seed = 1 if args["seed"] is None else args["seed"]
+        from station.config.identity import load_identity
+
         with reported(lambda: None):
             limits = load_esg_limits(config)
-        res, target = station_run(
-            load_esg_params, config, "esg", run_seed, target, resume is not None,
-            lambda params, d: run_esg_calibration(run_seed, d, params=params, links=links,
-                                                  resume=resume is not None, limits=limits))
+            unit = load_identity(config, "ESG")
+        with invoked(operator, identity=unit):
+            res, target = station_run(
+                load_esg_params, config, "esg", run_seed, target, resume is not None,
+                lambda params, d: run_esg_calibration(run_seed, d, params=params, links=links,
+                                                      resume=resume is not None, limits=limits))
         render_tables(console, res)
         if "served" in res:
             console.print(f"served rack (session {res['served']['session']}): "

@@ -21,6 +21,7 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Callable
+from contextlib import ExitStack
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, TypeVar
@@ -32,6 +33,7 @@ from rich.table import Table
 
 from laboratory import registry
 from laboratory.connect import connect
+from laboratory.identity import identified, isu_config, isu_identity
 from laboratory.isu.display import DayDisplay
 from laboratory.isu.spec import noise_spec, site_of
 from laboratory.record import write_results, write_sheets
@@ -48,7 +50,7 @@ from procedures.isu.alignment.run import run_alignments
 from procedures.isu.computations import compute_calibration
 from procedures.isu.day import measure_day
 from procedures.isu.plan import DayPlan
-from procedures.isu.sheets import ISU_SHEETS, CalibrationResults, SurveyResults
+from procedures.isu.sheets import ISU_SHEETS, CalibrationResults, SurveyResults, sheets_used
 from procedures.isu.turn_on import turn_on
 from procedures.runner import Run
 from station.config.isu import StationConfig
@@ -283,14 +285,21 @@ def run_align(req: AlignRequest, console: Console | None = None,
     site = site_of(cfg)
     noise = noise_spec(cfg)
     try:
-        with opened_journal(out, req.resume) as journal:
+        with opened_journal(out, req.resume) as journal, ExitStack() as stack:
+            stack.callback(report_after, out)  # after run.json closes; not for a refused run
+            ident = stack.enter_context(identified(
+                out, "isu", "align", cfg.seed, isu_config(cfg), *isu_identity(cfg),
+                req.resume, journal.records))
             with DayDisplay(console, req.quiet) as display:
                 run = Run(st.clock, journal, listener=display,
                           resume="replay" if conn.rack is not None else "skip",
-                          sheet_models=ISU_SHEETS)
+                          sheet_models=ISU_SHEETS, sheets_used=sheets_used,
+                          header=ident.header(f"{method} alignment (station align)",
+                                              ident.record["unit"]["isu"]))
                 if req.resume:
                     resume_note(run)
-                run.note(event="start", seed=cfg.seed, command="align", method=method,
+                run.note(event="start", run_uid=ident.run_uid, seed=cfg.seed,
+                         command="align", method=method,
                          estimator=est, estimator_requested=estimator,
                          calibration=str(calibration_dir) if calibration_dir else None,
                          session=conn.session.session if conn.session else None)
@@ -332,4 +341,3 @@ def run_align(req: AlignRequest, console: Console | None = None,
         return res
     finally:
         conn.close()
-        report_after(out)  # report.html of what the record holds, however it ended

@@ -25,6 +25,7 @@ from laboratory.app import (
     target_dir,
     verdict_exit,
 )
+from laboratory.identity import OperatorOpt, invoked
 
 
 def add_commands(app: typer.Typer) -> None:
@@ -46,6 +47,7 @@ def add_commands(app: typer.Typer) -> None:
                             "simulated time, s (to compare with a rehearsal that began then)")
                             ] = 0.0,
         quiet: QuietOpt = False,
+        operator: OperatorOpt = None,
     ) -> None:
         """The full calibration day: turn-on, survey, positions 1-15, computations, alignments.
 
@@ -66,7 +68,7 @@ def add_commands(app: typer.Typer) -> None:
         fresh_dir = target is None
         target = target_dir(target, "day", cfg.seed)
         try:
-            with reported(lambda: target):
+            with reported(lambda: target), invoked(operator):
                 res = run_day(DayRequest(cfg, target, only=sel_only, positions=sel_pos,
                                          resume=resume is not None, links=links,
                                          start_s=start_at, quiet=quiet), console)
@@ -93,6 +95,7 @@ def add_commands(app: typer.Typer) -> None:
         resume: ResumeOpt = None,
         links: LinksOpt = None,
         quiet: QuietOpt = False,
+        operator: OperatorOpt = None,
     ) -> None:
         """One alignment (Part III): mirror, level or gyrocompass, with the chosen estimator."""
         from laboratory.isu.align import AlignRequest, load_calibration, run_align
@@ -117,7 +120,7 @@ def add_commands(app: typer.Typer) -> None:
         fresh_dir = target is None
         target = target_dir(target, "align", cfg.seed)
         try:
-            with reported(lambda: target):
+            with reported(lambda: target), invoked(operator):
                 res = run_align(AlignRequest(cfg, target, method, estimator, calibration=cal,
                                              links=links, resume=resume is not None,
                                              quiet=quiet), console)

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
+from contextlib import ExitStack
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -19,6 +20,7 @@ from rich.table import Table
 
 from laboratory import registry
 from laboratory.connect import Connection, connect
+from laboratory.identity import RunIdentity, identified, isu_config, isu_identity
 from laboratory.isu.align import day_alignments, render_alignment
 from laboratory.isu.display import DayDisplay
 from laboratory.isu.plots import nonlinearity_plot
@@ -32,7 +34,7 @@ from procedures.isu.alignment.results_sheet import AlignPlan
 from procedures.isu.computations import compute_calibration
 from procedures.isu.day import EXPERIMENTS, measure_day
 from procedures.isu.plan import DayPlan
-from procedures.isu.sheets import ISU_SHEETS, CalibrationResults
+from procedures.isu.sheets import ISU_SHEETS, CalibrationResults, sheets_used
 from procedures.journal import Journal
 from procedures.runner import Run
 from station.config.isu import StationConfig
@@ -142,15 +144,20 @@ def run_day(req: DayRequest, console: Console | None = None,
     wall0 = time.perf_counter()
     conn = connect(registry.get("isu"), req.cfg, req.links, rack_hook, req.start_s)
     try:
-        with opened_journal(req.out, req.resume) as journal:
-            return _day(req, conn, journal, console, wall0)
+        with opened_journal(req.out, req.resume) as journal, ExitStack() as stack:
+            # report.html of what the record holds, however it ended: after run.json is
+            # closed, while this run still holds the directory (a refused run writes none)
+            stack.callback(report_after, req.out)
+            ident = stack.enter_context(identified(
+                req.out, "isu", "day", req.cfg.seed, isu_config(req.cfg),
+                *isu_identity(req.cfg), req.resume, journal.records))
+            return _day(req, conn, journal, console, wall0, ident)
     finally:
         conn.close()
-        report_after(req.out)  # report.html of what the record holds, however it ended
 
 
 def _day(req: DayRequest, conn: Connection, journal: Journal, console: Console,
-         wall0: float) -> dict:
+         wall0: float, ident: RunIdentity) -> dict:
     cfg, out, links = req.cfg, req.out, req.links
     st = conn.station
     sid = conn.session.session if conn.session else None
@@ -159,10 +166,12 @@ def _day(req: DayRequest, conn: Connection, journal: Journal, console: Console,
     with DayDisplay(console, req.quiet) as display:
         run = Run(st.clock, journal, listener=display,
                   resume="replay" if conn.rack is not None else "skip", repeat=repeat,
-                  sheet_models=ISU_SHEETS)
+                  sheet_models=ISU_SHEETS, sheets_used=sheets_used,
+                  header=ident.header("calibration day (station day)",
+                                      ident.record["unit"]["isu"]))
         if req.resume:
             resume_note(run)
-        run.note(event="start", t_sim=st.clock.now(), seed=cfg.seed,
+        run.note(event="start", run_uid=ident.run_uid, t_sim=st.clock.now(), seed=cfg.seed,
                  only=list(req.only or ()), resume=req.resume,
                  positions=list(req.positions or ()), session=sid,
                  links=None if links is None else str(links))

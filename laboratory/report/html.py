@@ -181,6 +181,12 @@ def _journal_sheets(d: Path) -> list[tuple[str, Any]]:
     return list(found.items())
 
 
+def _ending(identity: object) -> dict[str, Any]:
+    """run.json's status, reason and (for a stop) chart and step; None each without it."""
+    ident = identity if isinstance(identity, dict) else {}
+    return {k: ident.get(k) for k in ("status", "reason", "chart", "step")}
+
+
 def _journal_end(d: Path) -> dict:
     """How the journal says the run ended: an end note, or the stop (its failed record) and
     the last step it recorded."""
@@ -322,9 +328,7 @@ def build(run_dir: Path) -> dict:
     return {
         "run_dir": str(d), "laboratory": lab, "lab_title": TITLES.get(lab or "", lab or
                                                                       "unknown laboratory"),
-        "identity": ident_rows, "status": (identity or {}).get("status")
-        if isinstance(identity, dict) else None, "reason": (identity or {}).get("reason")
-        if isinstance(identity, dict) else None,
+        "identity": ident_rows, **_ending(identity),
         "journal": _journal_end(d), "outcome": outcome, "outcome_cls":
         _verdict_class(outcome or ""), "failed": failed, "missing": missing,
         "tables": tables, "truth_tables": truth_tables, "alignments": alignments,

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 from pydantic import Field
 
-from procedures.sheets import CheckSheet, Sheet
+from procedures.sheets import CheckSheet, Sheet, SheetHeader
 
 
 class SurveyResults(Sheet):
@@ -20,6 +20,7 @@ class SurveyResults(Sheet):
     t_bi: list[list[float]]
     settings_deg: dict[str, tuple[float, float]]  # m -> (phi3^m, phi4^m), m = 1, 3, 5, 13, 14, 15
     t_br_column2: dict[str, tuple[float, float, float]]  # m -> (T12, T22, T32)^BRm
+    header: SheetHeader | None = None
 
 
 class PositionSetting(Sheet):
@@ -34,6 +35,7 @@ class ResolverSettings(Sheet):
     """Test Table Resolver Settings Sheet (Chart II-1 / II-17), degrees."""
 
     positions: dict[str, PositionSetting]
+    header: SheetHeader | None = None
 
 
 class CounterConnection(Sheet):
@@ -46,6 +48,7 @@ class CounterConnections(Sheet):
     """Counter Connections Sheet (Chart II-2): experiment -> counter -> patching."""
 
     experiments: dict[str, dict[str, CounterConnection]]
+    header: SheetHeader | None = None
 
 
 class CounterSettings(Sheet):
@@ -53,12 +56,14 @@ class CounterSettings(Sheet):
 
     presets: dict[str, dict[str, int]]
     basis: dict[str, str]  # experiment -> how the preset follows from the required accuracy
+    header: SheetHeader | None = None
 
 
 class CounterOutputs(Sheet):
     """Counter Outputs Sheet (Chart II-4): position -> counter -> reading."""
 
     outputs: dict[str, dict[str, int]] = Field(default_factory=dict)
+    header: SheetHeader | None = None
 
 
 class ResultRow(Sheet):
@@ -76,6 +81,24 @@ class CalibrationResults(Sheet):
 
     rows: list[ResultRow]
     positions_used: list[int]
+    header: SheetHeader | None = None
+
+
+# The chart each sheet is, and the sheets its heading cites as used ("Survey Results Sheet
+# Used ..." on Chart II-5; Chart III-1 names the calibration constants it used). A check-sheet
+# check_<chart> is its chart's procedure.
+SHEET_CHARTS = {"survey_results": "I-3", "resolver_settings": "II-1",
+                "counter_connections": "II-2", "counter_settings": "II-3",
+                "counter_outputs": "II-4", "calibration_results": "II-5"}
+SHEETS_USED: dict[str, list[str]] = {
+    "I-3": [],
+    "II-1": ["Chart I-3"],
+    "II-2": [],
+    "II-3": ["Chart II-2"],
+    "II-4": ["Chart II-2", "Chart II-3"],
+    "II-5": ["Chart I-3", "Chart II-1", "Chart II-3", "Chart II-4"],
+    "III-1": ["Chart I-3", "Chart II-5"],
+}
 
 
 ISU_SHEETS: dict[str, type[Sheet]] = {
@@ -87,3 +110,15 @@ ISU_SHEETS: dict[str, type[Sheet]] = {
     "counter_outputs": CounterOutputs,
     "calibration_results": CalibrationResults,
 }
+
+
+def sheets_used(name: str) -> list[str]:
+    """The "Sheet Used" cross-references of the sheet ``name`` (Charts I-3, II-2..II-5,
+    III-1); a check-sheet ``check_<chart>`` cites what its chart's results sheet does."""
+    if name.startswith("alignment_results"):
+        chart = "III-1"
+    elif name.startswith("check_"):
+        chart = name.removeprefix("check_")
+    else:
+        chart = SHEET_CHARTS.get(name, "")
+    return list(SHEETS_USED.get(chart, []))

@@ -30,9 +30,9 @@ MAX_ERRORS = 4  # field errors spelt out in one message; the rest are counted
 # The top-level names of each laboratory's file, and the commands that read it.
 LABORATORIES: dict[str, tuple[str, ...]] = {
     "ISU": ("seed", "site", "environment", "table", "isu", "oscillator", "instruments",
-            "links", "faults", "limits"),
-    "CIGTF": ("cigtf",),
-    "ESG": ("esg",),
+            "links", "identity", "faults", "limits"),
+    "CIGTF": ("identity", "cigtf"),  # [identity] is every laboratory's; its own one last
+    "ESG": ("identity", "esg"),
 }
 COMMANDS = {
     "ISU": "station day, align, check, serve --station isu",
@@ -191,7 +191,7 @@ def read_section(path: str | Path, section: str, model: type[M], what: str) -> M
     ``model``; a file without the section gives the model's defaults."""
     where = str(path)
     doc = read_document(path)
-    lab = next(k for k, names in LABORATORIES.items() if names == (section,))
+    lab = next(k for k, names in LABORATORIES.items() if names[-1] == section)
     check_sections(doc, where, lab)
     return validate(model, doc.get(section, {}), where, what, (section,))
 

@@ -49,6 +49,7 @@ from station.config.file import (
     read_section,
     validate,
 )
+from station.config.identity import IsuIdentity
 from station.config.limits import IsuLimits
 from station.drivers.isu import SERIAL_INSTRUMENTS
 
@@ -214,6 +215,7 @@ class StationConfig(BaseModel):
     links: Links
     faults: dict[Annotated[str, AfterValidator(_fault_instrument)], FaultSpec] = {}
     limits: IsuLimits = IsuLimits()  # acceptance limits (station/config/limits.py)
+    identity: IsuIdentity
 
     @field_validator("faults")
     @classmethod

@@ -9,6 +9,8 @@ from typing import Annotated, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
+from procedures.sheets import SheetHeader
+
 METHODS = ("mirror", "level", "gyrocompass")
 ESTIMATORS = ("average", "posterior", "hybrid")
 
@@ -41,6 +43,7 @@ class AlignmentResults(_Sheet):
     physical_limit_arcsec: tuple[float, float, float]
     options: dict[str, float | bool | None] = Field(default_factory=dict)
     notes: list[str] = Field(default_factory=list)
+    header: SheetHeader | None = None
 
 
 class AlignPlan(_Sheet):

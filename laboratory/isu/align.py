@@ -26,16 +26,16 @@ from pathlib import Path
 from typing import TYPE_CHECKING, TypeVar
 
 from pydantic import BaseModel, ValidationError
-from rich import box
 from rich.console import Console
-from rich.table import Table
 
 from laboratory import registry
 from laboratory.connect import connect
+from laboratory.export import can_log, write_alignment_samples, write_results_csv
 from laboratory.isu.display import DayDisplay
 from laboratory.isu.spec import noise_spec, site_of
 from laboratory.record import write_results, write_sheets
 from laboratory.rundir import opened_journal, prepare, resume_note
+from laboratory.tables import Column, print_fitted
 from procedures.isu.alignment.align_math import rotation_error_arcsec
 from procedures.isu.alignment.common import Outcome, canonical_estimator
 from procedures.isu.alignment.options import DAY_ESTIMATORS, AlignmentOptions
@@ -138,7 +138,8 @@ def gyrocompass_refusal(cfg: StationConfig, plan: AlignPlan | None = None) -> st
 
 def day_alignments(st: IsuDrivers, run: Run, calib: CalibrationResults, cfg: StationConfig,
                    world: World | None,
-                   tape_dir: Path | None = None, plan: AlignPlan | None = None) -> list[dict]:
+                   tape_dir: Path | None = None, plan: AlignPlan | None = None,
+                   samples_dir: Path | None = None) -> list[dict]:
     """After the calibration of ``station day``: the three alignments (those the
     calibration allows, ``day_methods``), as results entries. The gyrocompass alignment
     is skipped near a pole (``gyrocompass_refusal``), its entry saying why."""
@@ -152,6 +153,8 @@ def day_alignments(st: IsuDrivers, run: Run, calib: CalibrationResults, cfg: Sta
                             plan=plan or AlignPlan(), estimators=methods, tape_dir=tape_dir,
                             calibration_id="this run (Chart II-15)")
     outcomes = run_alignments(st, run, opts)
+    if samples_dir is not None:  # the raw IEU samples of each alignment as CSV
+        write_alignment_samples(samples_dir, outcomes)
     return alignment_entries(outcomes, world) + skipped
 
 
@@ -191,13 +194,12 @@ def load_tape(path: Path) -> Tape:
 
 
 def render_alignment(console: Console, entries: list[dict]) -> None:
-    t = Table(title="Alignment Results (Chart III-1): error vs truth, predicted sigma, "
-              "physical limit (arcsec)", box=box.SIMPLE_HEAD, pad_edge=False)
-    for c in ("method", "technique", "K x dt", "about E", "about N", "azimuth",
-              "sigma E/N/az", "limit E/N/az"):
-        t.add_column(c, justify="left" if c in ("method", "technique") else "right",
-                     no_wrap=True)
+    """Chart III-1's rows on the console (split rather than cut when narrow)."""
+    names = ("method", "technique", "K x dt", "about E", "about N", "azimuth",
+             "sigma E/N/az", "limit E/N/az")
+    cols = [Column(c, right=c not in ("method", "technique")) for c in names]
     skipped = [e for e in entries if "skipped" in e]
+    cells = []
     for e in entries:
         if "skipped" in e:
             continue
@@ -209,12 +211,13 @@ def render_alignment(console: Console, entries: list[dict]) -> None:
             s = f"{x:+.2f}"
             return f"[red]{s}[/]" if abs(zz) > 4 else s
 
-        t.add_row(e["method"], e["estimator"], f"{e['K']} x {e['dt']:g} s",
-                  f(e["level_error_arcsec"][0], z[0]), f(e["level_error_arcsec"][1], z[1]),
-                  f(e["azimuth_error_arcsec"], z[2]),
-                  "/".join(f"{x:.2f}" for x in e["predicted_sigma_arcsec"]),
-                  "/".join(f"{x:.2f}" for x in e["physical_limit_arcsec"]))
-    console.print(t)
+        cells.append([e["method"], e["estimator"], f"{e['K']} x {e['dt']:g} s",
+                      f(e["level_error_arcsec"][0], z[0]), f(e["level_error_arcsec"][1], z[1]),
+                      f(e["azimuth_error_arcsec"], z[2]),
+                      "/".join(f"{x:.2f}" for x in e["predicted_sigma_arcsec"]),
+                      "/".join(f"{x:.2f}" for x in e["physical_limit_arcsec"])])
+    print_fitted(console, "Alignment Results (Chart III-1): error vs truth, predicted sigma, "
+                 "physical limit (arcsec)", cols, cells)
     for e in skipped:
         console.print(f"{e['method']} alignment skipped: {e['skipped']}", markup=False)
 
@@ -282,7 +285,7 @@ def run_align(req: AlignRequest, console: Console | None = None,
     noise = noise_spec(cfg)
     try:
         with opened_journal(out, req.resume) as journal:
-            with DayDisplay(console, req.quiet) as display:
+            with can_log(out, st.ieu), DayDisplay(console, req.quiet) as display:
                 run = Run(st.clock, journal, listener=display,
                           resume="replay" if conn.rack is not None else "skip",
                           sheet_models=ISU_SHEETS)
@@ -319,6 +322,8 @@ def run_align(req: AlignRequest, console: Console | None = None,
                 "links": None if links is None else str(links),
             }
             write_results(out, res)
+            write_results_csv(out, entries)
+            write_alignment_samples(out, outcomes)
             run.note(event="end", sim_seconds=st.clock.now())
         if not req.quiet:
             render_alignment(console, entries)

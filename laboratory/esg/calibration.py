@@ -23,11 +23,10 @@ from dataclasses import replace
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-import numpy as np
-
 from laboratory import registry
 from laboratory.connect import connect, journaled_run
 from laboratory.esg.truth import true_pickoff1_coning_arcsec
+from laboratory.export import write_results_csv
 from laboratory.record import write_json, write_sheets
 from laboratory.rundir import prepare
 from laboratory.seeded import Seeded
@@ -152,13 +151,16 @@ def render_tables(console: Console, res: dict) -> None:
 
 
 def calibration_plot(results: list[ScheduleResult], path: Path) -> None:
+    """Compensated minus assigned (or true) colatitude per schedule, with the report's
+    +/-15 arcsec goal lines labelled and the legend outside the data (right margin)."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, axes = plt.subplots(len(results), 1, figsize=(8, 3.2 * len(results)), sharex=True)
-    for ax, res in zip(np.atleast_1d(axes), results, strict=True):
+    fig, axes = plt.subplots(len(results), 1, figsize=(10, 3.2 * len(results)), sharex=True,
+                             squeeze=False)
+    for ax, res in zip(axes[:, 0], results, strict=True):
         for rows, mark, what in ((res.calibration, "o", "fit"), (res.readout, "s", "readout")):
             x = [r["colatitude_deg"] for r in rows]
             ax.plot(x, [r["error_arcsec"] for r in rows], mark, ms=4, mfc="none",
@@ -166,12 +168,17 @@ def calibration_plot(results: list[ScheduleResult], path: Path) -> None:
             if all(r["true_error_arcsec"] is not None for r in rows):
                 ax.plot(x, [r["true_error_arcsec"] for r in rows], mark, ms=3,
                         label=f"{what}: true")
-        ax.axhline(GOAL_ARCSEC, color="k", lw=0.6, ls="--")
+        ax.axhline(GOAL_ARCSEC, color="k", lw=0.6, ls="--",
+                   label=f"goal +/-{GOAL_ARCSEC:g} arcsec")
         ax.axhline(-GOAL_ARCSEC, color="k", lw=0.6, ls="--")
+        for y in (GOAL_ARCSEC, -GOAL_ARCSEC):
+            ax.annotate(f"{y:+g} arcsec goal", (1.0, y), xycoords=("axes fraction", "data"),
+                        xytext=(-4, 2 if y > 0 else -9), textcoords="offset points",
+                        ha="right", fontsize=7)
         ax.set_ylabel("error (arcsec)")
         ax.set_title(f"schedule {res.name}: compensated minus assigned / true colatitude")
-        ax.legend(fontsize=7, ncol=4)
-    np.atleast_1d(axes)[-1].set_xlabel("colatitude of pickoff 2 (deg)")
+        ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0)
+    axes[-1, 0].set_xlabel("colatitude of pickoff 2 (deg)")
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
@@ -253,5 +260,6 @@ def run_esg_calibration(seed: int, out: Path, params: EsgParams | None = None,
         res_json["sim_seconds"] = st.clock.now() - t_start
         res_json["wall_seconds"] = time.perf_counter() - wall0
         write_json(out / "esg.json", res_json)
+        write_results_csv(out, schedules, "esg.csv")
         run.note(event="end", sim_seconds=st.clock.now() - t_start)
         return res_json

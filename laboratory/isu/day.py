@@ -20,7 +20,7 @@ from laboratory.connect import Connection, connect
 from laboratory.export import can_log, write_results_csv
 from laboratory.isu.align import day_alignments, render_alignment
 from laboratory.isu.display import DayDisplay
-from laboratory.isu.plots import nonlinearity_plot
+from laboratory.isu.plots import nonlinearity_plot, results_plot
 from laboratory.isu.spec import noise_spec, site_of
 from laboratory.isu.truth import calibration_truth
 from laboratory.record import write_results, write_sheets
@@ -181,10 +181,14 @@ def _day(req: DayRequest, conn: Connection, journal: Journal, console: Console,
                                        tape_dir=out / "tapes", plan=req.align_plan,
                                        samples_dir=out)
     write_sheets(out, run)
+    dphi = {int(r.instrument[4:]): r.estimate for r in calib.rows
+            if r.parameter == "DeltaPhi" and r.estimate is not None}
     with atomic_path(out / "nonlinearity.png") as tmp:
-        nonlinearity_plot(data.nonlinearity, tmp)
+        nonlinearity_plot(data.nonlinearity, tmp, noise, dphi)
     world = conn.coefficient_world
     rows = results_rows(calib, calibration_truth(world) if world else {})
+    with atomic_path(out / "results.png") as tmp:
+        results_plot(rows, tmp)
     res = {
         "seed": cfg.seed,
         "sim_seconds": st.clock.now(),

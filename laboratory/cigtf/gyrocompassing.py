@@ -49,6 +49,7 @@ def theta_plot(res: dict, path: Path) -> None:
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    from matplotlib.ticker import MaxNLocator
 
     phases = [ph for ph in PHASES if any(r["phase"] == ph for r in res["runs"])] or [PHASES[0]]
     sizes = [max(1, sum(r["phase"] == ph for r in res["runs"])) for ph in phases]
@@ -66,8 +67,10 @@ def theta_plot(res: dict, path: Path) -> None:
                       linestyles="--", label=f"{ph} mean {p['theta_arcsec']:+.2f} arcsec")
         if truth is not None:
             ax.axhline(truth, color="k", lw=0.8, label=f"truth (eq. 26) {truth:+.2f} arcsec")
-        ax.set_xlabel(f"run ({ph} phase, as the run table)")
-        ax.set_title(f"{ph} phase")
+        ax.set_xlabel("run")
+        ax.xaxis.set_major_locator(MaxNLocator(integer=True))
+        ax.set_title(f"{ph} phase (runs as the run table numbers them)" if ph == PHASES[0]
+                     else f"{ph} phase", fontsize=10)
         ax.legend(fontsize=7, loc="best")
     axes[0][0].set_ylabel("gyrocompassing error theta (arcsec)")
     fig.suptitle("CIGTF gyrocompassing accuracy test")

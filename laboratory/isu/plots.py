@@ -74,7 +74,7 @@ def results_plot(rows: list[dict], path: Path) -> bool:
         return False
     labels = [f"{r['instrument']} {r['parameter']} ({r['units']})" for r in use]
     y = np.arange(len(use))
-    fig, ax = plt.subplots(figsize=(8, 1.2 + 0.22 * len(use)))
+    fig, ax = plt.subplots(figsize=(8, max(2.5, 1.2 + 0.22 * len(use))))
     colours = ["tab:red" if abs(v) > bound else "tab:blue" for v in vals]
     ax.barh(y, vals, color=colours)
     for b in (bound, -bound) if sim else (bound,):

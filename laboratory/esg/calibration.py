@@ -30,6 +30,7 @@ from laboratory.export import write_results_csv
 from laboratory.record import write_json, write_sheets
 from laboratory.rundir import prepare
 from laboratory.seeded import Seeded
+from laboratory.tables import Column, print_fitted
 from procedures.esg import strategy
 from procedures.esg.acquisition import RENEW, Acquisition, EsgPlan, acquire
 from procedures.esg.calibration import SCHEDULES, ScheduleResult, assign, calibrate, nominal
@@ -127,17 +128,15 @@ def render_tables(console: Console, res: dict) -> None:
     def f1(x: float | None) -> str:
         return "-" if x is None else f"{x:.1f}"
 
-    t = Table(title="Pattern calibration and readout (arcsec rms; true = against the "
-              "simulator's colatitude)", box=box.SIMPLE_HEAD)
-    for c in ("schedule", "n fit", "calibration", "true", "n readout", "readout", "true",
-              "assignment", "predicted"):
-        t.add_column(c, justify="right")
-    for s in res["schedules"]:
-        t.add_row(s["name"], str(s["n_fit"]), f1(s["calibration_rms_arcsec"]),
-                  f1(s["true_calibration_rms_arcsec"]), str(s["n_readout"]),
-                  f1(s["readout_rms_arcsec"]), f1(s["true_readout_rms_arcsec"]),
-                  f1(s["assignment_rms_arcsec"]), f1(s["predicted_assignment_rms_arcsec"]))
-    console.print(t)
+    names = ("schedule", "n fit", "calibration", "true", "n readout", "readout", "true",
+             "assignment", "predicted")
+    cells = [[s["name"], str(s["n_fit"]), f1(s["calibration_rms_arcsec"]),
+              f1(s["true_calibration_rms_arcsec"]), str(s["n_readout"]),
+              f1(s["readout_rms_arcsec"]), f1(s["true_readout_rms_arcsec"]),
+              f1(s["assignment_rms_arcsec"]), f1(s["predicted_assignment_rms_arcsec"])]
+             for s in res["schedules"]]
+    print_fitted(console, "Pattern calibration and readout (arcsec rms; true = against the "
+                 "simulator's colatitude)", [Column(c) for c in names], cells, keys=1)
     if "amplification" in res:
         a = Table(title="Edge-error amplification (Figure 2 points)", box=box.SIMPLE_HEAD)
         for c in ("pattern", "range", "strategy", "factor", "report"):

@@ -11,6 +11,7 @@ laboratories' commands (laboratory/<lab>/cli.py) are registered through ``comman
 from __future__ import annotations
 
 import functools
+import os
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
@@ -24,7 +25,9 @@ from station.errors import BadArgument, OperatorError, UseError, VerdictFailed
 
 app = typer.Typer(add_completion=False, no_args_is_help=True,
                   help="The simulated inertial-instrument laboratories.")
-console = Console() if Console().is_terminal else Console(width=110)
+# piped: 110 columns unless COLUMNS says otherwise (rich reads COLUMNS itself)
+console = (Console() if Console().is_terminal or os.environ.get("COLUMNS", "").isdigit()
+           else Console(width=110))
 
 ConfigOpt = Annotated[
     Path | None, typer.Option("--config", help="station config TOML (merged over the default)")

@@ -118,8 +118,8 @@ def serve(
     can_port: Annotated[int, typer.Option("--can-port", help="socketcand TCP port (0: any "
                         "free port)")] = 0,
     station: Annotated[str, typer.Option("--station", help="which laboratory's rack: isu "
-                       "(default; its config carries the seed), cigtf ([cigtf] config) or "
-                       "esg ([esg] config; both seed 1 unless given)")] = "isu",
+                       "(default; its config carries the seed), cigtf (\\[cigtf] config) or "
+                       "esg (\\[esg] config; both seed 1 unless given)")] = "isu",
 ) -> None:
     """Serve a simulated rack in real time on ptys (the ISU's IEU also on socketcand and
     slcan), with a live status table; stop with Ctrl-C."""
@@ -152,7 +152,7 @@ def compare(
                          "(docs/hil.md)")] = False,
 ) -> None:
     """Show which sheet and result values differ between two run directories."""
-    from laboratory.compare import differences
+    from laboratory.compare import differences, render_differences
 
     if rehearsal:
         from station.hil.twin import compare_rehearsal
@@ -169,12 +169,7 @@ def compare(
     if not diffs:
         console.print("no differences")
         return
-    t = Table(title=f"{len(diffs)} values differ")
-    for c in ("where", str(dir_a), str(dir_b)):
-        t.add_column(c)
-    for k, a, b in diffs:
-        t.add_row(k, str(a), str(b))
-    console.print(t)
+    render_differences(console, diffs, dir_a, dir_b)
     raise typer.Exit(1)
 
 

@@ -12,6 +12,12 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+from rich.console import Console
+from rich.table import Table
+from rich.text import Text
+
+from laboratory.tables import fits
+
 IGNORED = {"wall", "wall_seconds", "t_wall"}
 # run-specific stamps (laboratory.identity.STAMPS) and a sheet header's date, by path
 IGNORED_PATHS = {*(f"run.{k}" for k in ("run_uid", "started_utc", "ended_utc",
@@ -98,3 +104,25 @@ def differences(a: Path, b: Path, rel_tol: float = 0.0) -> list[tuple[str, objec
             continue
         out.append((k, va, vb))
     return out
+
+
+def render_differences(console: Console, diffs: list[tuple[str, object, object]], a: Path,
+                       b: Path) -> None:
+    """The differences as a table when it fits the console, else one block per value (key,
+    then each run's value on its own line): never a key or value cut short, never read as
+    markup (keys hold brackets)."""
+    cols = ("where", str(a), str(b))
+    t = Table(title=Text(f"{len(diffs)} values differ"))
+    for c in cols:
+        t.add_column(Text(c), overflow="fold")
+    for k, va, vb in diffs:
+        t.add_row(Text(k), Text(str(va)), Text(str(vb)))
+    if fits(console, t):
+        console.print(t)
+        return
+    console.print(f"{len(diffs)} values differ (A: {a}, B: {b})", markup=False,
+                  highlight=False, soft_wrap=True)
+    for k, va, vb in diffs:
+        console.print(k, markup=False, highlight=False, soft_wrap=True)
+        console.print(f"  A: {va}", markup=False, highlight=False, soft_wrap=True)
+        console.print(f"  B: {vb}", markup=False, highlight=False, soft_wrap=True)

@@ -33,7 +33,7 @@ def add_commands(app: typer.Typer) -> None:
         analyse: Annotated[Path | None, typer.Option(
             "--analyse", help="recompute the phase analysis from the journal in this "
             "directory (e.g. after a stop)")] = None,
-        config: Annotated[Path | None, typer.Option("--config", help="TOML with a [cigtf] "
+        config: Annotated[Path | None, typer.Option("--config", help="TOML with a \\[cigtf] "
                           "section (latitude_deg, noise and misalignment magnitudes)")] = None,
         links: Annotated[Path | None, typer.Option("--links", help="run against the rack "
                          "`station serve --station cigtf --links DIR` serves (real time)")] = None,

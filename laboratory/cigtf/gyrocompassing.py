@@ -17,6 +17,7 @@ from typing import TYPE_CHECKING
 
 from laboratory import registry
 from laboratory.connect import connect, journaled_run
+from laboratory.export import write_results_csv
 from laboratory.identity import Identifying
 from laboratory.record import write_json, write_sheets
 from laboratory.rundir import JOURNAL, RunDirError, prepare
@@ -46,28 +47,37 @@ def _test(name: str, t: TestOutcome) -> dict:
 
 
 def theta_plot(res: dict, path: Path) -> None:
+    """theta of every run with its standard error, one panel per phase, runs numbered as
+    the run table numbers them (operating 1-25, shutdown 1-10); phase means dashed."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    from matplotlib.ticker import MaxNLocator
 
-    fig, ax = plt.subplots(figsize=(8, 4))
-    n = 0
-    for ph, colour in zip(PHASES, ("tab:blue", "tab:orange"), strict=True):
+    phases = [ph for ph in PHASES if any(r["phase"] == ph for r in res["runs"])] or [PHASES[0]]
+    sizes = [max(1, sum(r["phase"] == ph for r in res["runs"])) for ph in phases]
+    fig, axes = plt.subplots(1, len(phases), figsize=(9, 4), sharey=True, squeeze=False,
+                             gridspec_kw={"width_ratios": sizes})
+    truth = res["truth"]["theta_arcsec"]
+    for ax, ph, colour in zip(axes[0], phases, ("tab:blue", "tab:orange"), strict=False):
         rows = [r for r in res["runs"] if r["phase"] == ph]
-        x = list(range(n + 1, n + len(rows) + 1))
-        n += len(rows)
+        x = [r["run"] for r in rows]
         ax.errorbar(x, [r["theta_arcsec"] for r in rows], [r["sigma_arcsec"] for r in rows],
-                    fmt="o", color=colour, capsize=2, label=f"{ph} runs")
+                    fmt="o", color=colour, capsize=2, label=f"{ph} runs (+/- 1 sigma)")
         p = next((q for q in res["phases"] if q["phase"] == ph), None)
         if p is not None and x:
-            ax.hlines(p["theta_arcsec"], x[0], x[-1], colors=colour, linestyles="--")
-    if res["truth"]["theta_arcsec"] is not None:
-        ax.axhline(res["truth"]["theta_arcsec"], color="k", lw=0.8, label="truth (eq. 26)")
-    ax.set_xlabel("run")
-    ax.set_ylabel("gyrocompassing error theta (arcsec)")
-    ax.set_title("CIGTF gyrocompassing accuracy test")
-    ax.legend(fontsize=8)
+            ax.hlines(p["theta_arcsec"], min(x) - 0.5, max(x) + 0.5, colors=colour,
+                      linestyles="--", label=f"{ph} mean {p['theta_arcsec']:+.2f} arcsec")
+        if truth is not None:
+            ax.axhline(truth, color="k", lw=0.8, label=f"truth (eq. 26) {truth:+.2f} arcsec")
+        ax.set_xlabel("run")
+        ax.xaxis.set_major_locator(MaxNLocator(integer=True))
+        ax.set_title(f"{ph} phase (runs as the run table numbers them)" if ph == PHASES[0]
+                     else f"{ph} phase", fontsize=10)
+        ax.legend(fontsize=7, loc="best")
+    axes[0][0].set_ylabel("gyrocompassing error theta (arcsec)")
+    fig.suptitle("CIGTF gyrocompassing accuracy test")
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
@@ -258,6 +268,7 @@ def run_gyrocompass_test(seed: int, out: Path, params: CigtfParams | None = None
             **extra,
         }
         write_json(out / "gyrocompass.json", res)
+        write_results_csv(out, res["runs"], "gyrocompass.csv")
         with atomic_path(out / "gyrocompass.png") as tmp:
             theta_plot(res, tmp)
         run.note(event="end", sim_seconds=st.clock.now() - t_start)

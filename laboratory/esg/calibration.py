@@ -23,15 +23,15 @@ from dataclasses import replace
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-import numpy as np
-
 from laboratory import registry
 from laboratory.connect import connect, journaled_run
 from laboratory.esg.truth import true_pickoff1_coning_arcsec
+from laboratory.export import write_results_csv
 from laboratory.identity import Identifying
 from laboratory.record import write_json, write_sheets
 from laboratory.rundir import prepare
 from laboratory.seeded import Seeded
+from laboratory.tables import Column, print_fitted
 from laboratory.verdicts import judge_schedules, run_verdict
 from procedures.esg import strategy
 from procedures.esg.acquisition import RENEW, Acquisition, EsgPlan, acquire
@@ -132,17 +132,15 @@ def render_tables(console: Console, res: dict) -> None:
     def f1(x: float | None) -> str:
         return "-" if x is None else f"{x:.1f}"
 
-    t = Table(title="Pattern calibration and readout (arcsec rms; true = against the "
-              "simulator's colatitude)", box=box.SIMPLE_HEAD)
-    for c in ("schedule", "n fit", "calibration", "true", "n readout", "readout", "true",
-              "assignment", "predicted"):
-        t.add_column(c, justify="right")
-    for s in res["schedules"]:
-        t.add_row(s["name"], str(s["n_fit"]), f1(s["calibration_rms_arcsec"]),
-                  f1(s["true_calibration_rms_arcsec"]), str(s["n_readout"]),
-                  f1(s["readout_rms_arcsec"]), f1(s["true_readout_rms_arcsec"]),
-                  f1(s["assignment_rms_arcsec"]), f1(s["predicted_assignment_rms_arcsec"]))
-    console.print(t)
+    names = ("schedule", "n fit", "calibration", "true", "n readout", "readout", "true",
+             "assignment", "predicted")
+    cells = [[s["name"], str(s["n_fit"]), f1(s["calibration_rms_arcsec"]),
+              f1(s["true_calibration_rms_arcsec"]), str(s["n_readout"]),
+              f1(s["readout_rms_arcsec"]), f1(s["true_readout_rms_arcsec"]),
+              f1(s["assignment_rms_arcsec"]), f1(s["predicted_assignment_rms_arcsec"])]
+             for s in res["schedules"]]
+    print_fitted(console, "Pattern calibration and readout (arcsec rms; true = against the "
+                 "simulator's colatitude)", [Column(c) for c in names], cells, keys=1)
     if "amplification" in res:
         a = Table(title="Edge-error amplification (Figure 2 points)", box=box.SIMPLE_HEAD)
         for c in ("pattern", "range", "strategy", "factor", "report"):
@@ -156,13 +154,16 @@ def render_tables(console: Console, res: dict) -> None:
 
 
 def calibration_plot(results: list[ScheduleResult], path: Path) -> None:
+    """Compensated minus assigned (or true) colatitude per schedule, with the report's
+    +/-15 arcsec goal lines labelled and the legend outside the data (right margin)."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, axes = plt.subplots(len(results), 1, figsize=(8, 3.2 * len(results)), sharex=True)
-    for ax, res in zip(np.atleast_1d(axes), results, strict=True):
+    fig, axes = plt.subplots(len(results), 1, figsize=(10, 3.2 * len(results)), sharex=True,
+                             squeeze=False)
+    for ax, res in zip(axes[:, 0], results, strict=True):
         for rows, mark, what in ((res.calibration, "o", "fit"), (res.readout, "s", "readout")):
             x = [r["colatitude_deg"] for r in rows]
             ax.plot(x, [r["error_arcsec"] for r in rows], mark, ms=4, mfc="none",
@@ -170,12 +171,17 @@ def calibration_plot(results: list[ScheduleResult], path: Path) -> None:
             if all(r["true_error_arcsec"] is not None for r in rows):
                 ax.plot(x, [r["true_error_arcsec"] for r in rows], mark, ms=3,
                         label=f"{what}: true")
-        ax.axhline(GOAL_ARCSEC, color="k", lw=0.6, ls="--")
+        ax.axhline(GOAL_ARCSEC, color="k", lw=0.6, ls="--",
+                   label=f"goal +/-{GOAL_ARCSEC:g} arcsec")
         ax.axhline(-GOAL_ARCSEC, color="k", lw=0.6, ls="--")
+        for y in (GOAL_ARCSEC, -GOAL_ARCSEC):
+            ax.annotate(f"{y:+g} arcsec goal", (1.0, y), xycoords=("axes fraction", "data"),
+                        xytext=(-4, 2 if y > 0 else -9), textcoords="offset points",
+                        ha="right", fontsize=7)
         ax.set_ylabel("error (arcsec)")
         ax.set_title(f"schedule {res.name}: compensated minus assigned / true colatitude")
-        ax.legend(fontsize=7, ncol=4)
-    np.atleast_1d(axes)[-1].set_xlabel("colatitude of pickoff 2 (deg)")
+        ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0)
+    axes[-1, 0].set_xlabel("colatitude of pickoff 2 (deg)")
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
@@ -262,5 +268,6 @@ def run_esg_calibration(seed: int, out: Path, params: EsgParams | None = None,
         res_json["sim_seconds"] = st.clock.now() - t_start
         res_json["wall_seconds"] = time.perf_counter() - wall0
         write_json(out / "esg.json", res_json)
+        write_results_csv(out, schedules, "esg.csv")
         run.note(event="end", sim_seconds=st.clock.now() - t_start)
         return res_json

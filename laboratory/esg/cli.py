@@ -30,8 +30,8 @@ def add_commands(app: typer.Typer) -> None:
                         "resuming, the run's)")] = None,
         out: OutOpt = None,
         resume: ResumeOpt = None,
-        config: Annotated[Path | None, typer.Option("--config", help="TOML with an [esg] "
-                          "section (site, rotor, [esg.pattern], [esg.signal])")] = None,
+        config: Annotated[Path | None, typer.Option("--config", help="TOML with an \\[esg] "
+                          "section (site, rotor, \\[esg.pattern], \\[esg.signal])")] = None,
         links: Annotated[Path | None, typer.Option("--links", help="run against the rack "
                          "`station serve --station esg --links DIR` serves (real time)")] = None,
         operator: OperatorOpt = None,

@@ -27,18 +27,18 @@ from pathlib import Path
 from typing import TYPE_CHECKING, TypeVar
 
 from pydantic import BaseModel, ValidationError
-from rich import box
 from rich.console import Console
-from rich.table import Table
 
 from laboratory import registry
 from laboratory.connect import connect
+from laboratory.export import can_log, write_alignment_samples, write_results_csv
 from laboratory.identity import identified, isu_config, isu_identity
 from laboratory.isu.display import DayDisplay
 from laboratory.isu.spec import noise_spec, site_of
 from laboratory.record import write_results, write_sheets
 from laboratory.report import report_after
 from laboratory.rundir import opened_journal, prepare, resume_note
+from laboratory.tables import Column, print_fitted
 from laboratory.verdicts import judge_alignments, run_verdict
 from procedures.isu.alignment.align_math import rotation_error_arcsec
 from procedures.isu.alignment.common import Outcome, canonical_estimator
@@ -142,7 +142,8 @@ def gyrocompass_refusal(cfg: StationConfig, plan: AlignPlan | None = None) -> st
 
 def day_alignments(st: IsuDrivers, run: Run, calib: CalibrationResults, cfg: StationConfig,
                    world: World | None,
-                   tape_dir: Path | None = None, plan: AlignPlan | None = None) -> list[dict]:
+                   tape_dir: Path | None = None, plan: AlignPlan | None = None,
+                   samples_dir: Path | None = None) -> list[dict]:
     """After the calibration of ``station day``: the three alignments (those the
     calibration allows, ``day_methods``), as results entries. The gyrocompass alignment
     is skipped near a pole (``gyrocompass_refusal``), its entry saying why."""
@@ -156,6 +157,8 @@ def day_alignments(st: IsuDrivers, run: Run, calib: CalibrationResults, cfg: Sta
                             plan=plan or AlignPlan(), estimators=methods, tape_dir=tape_dir,
                             calibration_id="this run (Chart II-15)")
     outcomes = run_alignments(st, run, opts)
+    if samples_dir is not None:  # the raw IEU samples of each alignment as CSV
+        write_alignment_samples(samples_dir, outcomes)
     return judge_alignments(alignment_entries(outcomes, world), cfg.limits) + skipped
 
 
@@ -195,13 +198,12 @@ def load_tape(path: Path) -> Tape:
 
 
 def render_alignment(console: Console, entries: list[dict]) -> None:
-    t = Table(title="Alignment Results (Chart III-1): error vs truth, predicted sigma, "
-              "physical limit (arcsec)", box=box.SIMPLE_HEAD, pad_edge=False)
-    for c in ("method", "technique", "K x dt", "about E", "about N", "azimuth",
-              "sigma E/N/az", "limit E/N/az"):
-        t.add_column(c, justify="left" if c in ("method", "technique") else "right",
-                     no_wrap=True)
+    """Chart III-1's rows on the console (split rather than cut when narrow)."""
+    names = ("method", "technique", "K x dt", "about E", "about N", "azimuth",
+             "sigma E/N/az", "limit E/N/az")
+    cols = [Column(c, right=c not in ("method", "technique")) for c in names]
     skipped = [e for e in entries if "skipped" in e]
+    cells = []
     for e in entries:
         if "skipped" in e:
             continue
@@ -213,12 +215,13 @@ def render_alignment(console: Console, entries: list[dict]) -> None:
             s = f"{x:+.2f}"
             return f"[red]{s}[/]" if abs(zz) > 4 else s
 
-        t.add_row(e["method"], e["estimator"], f"{e['K']} x {e['dt']:g} s",
-                  f(e["level_error_arcsec"][0], z[0]), f(e["level_error_arcsec"][1], z[1]),
-                  f(e["azimuth_error_arcsec"], z[2]),
-                  "/".join(f"{x:.2f}" for x in e["predicted_sigma_arcsec"]),
-                  "/".join(f"{x:.2f}" for x in e["physical_limit_arcsec"]))
-    console.print(t)
+        cells.append([e["method"], e["estimator"], f"{e['K']} x {e['dt']:g} s",
+                      f(e["level_error_arcsec"][0], z[0]), f(e["level_error_arcsec"][1], z[1]),
+                      f(e["azimuth_error_arcsec"], z[2]),
+                      "/".join(f"{x:.2f}" for x in e["predicted_sigma_arcsec"]),
+                      "/".join(f"{x:.2f}" for x in e["physical_limit_arcsec"])])
+    print_fitted(console, "Alignment Results (Chart III-1): error vs truth, predicted sigma, "
+                 "physical limit (arcsec)", cols, cells)
     for e in skipped:
         console.print(f"{e['method']} alignment skipped: {e['skipped']}", markup=False)
 
@@ -290,7 +293,7 @@ def run_align(req: AlignRequest, console: Console | None = None,
             ident = stack.enter_context(identified(
                 out, "isu", "align", cfg.seed, isu_config(cfg), *isu_identity(cfg),
                 req.resume, journal.records))
-            with DayDisplay(console, req.quiet) as display:
+            with can_log(out, st.ieu), DayDisplay(console, req.quiet) as display:
                 run = Run(st.clock, journal, listener=display,
                           resume="replay" if conn.rack is not None else "skip",
                           sheet_models=ISU_SHEETS, sheets_used=sheets_used,
@@ -332,6 +335,8 @@ def run_align(req: AlignRequest, console: Console | None = None,
                 "verdict": run_verdict(entries),
             }
             write_results(out, res)
+            write_results_csv(out, entries)
+            write_alignment_samples(out, outcomes)
             run.note(event="end", sim_seconds=st.clock.now())
         if not req.quiet:
             render_alignment(console, entries)

@@ -14,21 +14,21 @@ from contextlib import ExitStack
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from rich import box
 from rich.console import Console
-from rich.table import Table
 
 from laboratory import registry
 from laboratory.connect import Connection, connect
+from laboratory.export import can_log, write_results_csv
 from laboratory.identity import RunIdentity, identified, isu_config, isu_identity
 from laboratory.isu.align import day_alignments, render_alignment
 from laboratory.isu.display import DayDisplay
-from laboratory.isu.plots import nonlinearity_plot
+from laboratory.isu.plots import nonlinearity_plot, results_plot
 from laboratory.isu.spec import noise_spec, site_of
 from laboratory.isu.truth import calibration_truth
 from laboratory.record import write_results, write_sheets
 from laboratory.report import report_after
 from laboratory.rundir import opened_journal, prepare, resume_note
+from laboratory.tables import Column, print_fitted
 from laboratory.verdicts import judge_constants, run_verdict
 from procedures.isu.alignment.results_sheet import AlignPlan
 from procedures.isu.computations import compute_calibration
@@ -93,22 +93,31 @@ def results_rows(calib: CalibrationResults, truth: dict[tuple[str, str], float]
 
 
 def render_results(console: Console, rows: list[dict]) -> None:
-    t = Table(title="Calibration Results Sheet (Chart II-5)", box=box.SIMPLE_HEAD,
-              pad_edge=False, collapse_padding=True)
-    for c in ("inst", "param", "units", "estimate", "truth", "error", "sigma", "err/sig"):
-        t.add_column(c, justify="left" if c in ("inst", "param", "units") else "right",
-                     no_wrap=True)
+    """Chart II-5's rows on the console; split into narrower tables rather than cut a
+    number when the console is narrow (limit and verdict shown when the rows carry them)."""
+    judged = any("verdict" in r for r in rows)
+    names = ["inst", "param", "units", "estimate", "sigma"]
+    names += ["limit", "verdict"] if judged else []
+    names += ["truth", "error", "err/sig"]
+    cols = [Column(c, right=c not in ("inst", "param", "units", "verdict")) for c in names]
+
+    def g(x: float | None, fmt: str) -> str:
+        return "-" if x is None else format(x, fmt)
+
+    cells = []
     for r in rows:
-        def g(x: float | None, fmt: str) -> str:
-            return "-" if x is None else format(x, fmt)
         z = None
         if r["error"] is not None and r["sigma"]:
             z = r["error"] / r["sigma"]
         zs = "-" if z is None else (f"[red]{z:+.2f}[/]" if abs(z) > 4 else f"{z:+.2f}")
         est = g(r["estimate"], ".8g") if r["estimate"] is not None else "[dim]not determined[/]"
-        t.add_row(r["instrument"], r["parameter"], r["units"], est, g(r["truth"], ".8g"),
-                  g(r["error"], ".2e"), g(r["sigma"], ".2e"), zs)
-    console.print(t)
+        row = [r["instrument"], r["parameter"], r["units"], est, g(r["sigma"], ".2e")]
+        if judged:
+            v = str(r.get("verdict") or "-")
+            row += [g(r.get("limit"), ".3g"), f"[red]{v}[/]" if v == "FAIL" else v]
+        row += [g(r["truth"], ".8g"), g(r["error"], ".2e"), zs]
+        cells.append(row)
+    print_fitted(console, "Calibration Results Sheet (Chart II-5)", cols, cells)
 
 
 def rack_session(journal: Journal) -> str | None:
@@ -163,7 +172,7 @@ def _day(req: DayRequest, conn: Connection, journal: Journal, console: Console,
     sid = conn.session.session if conn.session else None
     repeat = ("I-1",) if req.resume and sid != rack_session(journal) else ()
     site, noise = site_of(cfg), noise_spec(cfg)
-    with DayDisplay(console, req.quiet) as display:
+    with can_log(out, st.ieu), DayDisplay(console, req.quiet) as display:
         run = Run(st.clock, journal, listener=display,
                   resume="replay" if conn.rack is not None else "skip", repeat=repeat,
                   sheet_models=ISU_SHEETS, sheets_used=sheets_used,
@@ -181,13 +190,18 @@ def _day(req: DayRequest, conn: Connection, journal: Journal, console: Console,
         alignment = []
         if req.align and data.survey is not None:
             alignment = day_alignments(st, run, calib, cfg, conn.attitude_world,
-                                       tape_dir=out / "tapes", plan=req.align_plan)
+                                       tape_dir=out / "tapes", plan=req.align_plan,
+                                       samples_dir=out)
     write_sheets(out, run)
+    dphi = {int(r.instrument[4:]): r.estimate for r in calib.rows
+            if r.parameter == "DeltaPhi" and r.estimate is not None}
     with atomic_path(out / "nonlinearity.png") as tmp:
-        nonlinearity_plot(data.nonlinearity, tmp)
+        nonlinearity_plot(data.nonlinearity, tmp, noise, dphi)
     world = conn.coefficient_world
     rows = judge_constants(results_rows(calib, calibration_truth(world) if world else {}),
                            cfg.limits)
+    with atomic_path(out / "results.png") as tmp:
+        results_plot(rows, tmp)
     res = {
         "seed": cfg.seed,
         "sim_seconds": st.clock.now(),
@@ -199,6 +213,9 @@ def _day(req: DayRequest, conn: Connection, journal: Journal, console: Console,
         "verdict": run_verdict(rows, alignment),
     }
     write_results(out, res)
+    write_results_csv(out, rows)
+    if alignment:
+        write_results_csv(out, alignment, "alignment.csv")
     run.note(event="end", sim_seconds=st.clock.now())
     if not req.quiet:
         render_results(console, rows)

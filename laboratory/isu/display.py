@@ -40,8 +40,7 @@ class DayDisplay:
             t = ev["t_sim"]
             self.progress.console.print(
                 f"  [green]\u2713[/] [dim]{t / 3600:6.3f} h[/] {ev['chart']:>6} "
-                f"{ev['step']:<12} {ev['text'][:48]}", highlight=False, no_wrap=True,
-                overflow="ellipsis",
+                f"{ev['step']:<12} {ev['text']}", highlight=False, overflow="fold",
             )
             self.progress.update(self.task, completed=min(t, EXPECTED_SIM_S),
                                  sim=f"{t / 3600:5.2f} h simulated")

@@ -10,32 +10,81 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
+from procedures.isu.calibration.noise_spec import NoiseSpec  # noqa: E402
+from procedures.isu.computations import _count_sigma  # noqa: E402  # the fit's own weights
+from procedures.isu.nonlinearity import fit_nonlinearity  # noqa: E402
 
-def nonlinearity_plot(points: dict[int, list[dict]], path: Path) -> None:
-    """Chart II-7 step 16: output frequency against total rate for each gyro, and what is
-    left after a straight line (the Q_II (w.G)^2 curvature the fit measures)."""
+TRUTH_SIGMAS = 4.0  # the simulation's truth check: |error| within 4 predicted sigma
+
+
+def nonlinearity_plot(points: dict[int, list[dict]], path: Path, noise: NoiseSpec | None = None,
+                      dphi_arcsec: dict[int, float] | None = None) -> None:
+    """Chart II-7 step 16: output frequency against total rate for each gyro with 1-sigma
+    error bars, and what is left after a straight line with the fitted Q_II (w.G)^2 curve
+    (the weighted quadratic of step 17, Q_II = a2/a1 in the legend)."""
     if not points:
         return
-    fig, axes = plt.subplots(2, len(points), figsize=(4.2 * len(points), 6.5), squeeze=False)
+    noise = noise or NoiseSpec.model_validate({})
+    fig, axes = plt.subplots(2, len(points), figsize=(4.4 * len(points), 6.8), squeeze=False)
     for i, (k, rows) in enumerate(sorted(points.items())):
         w = np.array([r["w_deg_hr"] for r in rows])
         p = np.array([r["p_dot"] for r in rows])
+        gates = np.abs(np.array([r["counts"] for r in rows]) / p)
+        dphi = (dphi_arcsec or {}).get(k, 3.0)
+        sig_counts = np.array([_count_sigma(noise, g, dphi) for g in gates])
+        sig_p = sig_counts / gates  # pulses/s
+        fit = fit_nonlinearity(rows, sig_counts)
+        ww = np.linspace(w.min(), w.max(), 200)
+        quad = fit["a0"] + fit["a1"] * ww + fit["a2"] * ww**2
         ax = axes[0][i]
-        ax.plot(w / 1e3, p / 1e3, "o")
+        ax.errorbar(w / 1e3, p / 1e3, sig_p / 1e3, fmt="o", capsize=2, label="measured")
+        ax.plot(ww / 1e3, quad / 1e3, "-", lw=0.8, label="quadratic fit")
         ax.set_title(f"gyro {k}")
         ax.set_xlabel("total rate w (10^3 deg/hr)")
         ax.set_ylabel("output frequency P' (kpulses/s)")
-        lin = np.polyfit(w, p, 1)
-        quad = np.polyfit(w, p, 2)
-        ww = np.linspace(w.min(), w.max(), 200)
+        ax.legend(fontsize=7)
+        lin = fit["a0"] + fit["a1"] * w
         ax = axes[1][i]
-        ax.plot(w / 1e3, p - np.polyval(lin, w), "o", label="data - straight line")
-        ax.plot(ww / 1e3, np.polyval(quad, ww) - np.polyval(lin, ww), "-",
-                label="quadratic fit - straight line")
+        ax.errorbar(w / 1e3, p - lin, sig_p, fmt="o", capsize=2,
+                    label="measured - straight part (+/- 1 sigma)")
+        ax.plot(ww / 1e3, fit["a2"] * ww**2, "-",
+                label=f"fit: Q_II = {fit['Q_II']:.3g} +/- {fit['sigma']:.2g} hr/deg")
         ax.set_xlabel("total rate w (10^3 deg/hr)")
-        ax.set_ylabel("residual (pulses/s)")
+        ax.set_ylabel("P' - (a0 + a1 w) (pulses/s)")
         ax.legend(fontsize=7)
     fig.suptitle("Gyro scale-factor nonlinearity (Chart II-7)")
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
+
+
+def results_plot(rows: list[dict], path: Path) -> bool:
+    """One bar per determined constant: error over its predicted sigma with the +/-4 sigma
+    truth check (simulation), or else |estimate| over its acceptance limit (the contract's
+    ``limit``) with the limit at 1. False (nothing written) when no row has either."""
+    sim = [r for r in rows if r.get("error") is not None and r.get("sigma")]
+    judged = [r for r in rows if r.get("estimate") is not None and r.get("limit")]
+    if sim:
+        use, vals = sim, [r["error"] / r["sigma"] for r in sim]
+        xlabel, bound = "error / predicted sigma (truth check, simulation only)", TRUTH_SIGMAS
+    elif judged:
+        use, vals = judged, [abs(r["estimate"]) / abs(r["limit"]) for r in judged]
+        xlabel, bound = "|estimate| / acceptance limit", 1.0
+    else:
+        return False
+    labels = [f"{r['instrument']} {r['parameter']} ({r['units']})" for r in use]
+    y = np.arange(len(use))
+    fig, ax = plt.subplots(figsize=(8, max(2.5, 1.2 + 0.22 * len(use))))
+    colours = ["tab:red" if abs(v) > bound else "tab:blue" for v in vals]
+    ax.barh(y, vals, color=colours)
+    for b in (bound, -bound) if sim else (bound,):
+        ax.axvline(b, color="k", ls="--", lw=0.8)
+    ax.set_yticks(y, labels, fontsize=7)
+    ax.invert_yaxis()
+    ax.set_xlabel(xlabel)
+    ax.set_title("Calibration Results Sheet (Chart II-5): "
+                 + ("error over sigma" if sim else "estimate against limits"))
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return True

@@ -265,7 +265,8 @@ def gyrocompass_procedure(st: IsuDrivers, run: Run, options: AlignmentOptions,
                                    model["predicted"], model["limit"], sheet_model,
                                    {"parts": model["parts"], "g_body_g": model["g_b"].tolist(),
                                     "omega_body_deg_hr": model["w_b"].tolist(),
-                                    "recovered": record.recoveries}))
+                                    "recovered": record.recoveries,
+                                    "ieu_samples": record.raw}))
             s.reading = {o.estimator: {"t": o.t.tolist(),
                                        "predicted_sigma_arcsec": o.predicted_sigma_arcsec,
                                        "checks": checked[o.estimator]}

@@ -250,7 +250,8 @@ def level_alignment_procedure(st: IsuDrivers, run: Run, options: AlignmentOption
                 out.append(Outcome("level", e, K, dt, model["t"], t_ref, model["predicted"],
                                    model["limit"], sheet_model,
                                    {"parts": model["parts"], "g_body_g": model["g_b"].tolist(),
-                                    "recovered": record.recoveries}))
+                                    "recovered": record.recoveries,
+                                    "ieu_samples": record.raw}))
             s.reading = {o.estimator: {"t": o.t.tolist(),
                                        "predicted_sigma_arcsec": o.predicted_sigma_arcsec,
                                        "checks": checked[o.estimator]}

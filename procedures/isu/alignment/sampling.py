@@ -37,6 +37,32 @@ SIGNALS = ("gyro 1", "gyro 2", "gyro 3", "A1S1", "A1S2", "A2S1", "A2S2", "A3S1",
 NEIGHBOURS = 31  # samples in the running median a count is compared with
 
 
+RAW_COLUMNS = ("seq", "t_s", "timer", "flags", "gyro1", "gyro2", "gyro3",
+               "A1S1", "A1S2", "A2S1", "A2S2", "A3S1", "A3S2")
+
+
+@dataclass(frozen=True)
+class RawSamples:
+    """Every IEU sample of a record as the driver returned it (n rows), before summing:
+    kept so the record can export them; the alignment itself uses only the sums."""
+
+    seq: np.ndarray  # n sequence numbers
+    t: np.ndarray  # n link times of the timer frames, s
+    timer: np.ndarray  # n timer counts (S2^T pulses)
+    flags: np.ndarray  # n flag words
+    gyro: np.ndarray  # n x 3 net pulses
+    strings: np.ndarray  # n x 6 string counts (A1S1, ..., A3S2)
+
+    def rows(self) -> list[dict]:
+        """One dict per sample, keys ``RAW_COLUMNS``."""
+        out = []
+        for i in range(self.seq.size):
+            vals = (int(self.seq[i]), float(self.t[i]), int(self.timer[i]), int(self.flags[i]),
+                    *(int(x) for x in self.gyro[i]), *(int(x) for x in self.strings[i]))
+            out.append(dict(zip(RAW_COLUMNS, vals, strict=True)))
+        return out
+
+
 @dataclass
 class IeuRecord:
     """K intervals of summed IEU samples."""
@@ -54,6 +80,7 @@ class IeuRecord:
     garbled: int = 0
     outliers: list[dict] = field(default_factory=list)  # samples off their neighbours
     retakes: list[dict] = field(default_factory=list)  # earlier records refused
+    raw: RawSamples | None = None  # the samples summed, as received (for the record's CSV)
 
     @property
     def K(self) -> int:
@@ -141,6 +168,7 @@ def collect(
     timer = np.zeros(n, dtype=np.int64)
     stamps = np.zeros(n)
     seqs = np.zeros(n, dtype=np.int64)
+    flags = np.zeros(n, dtype=np.int64)
     bad_timer: list[dict] = []
     st.ieu.start(period_ticks, recover=recover)
     try:
@@ -161,6 +189,7 @@ def collect(
             timer[i] = s.timer
             stamps[i] = s.t
             seqs[i] = s.seq
+            flags[i] = s.flags
         last = s
     finally:
         recoveries = list(st.ieu.recoveries)
@@ -188,6 +217,7 @@ def collect(
         garbled=garbled,
         outliers=bad_timer + sample_outliers(np.hstack((gyro, strings)), seqs,
                                              noise or NoiseSpec.model_validate({})),
+        raw=RawSamples(seqs, stamps, timer, flags, gyro, strings),
     )
 
 

@@ -24,6 +24,7 @@ this mode (the frame they replaced is then missing and is asked for again).
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any, cast
 
@@ -240,6 +241,10 @@ class IeuDriver:
         self.failed_checks = 0  # frames or samples that failed their CRC (every mode)
         self.discarded = 0  # frames that answered nothing: stale replies, old samples
         self.clock: Clock | None = None  # the station clock on OS-level links only
+        # called with every frame sent (``is_rx`` False, stamped with the station clock) and
+        # received (``is_rx`` True), e.g. to log the run's CAN traffic; None: no hook
+        self.frame_hook: Callable[[can.Message], None] | None = None
+        self._stamp: Clock | None = clock
         if clock is not None:
             self.bind_clock(clock)
 
@@ -247,6 +252,7 @@ class IeuDriver:
         """Over OS-level links, time samples by the station clock on receipt (a hardware
         socketcand or slcan stamps in its own time base) and give the bus wall timeouts."""
         self.clock = None if clock.virtual else clock
+        self._stamp = clock
 
     def close(self) -> None:
         self.bus.shutdown()
@@ -260,16 +266,31 @@ class IeuDriver:
             data = msg.encode({"Command": command, "PeriodTicks": period, "Seq": seq})
         except (cantools.database.errors.EncodeError, ValueError, TypeError) as e:
             raise self._error(f"cannot encode IEU_COMMAND: {e}") from None
+        m = can.Message(arbitration_id=msg.frame_id, data=data, is_extended_id=False,
+                        is_rx=False)
         try:
-            self.bus.send(can.Message(arbitration_id=msg.frame_id, data=data, is_extended_id=False))
+            self.bus.send(m)
         except can.CanError as e:
             raise self._error(f"send failed: {e}") from None
+        if self.frame_hook is not None:
+            m.timestamp = self._stamp.now() if self._stamp is not None else 0.0
+            self.frame_hook(m)
 
-    def _recv(self, timeout: float) -> Frame:
+    def _bus_recv(self, timeout: float) -> can.Message | None:
+        """One frame from the bus (None: none within ``timeout``), shown to the hook."""
         try:
-            m = self.bus.recv(timeout if self.clock is None else self.clock.link_seconds(timeout))
+            m = self.bus.recv(timeout)
         except can.CanError as e:
             raise self._error(f"receive failed: {e}") from None
+        if m is not None and self.frame_hook is not None:
+            m.is_rx = True
+            if self.clock is not None:  # an OS-level link: the station clock's time
+                m.timestamp = self.clock.now()
+            self.frame_hook(m)
+        return m
+
+    def _recv(self, timeout: float) -> Frame:
+        m = self._bus_recv(timeout if self.clock is None else self.clock.link_seconds(timeout))
         if m is None:
             raise LinkTimeout(self.name, self.link, f"no frame within {timeout:g} s")
         t = float(m.timestamp) if self.clock is None else self.clock.now()
@@ -281,10 +302,7 @@ class IeuDriver:
         that is over): none of them can answer it. One that is no IEU frame at all is
         still reported (``GarbledFrame``)."""
         for _ in range(DRAIN_LIMIT):
-            try:
-                m = self.bus.recv(0.0)
-            except can.CanError as e:
-                raise self._error(f"receive failed: {e}") from None
+            m = self._bus_recv(0.0)
             if m is None:
                 return
             self.discarded += 1

@@ -1,0 +1,60 @@
+"""Console tables that never cut a number: a table too wide for the console is printed as
+several narrower ones (the key columns repeated in each), and a cell that still does not
+fit wraps (``fold``) instead of ending in an ellipsis."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+from rich import box
+from rich.console import Console
+from rich.measure import Measurement
+from rich.table import Table
+
+
+@dataclass(frozen=True)
+class Column:
+    name: str
+    right: bool = True  # numbers right-justified, names left
+
+
+def _table(title: str | None, cols: Sequence[Column], rows: Sequence[Sequence[str]],
+           idx: Sequence[int]) -> Table:
+    t = Table(title=title, box=box.SIMPLE_HEAD, pad_edge=False, collapse_padding=True)
+    for i in idx:
+        c = cols[i]
+        t.add_column(c.name, justify="right" if c.right else "left", overflow="fold")
+    for r in rows:
+        t.add_row(*(r[i] for i in idx))
+    return t
+
+
+def fits(console: Console, table: Table) -> bool:
+    """The table's natural width (unwrapped cells) fits the console."""
+    wide = console.options.update_width(10_000)
+    return Measurement.get(console, wide, table).maximum <= console.width
+
+
+def print_fitted(console: Console, title: str, cols: Sequence[Column],
+                 rows: Sequence[Sequence[str]], keys: int = 2) -> None:
+    """One table if it fits the console; otherwise the first ``keys`` columns with as many
+    of the others as fit, repeated until every column is shown (titles say which part)."""
+    everything = list(range(len(cols)))
+    whole = _table(title, cols, rows, everything)
+    if fits(console, whole):
+        console.print(whole)
+        return
+    key_idx = list(range(keys))
+    parts: list[list[int]] = []
+    cur: list[int] = []
+    for i in everything[keys:]:
+        trial = _table(None, cols, rows, key_idx + cur + [i])
+        if cur and not fits(console, trial):
+            parts.append(cur)
+            cur = []
+        cur.append(i)
+    if cur:
+        parts.append(cur)
+    for n, part in enumerate(parts, 1):
+        console.print(_table(f"{title} ({n}/{len(parts)})", cols, rows, key_idx + part))

@@ -159,7 +159,7 @@ class Truth:
     def expected(self) -> dict[tuple[str, str], float]:
         out = {}
         for k, gy in enumerate(self.gyros, start=1):
-            out[(f"gyro{k}", "DeltaPhi")] = gy["dphi"] * 3600
+            out[(f"gyro{k}", "DeltaPhi")] = gy["dphi"]  # deg/pulse (Chart II-5)
             for j in range(3):
                 out[(f"gyro{k}", f"G.B{j + 1}")] = gy["G"][j]
             for t in GYRO_TERMS[:9]:
@@ -467,7 +467,7 @@ def tolerances() -> dict[tuple[str, str], float]:
     out = {}
     for k in (1, 2, 3):
         g = f"gyro{k}"
-        out[(g, "DeltaPhi")] = 1e-9 * 3.0
+        out[(g, "DeltaPhi")] = 1e-9 * 3.0 / 3600.0
         for j in (1, 2, 3):
             out[(g, f"G.B{j}")] = 2e-7
         for t in ("R", "B_I", "B_O", "B_S"):
@@ -600,7 +600,7 @@ def test_result_rows():
     assert r.estimate is not None and r.sigma is not None and r.positions == "7, 8 (1, 2)"
     assert by[("gyro1", "C_IS")].estimate is None and "not determined" in by[("gyro1", "C_IS")].note
     assert by[("gyro2", "Q_II")].estimate is None and by[("gyro2", "J")].sigma is None
-    assert by[("gyro1", "DeltaPhi")].units == "arcsec/pulse"
+    assert by[("gyro1", "DeltaPhi")].units == "deg/pulse"  # as Chart II-5 prints it
 
 
 # ----------------------------------------------------------------------------- (c) Monte Carlo

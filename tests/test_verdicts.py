@@ -88,7 +88,8 @@ def test_verdict_failed_exit_code_and_line() -> None:
 
 def test_a_constant_that_misses_its_limit_fails_the_run_and_exits_3(tmp_path: Path) -> None:
     cfg = tmp_path / "tight.toml"
-    cfg.write_text('[limits.constants]\n"gyro1.DeltaPhi" = { nominal = 3.0, max_abs = 0.001 }\n')
+    cfg.write_text('[limits.constants]\n'  # deg/pulse (Chart II-5): 0.001 arcsec/pulse
+                   '"gyro1.DeltaPhi" = { nominal = 8.3333e-4, max_abs = 2.8e-7 }\n')
     out = tmp_path / "run"
     p = _station("day", *SHORT, "--quiet", "--config", str(cfg), "--out", str(out))
     assert p.returncode == 3, p.stderr
@@ -96,9 +97,10 @@ def test_a_constant_that_misses_its_limit_fails_the_run_and_exits_3(tmp_path: Pa
     res = json.loads((out / "results.json").read_text())
     row = next(r for r in res["calibration"]
                if (r["instrument"], r["parameter"]) == ("gyro1", "DeltaPhi"))
-    assert abs(row["estimate"] - 3.0) > 0.001  # the configured scale factor is 3.0012
-    assert (row["verdict"], row["limit"], row["limit_text"]) == (
-        "FAIL", 0.001, "|x - 3| <= 0.001 arcsec/pulse; sigma <= 0.0003 arcsec/pulse")
+    # the configured scale factor is 3.0012 arcsec/pulse: 8.33667e-4 deg/pulse
+    assert abs(row["estimate"] - 8.3333e-4) > 2.8e-7
+    assert (row["verdict"], row["limit"]) == ("FAIL", 2.8e-7)
+    assert row["limit_text"].startswith("|x - 0.00083333| <= 2.8e-07 deg/pulse"), row["limit_text"]
     assert res["verdict"] == {"outcome": "FAIL", "failed": ["gyro1.DeltaPhi"]}
     others = [r for r in res["calibration"] if r is not row]
     assert {r["verdict"] for r in others} <= {"PASS", "NO LIMIT"}

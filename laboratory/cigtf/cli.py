@@ -50,7 +50,8 @@ def add_commands(app: typer.Typer) -> None:
         check_seed(seed)
         if analyse is not None:
             with reported(lambda: None):
-                res = analyse_journal(analyse, load_cigtf_params(config))
+                res = analyse_journal(analyse, load_cigtf_params(config),
+                                      load_cigtf_limits(config))
             for p in res["phases"]:
                 typer.echo(f"{p['phase']:>9}: theta {p['theta_arcsec']:+.2f} +/- "
                            f"{p['sigma_arcsec']:.2f} arcsec (n = {p['n']}, from the journal)")

@@ -150,7 +150,8 @@ def data_from_journal(path: Path) -> tuple[TestData, int | None]:
     return data, None if start is None else start.get("seed")
 
 
-def analyse_journal(d: Path, params: CigtfParams | None = None) -> dict:
+def analyse_journal(d: Path, params: CigtfParams | None = None,
+                    limits: CigtfLimits | None = None) -> dict:
     """`station gyrocompass-test --analyse DIR`: the analysis of every run the journal
     completed, however the test ended; written to DIR/gyrocompass_analysis.json.
 
@@ -177,6 +178,7 @@ def analyse_journal(d: Path, params: CigtfParams | None = None) -> dict:
     if truthful and isinstance(seed, int):
         with CigtfRack(seed, params) as twin:
             truth = twin.world.truth_theta_arcsec()
+    judge_phases(phases, truth, limits or CigtfLimits())  # as the run judges them
     missing = [f"{ph}: {len(data.runs[ph])} completed run(s), a phase needs 2"
                for ph in PHASES if len(data.runs[ph]) < 2]
     res = {
@@ -186,7 +188,7 @@ def analyse_journal(d: Path, params: CigtfParams | None = None) -> dict:
         "truth": {"theta_arcsec": truth},
         "from_journal": True, "complete": any(r["kind"] == "note" and r["event"] == "end"
                                               for r in records),
-        "incomplete_phases": missing,
+        "incomplete_phases": missing, "verdict": run_verdict(phases),
     }
     write_json(d / "gyrocompass_analysis.json", res)
     return res

@@ -34,7 +34,12 @@ from procedures.isu.alignment.results_sheet import AlignPlan
 from procedures.isu.computations import compute_calibration
 from procedures.isu.day import EXPERIMENTS, measure_day
 from procedures.isu.plan import DayPlan
-from procedures.isu.sheets import ISU_SHEETS, CalibrationResults, sheets_used
+from procedures.isu.sheets import (
+    ISU_SHEETS,
+    CalibrationResults,
+    scale_factor_arcsec,
+    sheets_used,
+)
 from procedures.journal import Journal
 from procedures.runner import Run
 from station.config.isu import StationConfig
@@ -193,7 +198,7 @@ def _day(req: DayRequest, conn: Connection, journal: Journal, console: Console,
                                        tape_dir=out / "tapes", plan=req.align_plan,
                                        samples_dir=out)
     write_sheets(out, run)
-    dphi = {int(r.instrument[4:]): r.estimate for r in calib.rows
+    dphi = {int(r.instrument[4:]): scale_factor_arcsec(r.estimate) for r in calib.rows
             if r.parameter == "DeltaPhi" and r.estimate is not None}
     with atomic_path(out / "nonlinearity.png") as tmp:
         nonlinearity_plot(data.nonlinearity, tmp, noise, dphi)

@@ -6,10 +6,11 @@ what the right answers were, so results can show estimate, truth and error side 
 
 from __future__ import annotations
 
+from procedures.isu.sheets import ARCSEC_PER_DEG
 from sim.isu.world import World
 
 GYRO_UNITS = {
-    "DeltaPhi": "arcsec/pulse", "G.B1": "", "G.B2": "", "G.B3": "", "R": "deg/hr",
+    "DeltaPhi": "deg/pulse", "G.B1": "", "G.B2": "", "G.B3": "", "R": "deg/hr",
     "B_I": "deg/hr/g", "B_O": "deg/hr/g", "B_S": "deg/hr/g", "C_II": "deg/hr/g^2",
     "C_SS": "deg/hr/g^2", "C_IS": "deg/hr/g^2", "C_OS": "deg/hr/g^2", "C_IO": "deg/hr/g^2",
     "Q_II": "hr/deg", "Q_IS": "hr/deg", "J": "hr",
@@ -26,7 +27,7 @@ def calibration_truth(world: World) -> dict[tuple[str, str], float]:
         p = g.p
         inst = f"gyro{k}"
         vals = {
-            "DeltaPhi": p.scale_factor_arcsec_per_pulse,
+            "DeltaPhi": p.scale_factor_arcsec_per_pulse / ARCSEC_PER_DEG,  # Chart II-5
             "G.B1": float(g.G[0]), "G.B2": float(g.G[1]), "G.B3": float(g.G[2]),
             "R": p.R_deg_hr, "B_I": p.B_I_deg_hr_g, "B_O": p.B_O_deg_hr_g,
             "B_S": p.B_S_deg_hr_g, "C_II": p.C_II_deg_hr_g2, "C_SS": p.C_SS_deg_hr_g2,

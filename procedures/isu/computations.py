@@ -29,7 +29,7 @@ from procedures.isu.nonlinearity import NonlinearityFit, fit_nonlinearity, q_is_
 from procedures.isu.plan import DayPlan
 from procedures.isu.plausibility import Implausible
 from procedures.isu.settings import STRINGS
-from procedures.isu.sheets import CalibrationResults, ResultRow, SurveyResults
+from procedures.isu.sheets import CalibrationResults, ResultRow, SurveyResults, scale_factor_arcsec
 from procedures.isu.site import Site
 from procedures.runner import Run
 from station.errors import CheckFailed
@@ -112,13 +112,19 @@ def _check_speeds(chart: str, k: int, pts: list[dict], fit: NonlinearityFit) -> 
     return fit["residual_z"]
 
 
+def _dphi_arcsec(rows: list[ResultRow], k: int) -> float:
+    """Gyro k's measured scale factor in arcsec/pulse (the class's 3 when not measured)."""
+    est = _row(rows, f"gyro{k}", "DeltaPhi").estimate
+    return scale_factor_arcsec(est) if est else 3.0
+
+
 def special_experiments(rows: list[ResultRow], data: DayData, plan: DayPlan, site: Site,
                         noise: NoiseSpec) -> dict[str, list[float]]:
     """Q_II from II-1.2 and J from II-1.3, in place (Chart II-16: special experiments); the
     z of each speed and gate pair against the others (a wrong count stops the step)."""
     checks: dict[str, list[float]] = {}
     for k, pts in data.nonlinearity.items():
-        dphi = _row(rows, f"gyro{k}", "DeltaPhi").estimate or 3.0
+        dphi = _dphi_arcsec(rows, k)
         gates = np.array([abs(p["counts"] / p["p_dot"]) for p in pts])
         sig = np.array([_count_sigma(noise, g, dphi) for g in gates])
         fit = fit_nonlinearity(pts, sig)
@@ -128,7 +134,7 @@ def special_experiments(rows: list[ResultRow], data: DayData, plan: DayPlan, sit
         r.note = "II-1.2 nonlinearity fit (positions 1, 3, 5 at several speeds)"
     for k, pts in data.q_is.items():
         rq = _row(rows, f"gyro{k}", "Q_II")
-        dphi = _row(rows, f"gyro{k}", "DeltaPhi").estimate or 3.0
+        dphi = _dphi_arcsec(rows, k)
         gb = [_row(rows, f"gyro{k}", f"G.B{j}").estimate for j in (1, 2, 3)]
         if rq.estimate is None or rq.sigma is None or any(x is None for x in gb):
             continue  # needs Q_II (II-7) and (Q^G)^-1 (positions 1-6)
@@ -155,12 +161,13 @@ def special_experiments(rows: list[ResultRow], data: DayData, plan: DayPlan, sit
                 continue  # J needs the scale factor and (Q^G)^-1 (positions 1-6)
             g_r = np.array(gb) @ t_br
             gate = recs[0]["gate_s"]
+            dphi_as = scale_factor_arcsec(rdp.estimate)
             # count noise, and the pier's tilt change seen by the horizontal input axis
-            sig_c = math.hypot(_count_sigma(noise, gate, rdp.estimate),
-                               _tilt_change_sigma_arcsec(noise, gate) / rdp.estimate)
-            j, sj = j_estimate(recs, c, rdp.estimate, g_r, site.omega_sin_lambda,
+            sig_c = math.hypot(_count_sigma(noise, gate, dphi_as),
+                               _tilt_change_sigma_arcsec(noise, gate) / dphi_as)
+            j, sj = j_estimate(recs, c, dphi_as, g_r, site.omega_sin_lambda,
                                plan.j_accel_deg_s2, sig_c)
-            zs = j_pairs(recs, c, rdp.estimate, g_r, site.omega_sin_lambda,
+            zs = j_pairs(recs, c, dphi_as, g_r, site.omega_sin_lambda,
                          plan.j_accel_deg_s2, sig_c)
             checks[f"II-10 gyro{k}"] = zs
             for i, z in enumerate(zs):

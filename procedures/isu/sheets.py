@@ -4,6 +4,9 @@ as data. Lab units at this boundary: degrees, arcsec, deg/hr, g, pulses, counts.
 
 from __future__ import annotations
 
+from typing import TypeVar
+
+import numpy as np
 from pydantic import Field
 
 from procedures.sheets import CheckSheet, Sheet, SheetHeader
@@ -64,6 +67,16 @@ class CounterOutputs(Sheet):
 
     outputs: dict[str, dict[str, int]] = Field(default_factory=dict)
     header: SheetHeader | None = None
+
+
+ARCSEC_PER_DEG = 3600.0
+F = TypeVar("F", float, np.ndarray)
+
+
+def scale_factor_arcsec(deg_per_pulse: F) -> F:
+    """A gyro scale factor as the sheet records it (Chart II-5 prints DeltaPhi in
+    deg/pulse) in the arcsec/pulse the count-noise and drift figures of II-6.2 use."""
+    return deg_per_pulse * ARCSEC_PER_DEG
 
 
 class ResultRow(Sheet):

@@ -43,7 +43,7 @@ from procedures.isu.alignment.preprocess import (
 from procedures.isu.alignment.preprocess import string_differences as p_of
 from procedures.isu.alignment.results_sheet import AlignmentResults
 from procedures.isu.alignment.sampling import IeuRecord, collect_checked
-from procedures.isu.sheets import SurveyResults
+from procedures.isu.sheets import SurveyResults, scale_factor_arcsec
 from procedures.runner import Run
 from station.errors import CheckFailed
 
@@ -100,7 +100,7 @@ def gyro_error_model(record: IeuRecord, c: Constants, M: np.ndarray, b: np.ndarr
     # omega: per-gyro noise averaged over the record, and the pier's mean tilt rate
     span = float(np.sum(record.dt))
     dphi = c.vector("gyro", "DeltaPhi")
-    per = [em.gyro_rate_variance(noise, span, float(d)) for d in dphi]
+    per = [em.gyro_rate_variance(noise, span, scale_factor_arcsec(float(d))) for d in dphi]
     cov_w = np.diag([sum(p.values()) for p in per])
     tilt = np.zeros((3, 3))
     tilt[1:, 1:] = em.tilt_rate_cov(noise, span)

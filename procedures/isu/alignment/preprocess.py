@@ -27,7 +27,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from procedures.isu.sheets import CalibrationResults
+from procedures.isu.sheets import CalibrationResults, scale_factor_arcsec
 
 GYRO_PARAMS = (
     "DeltaPhi", "G.B1", "G.B2", "G.B3", "R", "B_I", "B_O", "B_S", "C_II", "C_SS", "C_IS",
@@ -117,7 +117,8 @@ def gyro_integrals(p_g: np.ndarray, dt: np.ndarray, a_a: np.ndarray, c: Constant
     """
     dt = np.asarray(dt, dtype=float)[:, None]
     g = {p: c.vector("gyro", p) for p in GYRO_PARAMS if not p.startswith("G.")}
-    raw = np.asarray(p_g, dtype=float) * g["DeltaPhi"] - g["R"] * dt  # [(w.G_k) dt], arcsec
+    dphi = scale_factor_arcsec(g["DeltaPhi"])  # Chart II-5's deg/pulse, in arcsec/pulse
+    raw = np.asarray(p_g, dtype=float) * dphi - g["R"] * dt  # [(w.G_k) dt], arcsec
     w_g = raw / dt  # (w.G_k), deg/hr
     a_g = a_a  # (a.G_k) = (a.A_k)
     a_o = a_a @ O_MAP.T

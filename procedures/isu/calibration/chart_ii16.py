@@ -43,7 +43,7 @@ ACCEL: dict[str, tuple[str, str, str]] = {
 }
 
 GYRO_UNITS = {
-    "DeltaPhi": "arcsec/pulse",
+    "DeltaPhi": "deg/pulse",  # Chart II-5's unit (the count-noise figures use arcsec)
     "G.B1": "-",
     "G.B2": "-",
     "G.B3": "-",

@@ -56,7 +56,7 @@ class GyroModel:
         S = np.cross(G, O)
         dphi = est.get("DeltaPhi")
         coef = {t: float(est.get(t) or 0.0) for t in GYRO_TERMS}
-        return GyroModel(float(dphi or 3.0) / 3600.0, G, O, S, coef)
+        return GyroModel(float(dphi) if dphi else 3.0 / 3600.0, G, O, S, coef)  # deg/pulse
 
     def _deg_hr(self, ag: float, ao: float, as_: float, wg: float, ws: float, agg: float,
                 ass: float, ags: float, aos: float, ago: float, wgg: float,

@@ -276,7 +276,7 @@ GYRO_PARAMS = (
 
 
 def gyro_estimates(z: Mapping[Key, float], c: Constants, k: int) -> dict[str, Value]:
-    """Chart II-5 gyro rows in lab units: DeltaPhi arcsec/pulse, G.B_j, R deg/hr, B deg/hr/g,
+    """Chart II-5 gyro rows in lab units: DeltaPhi deg/pulse, G.B_j, R deg/hr, B deg/hr/g,
     C deg/hr/g^2. Q_II, Q_IS, J come from separate experiments: None here."""
     t = _Terms(z, c, k)
     out: dict[str, Value] = {p: None for p in GYRO_PARAMS}
@@ -284,7 +284,7 @@ def gyro_estimates(z: Mapping[Key, float], c: Constants, k: int) -> dict[str, Va
     if len(gk) < 3:
         return out  # every constant needs the scale factor (Chart II-16 note)
     dphi = 1.0 / math.sqrt(sum(x * x for x in gk))  # deg/pulse
-    out["DeltaPhi"] = 3600.0 * dphi
+    out["DeltaPhi"] = dphi  # deg/pulse, as Chart II-5 prints it
     for j in (1, 2, 3):
         out[f"G.B{j}"] = gk[j - 1] * dphi
     for name, v in _FORMS[k](t).items():

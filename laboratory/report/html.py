@@ -291,6 +291,8 @@ def build(run_dir: Path) -> dict:
                             truth_tables.append(tt)
             elif not (isinstance(value, list) and value):
                 figures.append((key, fmt(value, key), name))
+    # the judged tables (a verdict column: what the run decides) before studies and extras
+    tables.sort(key=lambda t: "verdict" not in t.get("columns", ()))
     ident_rows = []
     if isinstance(identity, dict):
         ident_rows = [(k, fmt(identity.get(k), k)) for k in IDENTITY_KEYS if k in identity]

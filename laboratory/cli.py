@@ -185,6 +185,47 @@ def report(
     typer.echo(f"report written: {write_report(run_dir, out)}")
 
 
+regress_app = typer.Typer(no_args_is_help=True, help="Regression baselines: hold a new run "
+                          "against a stored earlier run (docs/regression.md).")
+app.add_typer(regress_app, name="regress")
+
+
+@command(regress_app, "save")
+def regress_save(run_dir: Path, baseline: Path) -> None:
+    """Store RUN_DIR's constants (estimate, sigma) and sheets as the baseline file BASELINE."""
+    from laboratory.regress import save
+
+    rec = save(run_dir, baseline)
+    typer.echo(f"baseline written: {baseline} ({len(rec['constants'])} constants, "
+               f"{len(rec['sheets'])} sheets)")
+
+
+@command(regress_app, "check")
+def regress_check(
+    run_dir: Path,
+    baseline: Path,
+    sigma: Annotated[float, typer.Option("--sigma", help="a regression: a constant moved "
+                     "beyond this many combined sigma")] = 4.0,
+    junit: Annotated[Path | None, typer.Option("--junit", help="also write the outcome as "
+                     "JUnit XML to this file")] = None,
+) -> None:
+    """Hold RUN_DIR against BASELINE: constants in combined sigma, sheets exactly where the
+    runs are replays; exit 1 on a regression."""
+    from laboratory.regress import check as check_run
+    from laboratory.regress import write_junit
+
+    cases = check_run(run_dir, baseline, sigma)
+    if junit is not None:
+        write_junit(junit, cases)
+    failed = [c for c in cases if c.failure is not None]
+    for c in failed:
+        console.print(c.failure, markup=False, highlight=False, soft_wrap=True)
+    skipped = sum(c.skipped is not None for c in cases)
+    typer.echo(f"{len(cases)} checked, {len(failed)} regressions, {skipped} skipped")
+    if failed:
+        raise typer.Exit(1)
+
+
 def _usage_error() -> type[Exception]:
     """The parser's usage-error class (typer's own click, or click before typer 0.2x)."""
     import importlib

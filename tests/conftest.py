@@ -1,6 +1,10 @@
-"""Shared fixtures: the default configuration, a simulated rack and a station bound to it."""
+"""Shared fixtures: the default configuration, a simulated rack and a station bound to it;
+the station's own pytest plugin (laboratory/pytest_plugin.py) when the installed package
+did not bring it through its ``pytest11`` entry point (a source tree not installed)."""
 
 from __future__ import annotations
+
+import importlib
 
 import pytest
 
@@ -28,3 +32,10 @@ def station(cfg, rack):
     st = open_isu_drivers(cfg, rack)
     yield st
     st.close()
+
+
+def pytest_configure(config: pytest.Config) -> None:
+    """Register the station's plugin under its entry-point name unless already loaded."""
+    if not config.pluginmanager.has_plugin("station"):
+        config.pluginmanager.register(importlib.import_module("laboratory.pytest_plugin"),
+                                      "station")

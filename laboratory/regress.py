@@ -170,9 +170,10 @@ def _constant_case(base: dict[str, Any], new: dict[str, Any] | None, k: float,
                         f"baseline's {xb!r} (no sigma; the runs are replays)")
         return Case("constant", name)
     if abs(z) > k:
+        combined = math.hypot(base["sigma"], new["sigma"])
         return Case("constant", name, z=z, failure=(
             f"{name}: z = {z:+.2f} beyond {k:g} sigma (run {xn:.8g}, baseline {xb:.8g} "
-            f"{base.get('units', '')}, combined sigma {math.hypot(base['sigma'], new['sigma']):.3g})"))
+            f"{base.get('units', '')}, combined sigma {combined:.3g})"))
     return Case("constant", name, z=z)
 
 

@@ -36,6 +36,7 @@ from laboratory.isu.align import (
 )
 from laboratory.isu.spec import noise_spec, site_of
 from laboratory.isu.truth import calibration_truth
+from laboratory.pytest_plugin import assert_within_sigma
 from procedures.isu.alignment import align_math as am
 from procedures.isu.alignment.options import AlignmentOptions
 from procedures.isu.alignment.parameter_sheet import write_tape
@@ -356,22 +357,26 @@ def test_missing_calibration_constants_stop_step_6(day, tmp_path):
 
 
 # ----------------------------------------------------------------------------- (f) station align
-def test_station_align_writes_results(day, tmp_path):
+def test_station_align_writes_results(day, tmp_path, station_lab, run_procedure):
+    """Through the station's pytest plugin: `align`'s run function on a virtual ISU station
+    of seed 7, after the module's calibration."""
     cal = tmp_path / "cal"
     (cal / "sheets").mkdir(parents=True)
     (cal / "sheets" / "calibration_results.json").write_text(day["calib"].model_dump_json())
     (cal / "sheets" / "survey_results.json").write_text(day["survey"].model_dump_json())
-    res = run_align(AlignRequest(load_config(seed=7), tmp_path / "out", "mirror", "average",
-                                 calibration=cal, quiet=True, warmup_s=60.0), QUIET)
-    saved = json.loads((tmp_path / "out" / "results.json").read_text())
-    assert saved["alignment"] == json.loads(json.dumps(res["alignment"]))
+    rec = run_procedure("align", station_lab("isu", seed=7), out=tmp_path / "out",
+                        method="mirror", estimator="average", calibration=cal, warmup_s=60.0)
+    saved = rec.results
+    assert saved["alignment"] == json.loads(json.dumps(rec.returned["alignment"]))
     (e,) = saved["alignment"]
     for key, kind in (("method", str), ("estimator", str), ("K", int), ("dt", float),
                       ("level_error_arcsec", list), ("azimuth_error_arcsec", float),
                       ("predicted_sigma_arcsec", list), ("physical_limit_arcsec", list)):
         assert isinstance(e[key], kind), key
-    assert (tmp_path / "out" / "sheets" / "alignment_results_mirror.json").exists()
-    assert max(abs(x) for x in e["error_over_sigma"]) < 4
+    assert "alignment_results_mirror" in rec.sheets
+    errors = [*e["level_error_arcsec"], e["azimuth_error_arcsec"]]
+    for axis, x, s in zip("ENA", errors, e["predicted_sigma_arcsec"], strict=True):
+        assert_within_sigma(x, 0.0, s, k=4, name=f"mirror alignment error {axis}")
 
 
 def test_alignment_entries_read_the_truth_at_t_ref(day):

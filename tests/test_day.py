@@ -13,6 +13,7 @@ from laboratory.cli import app
 from laboratory.compare import differences
 from laboratory.isu.day import DayRequest, run_day
 from laboratory.isu.spec import site_of
+from laboratory.pytest_plugin import assert_within_sigma
 from procedures.isu.calibration import NoiseSpec
 from procedures.isu.computations import compute_calibration
 from procedures.isu.day import DayData
@@ -76,16 +77,20 @@ def test_same_seed_same_record_and_compare(day_a, tmp_path):
     assert r.exit_code == 1 and "values differ" in r.output
 
 
-def test_partial_calibration_gives_chart_ii16_set(tmp_path):
-    res = run_day(DayRequest(load_config(seed=7), tmp_path, quiet=True,
-                             only=("II-6", "II-11")), QUIET)
-    got = {(r["instrument"], r["parameter"]) for r in res["calibration"]
-           if r["estimate"] is not None}
+def test_partial_calibration_gives_chart_ii16_set(station_lab, run_procedure):
+    """Through the station's pytest plugin: a virtual ISU station, the day's run function,
+    its record read back from the run directory."""
+    rec = run_procedure("day", station_lab("isu", seed=7), only=("II-6", "II-11"))
+    rows = rec.results["calibration"]
+    got = {(r["instrument"], r["parameter"]) for r in rows if r["estimate"] is not None}
     gyro_ok = {"DeltaPhi", "G.B1", "G.B2", "G.B3", "R", "B_I", "B_O", "B_S", "C_II", "C_SS"}
     assert got == {(f"gyro{k}", p) for k in (1, 2, 3) for p in gyro_ok}
-    for r in res["calibration"]:
+    assert rec.results == rec.returned and rec.run["status"] == "completed"
+    assert "check_II-11" in rec.sheets and "check_II-7" not in rec.sheets
+    for r in rows:
         if r["estimate"] is not None:
-            assert abs(r["error"]) < 4 * r["sigma"], r
+            assert_within_sigma(r["estimate"], r["truth"], r["sigma"], k=4,
+                                name=f"{r['instrument']}.{r['parameter']}")
 
 
 def test_counter_that_never_reaches_preset_stops_the_step(tmp_path):

@@ -17,11 +17,11 @@ from pydantic import ValidationError
 from procedures.isu.carry_forward import PriorSheet
 from procedures.isu.sheets import CalibrationResults, SurveyResults, sheets_used
 from station.config.isu import StationConfig
-from station.errors import UseError
+from station.errors import BadArgument
 
-
-class PriorRefused(UseError):
-    """An earlier run that cannot be carried forward (unit, age, status or its sheet)."""
+# an earlier run that cannot be carried forward (unit, age, status or its sheet): the
+# `--prior` / `--survey` argument cannot be used as given (exit 2)
+PriorRefused = BadArgument
 
 
 @dataclass(frozen=True)

@@ -46,6 +46,11 @@ def add_commands(app: typer.Typer) -> None:
         start_at: Annotated[float, typer.Option("--start-at", help="virtual run: begin at this "
                             "simulated time, s (to compare with a rehearsal that began then)")
                             ] = 0.0,
+        prior: Annotated[Path | None, typer.Option("--prior", help="earlier run directory whose "
+                         "Calibration Results Sheet gives every constant this run does not "
+                         "measure (same unit, [identity] max_prior_age_days)")] = None,
+        survey: Annotated[Path | None, typer.Option("--survey", help="earlier run directory "
+                          "whose Survey Results Sheet is used instead of Chart I-2")] = None,
         quiet: QuietOpt = False,
         operator: OperatorOpt = None,
     ) -> None:
@@ -59,7 +64,9 @@ def add_commands(app: typer.Typer) -> None:
         if not (0.0 <= start_at < 1e7):
             fail(f"--start-at must be between 0 and 1e7 s, got {start_at:g}")
         target, args = new_or_resumed("day", out, resume, {
-            "seed": seed, "only": only or None, "positions": positions or None})
+            "seed": seed, "only": only or None, "positions": positions or None,
+            "prior": None if prior is None else str(prior),
+            "survey": None if survey is None else str(survey)})
         sel_only = tuple(args["only"]) if args["only"] else None
         sel_pos = tuple(args["positions"]) if args["positions"] else None
         with reported(lambda: None):
@@ -71,7 +78,9 @@ def add_commands(app: typer.Typer) -> None:
             with reported(lambda: target), invoked(operator):
                 res = run_day(DayRequest(cfg, target, only=sel_only, positions=sel_pos,
                                          resume=resume is not None, links=links,
-                                         start_s=start_at, quiet=quiet), console)
+                                         start_s=start_at, quiet=quiet,
+                                         prior=args.get("prior"), survey=args.get("survey")),
+                                 console)
         except typer.Exit as e:
             release(target, fresh_dir and e.exit_code == 2)
             raise

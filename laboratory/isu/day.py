@@ -23,6 +23,7 @@ from laboratory.identity import RunIdentity, identified, isu_config, isu_identit
 from laboratory.isu.align import day_alignments, render_alignment
 from laboratory.isu.display import DayDisplay
 from laboratory.isu.plots import nonlinearity_plot, results_plot
+from laboratory.isu.prior import CarriedSheets, carried_sheets
 from laboratory.isu.spec import noise_spec, site_of
 from laboratory.isu.truth import calibration_truth
 from laboratory.record import write_results, write_sheets
@@ -38,7 +39,6 @@ from procedures.isu.sheets import (
     ISU_SHEETS,
     CalibrationResults,
     scale_factor_arcsec,
-    sheets_used,
 )
 from procedures.journal import Journal
 from procedures.runner import Run
@@ -59,7 +59,9 @@ class DayRequest:
     under that directory (real time); a resume then restores the completed charts instead of
     replaying them, and repeats turn-on if the rack was restarted meanwhile. ``start_s``
     (virtual): begin at that simulated time, to compare with a rehearsal that began then.
-    ``quiet``: no live display. An unknown chart or position is refused here (ValueError).
+    ``quiet``: no live display. ``prior`` / ``survey``: an earlier run whose Calibration /
+    Survey Results Sheet this run carries forward (laboratory.isu.prior checks its unit and
+    age). An unknown chart or position is refused here (ValueError).
     """
 
     cfg: StationConfig
@@ -73,6 +75,8 @@ class DayRequest:
     align: bool = True
     align_plan: AlignPlan = field(default_factory=AlignPlan)
     quiet: bool = False
+    prior: Path | None = None
+    survey: Path | None = None
 
     def __post_init__(self) -> None:
         check_selection(self.only, self.positions)
@@ -81,6 +85,9 @@ class DayRequest:
         for name in ("only", "positions"):
             v = getattr(self, name)
             object.__setattr__(self, name, None if v is None else tuple(v))
+        for name in ("prior", "survey"):
+            v = getattr(self, name)
+            object.__setattr__(self, name, None if v is None else Path(v))
 
 
 def results_rows(calib: CalibrationResults, truth: dict[tuple[str, str], float]
@@ -154,6 +161,7 @@ def run_day(req: DayRequest, console: Console | None = None,
     written before the checks pass.
     """
     console = console or Console()
+    carried = carried_sheets(req.cfg, req.prior, req.survey)  # refused before anything
     prepare(req.out, req.resume, req.links)
     wall0 = time.perf_counter()
     conn = connect(registry.get("isu"), req.cfg, req.links, rack_hook, req.start_s)
@@ -165,13 +173,13 @@ def run_day(req: DayRequest, console: Console | None = None,
             ident = stack.enter_context(identified(
                 req.out, "isu", "day", req.cfg.seed, isu_config(req.cfg),
                 *isu_identity(req.cfg), req.resume, journal.records))
-            return _day(req, conn, journal, console, wall0, ident)
+            return _day(req, conn, journal, console, wall0, ident, carried)
     finally:
         conn.close()
 
 
 def _day(req: DayRequest, conn: Connection, journal: Journal, console: Console,
-         wall0: float, ident: RunIdentity) -> dict:
+         wall0: float, ident: RunIdentity, carried: CarriedSheets) -> dict:
     cfg, out, links = req.cfg, req.out, req.links
     st = conn.station
     sid = conn.session.session if conn.session else None
@@ -180,7 +188,7 @@ def _day(req: DayRequest, conn: Connection, journal: Journal, console: Console,
     with can_log(out, st.ieu), DayDisplay(console, req.quiet) as display:
         run = Run(st.clock, journal, listener=display,
                   resume="replay" if conn.rack is not None else "skip", repeat=repeat,
-                  sheet_models=ISU_SHEETS, sheets_used=sheets_used,
+                  sheet_models=ISU_SHEETS, sheets_used=carried.sheets_used,
                   header=ident.header("calibration day (station day)",
                                       ident.record["unit"]["isu"]))
         if req.resume:
@@ -188,10 +196,10 @@ def _day(req: DayRequest, conn: Connection, journal: Journal, console: Console,
         run.note(event="start", run_uid=ident.run_uid, t_sim=st.clock.now(), seed=cfg.seed,
                  only=list(req.only or ()), resume=req.resume,
                  positions=list(req.positions or ()), session=sid,
-                 links=None if links is None else str(links))
+                 links=None if links is None else str(links), **carried.note())
         data = measure_day(st, run, req.plan, site, cfg.isu.accels[0].f0_hz, req.only,
-                           req.positions, noise=noise)
-        calib = compute_calibration(run, data, req.plan, noise, site)
+                           req.positions, noise=noise, survey=carried.survey)
+        calib = compute_calibration(run, data, req.plan, noise, site, prior=carried.prior)
         alignment = []
         if req.align and data.survey is not None:
             alignment = day_alignments(st, run, calib, cfg, conn.attitude_world,

@@ -12,6 +12,7 @@ import math
 
 import numpy as np
 
+from procedures.isu import carry_forward as cf
 from procedures.isu import survey_math as sm
 from procedures.isu.calibration import (
     AccelPosition,
@@ -23,6 +24,7 @@ from procedures.isu.calibration import (
     calibrate,
 )
 from procedures.isu.calibration.checks import K_RESULT, check_residuals, check_string_sums
+from procedures.isu.carry_forward import PriorSheet
 from procedures.isu.day import DayData
 from procedures.isu.j_term import j_estimate, j_pairs
 from procedures.isu.nonlinearity import NonlinearityFit, fit_nonlinearity, q_is_from_fit
@@ -48,8 +50,11 @@ def _survey(data: DayData) -> SurveyResults:
 
 
 def calibration_data(data: DayData, plan: DayPlan, site: Site,
-                     last_d1d3: dict[int, float] | None = None) -> CalibrationData:
-    """Chart II-15 steps 3-7: the survey's constants and every position's counts."""
+                     last_d1d3: dict[int, float] | None = None,
+                     prior: PriorSheet | None = None) -> CalibrationData:
+    """Chart II-15 steps 3-7: the survey's constants and every position's counts; with
+    ``prior``, that sheet's prerequisites for the pairs not measured and (unless given) the
+    last (D1 D3) of the accelerometers without their bisector position."""
     sv = _survey(data)
     const = Constants(
         g=site.g,
@@ -73,8 +78,13 @@ def calibration_data(data: DayData, plan: DayPlan, site: Site,
         phi0_deg=sv.position0_deg,
         settings_deg={int(m): v for m, v in sv.settings_deg.items()},
     )
-    return CalibrationData(constants=const, gyro=gyro, accel=accel,
-                           last_d1d3=last_d1d3 or {}, geometry=geometry)
+    supplied = {} if prior is None else cf.prior_gyro(prior, set(gyro))
+    d1d3, d1d3_sigma = ({}, {}) if prior is None else cf.last_d1d3(prior, set(accel))
+    if last_d1d3:
+        d1d3, d1d3_sigma = last_d1d3, {}
+    return CalibrationData(constants=const, gyro=gyro, accel=accel, last_d1d3=d1d3,
+                           last_d1d3_sigma=d1d3_sigma, prior_gyro=supplied,
+                           geometry=geometry)
 
 
 def _row(rows: list[ResultRow], inst: str, par: str) -> ResultRow:
@@ -184,23 +194,33 @@ def special_experiments(rows: list[ResultRow], data: DayData, plan: DayPlan, sit
 
 
 def compute_calibration(run: Run, data: DayData, plan: DayPlan, noise: NoiseSpec,
-                        site: Site, last_d1d3: dict[int, float] | None = None
-                        ) -> CalibrationResults:
+                        site: Site, last_d1d3: dict[int, float] | None = None,
+                        prior: PriorSheet | None = None) -> CalibrationResults:
+    """Chart II-15 over the day's data. ``prior``: an earlier Calibration Results Sheet
+    whose constants stand in for what this run does not measure (carry_forward)."""
     with run.sheet("II-15", TITLE) as sheet:
         with sheet.step("1", "Prepare the data for entry") as s:
-            cd = calibration_data(data, plan, site, last_d1d3)
+            cd = calibration_data(data, plan, site, last_d1d3, prior)
             s.reading = {"gyro_positions": sorted(cd.gyro), "accel_positions": sorted(cd.accel)}
         sheet.done("2", "Load the calibration program")
-        sheet.done("3", "Enter g and the Earth-rate components (Survey Results Sheet)",
-                   cd.constants.model_dump(exclude={"t_br_column2"}))
+        step3 = cd.constants.model_dump(exclude={"t_br_column2"})
+        if prior is not None:
+            step3["prerequisites"] = {"source": prior.source, "G.B/DeltaPhi": {
+                str(k): {str(j): v[0] for j, v in js.items()}
+                for k, js in cd.prior_gyro.items()}}
+        sheet.done("3", "Enter g and the Earth-rate components (Survey Results Sheet)", step3)
         sheet.done("4", "Enter T12, T22, T32 of T^BRm for m = 1, 3, 5, 13, 14, 15",
                    {str(m): v for m, v in cd.constants.t_br_column2.items()})
         sheet.done("5", "Enter the counter settings", {"positions": len(cd.gyro) + len(cd.accel)})
         sheet.done("6", "Enter the counter outputs")
-        sheet.done("7", "Last (D1 D3) for accelerometers without positions 13, 14",
-                   {str(k): v for k, v in (last_d1d3 or {}).items()} or None)
+        step7: dict | None = {str(k): v for k, v in cd.last_d1d3.items()} or None
+        if step7 and prior is not None and not last_d1d3:
+            step7["source"] = prior.source
+        sheet.done("7", "Last (D1 D3) for accelerometers without positions 13, 14", step7)
         with sheet.step("8", "Compute the constants") as s:
             rows = calibrate(cd, noise)
+            carried = ([] if prior is None else
+                       cf.carry_rows(rows, prior, cd.prior_gyro, cd.last_d1d3))
             special = special_experiments(rows, data, plan, site, noise)
             # the data the constants did not need must agree with them (calibration.checks)
             checked = check_residuals(cd, rows, noise)
@@ -210,6 +230,8 @@ def compute_calibration(run: Run, data: DayData, plan: DayPlan, noise: NoiseSpec
                          "residual_z": {k: v["z"] for k, v in
                                         checked.get("residuals", {}).items()},
                          "string_sum_z": sums, "special_z": special}
+            if prior is not None:
+                s.reading["carried"] = {"source": prior.source, "rows": carried}
         with sheet.step("9", "Record the valid constants (Chart II-16) on the Calibration "
                         "Results Sheet") as s:
             used = sorted({*data.gyro, *data.accel})

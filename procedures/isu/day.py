@@ -65,7 +65,8 @@ def _singles(all_: tuple[int, ...], positions: set[int] | None) -> tuple[int, ..
 def measure_day(st: IsuDrivers, run: Run, plan: DayPlan, site: Site, f0: float,
                 only: tuple[str, ...] | None = None,
                 positions: tuple[int, ...] | None = None,
-                noise: NoiseSpec | None = None) -> DayData:
+                noise: NoiseSpec | None = None,
+                survey: SurveyResults | None = None) -> DayData:
     """Turn-on, survey, settings and the measurement check-sheets; returns the data.
 
     ``positions`` restricts the position charts (II-6, II-11..II-14) to those positions; a
@@ -74,6 +75,7 @@ def measure_day(st: IsuDrivers, run: Run, plan: DayPlan, site: Site, f0: float,
     charts already completed and repeats only the interrupted one. ``noise``: the lab's
     specification, which the survey's agreement checks judge its readings by (default:
     ``NoiseSpec``'s defaults, the default lab's). ``site``: what Chart I-2 step 3 records.
+    ``survey``: an earlier Survey Results Sheet used instead of running Chart I-2.
     """
     wanted = set(EXPERIMENTS if not only else only)
     unknown = wanted - set(EXPERIMENTS) - {"I-1", "I-2"}
@@ -84,9 +86,11 @@ def measure_day(st: IsuDrivers, run: Run, plan: DayPlan, site: Site, f0: float,
         raise ValueError(f"unknown position(s) {sorted(pos - set(range(1, 16)))}; "
                          "calibration positions are 1 to 15")
     run.block("I-1", lambda: turn_on(st, run, plan.warmup_s), lambda _: None)
-    survey = run.block("I-2", lambda: system_survey(st, run, site,
-                                                      noise=noise),
-                       SurveyResults.model_validate)
+    if survey is None:
+        survey = run.block("I-2", lambda: system_survey(st, run, site, noise=noise),
+                           SurveyResults.model_validate)
+    else:
+        run.save_sheet("survey_results", survey)
     s1, _ = oscillator_periods(run)  # as Chart I-1 step 3 read them (twice, agreeing)
     settings = resolver_settings(survey)
     run.save_sheet("resolver_settings", settings)

@@ -8,7 +8,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Annotated
 
-from pydantic import BaseModel, ConfigDict, StringConstraints
+from pydantic import BaseModel, ConfigDict, Field, StringConstraints
 
 from station.config.file import check_sections, read_document, validate
 
@@ -35,6 +35,8 @@ class IsuIdentity(BaseModel):
     model_config = _STRICT
     station_id: Serial
     unit: IsuUnit
+    # how old an earlier run's sheets may be to be carried forward (`--prior`, `--survey`)
+    max_prior_age_days: float = Field(default=30.0, gt=0.0, le=3650.0)
 
 
 class CigtfUnit(BaseModel):

@@ -18,7 +18,7 @@ Per datum (rates in pulses/s; gate T = n1 S1^T):
   (velocity change over the gate, independent per gate; negligible);
 * orientation: each setting's body rotation Delta (``geometry.TableErrorModel``), carried
   into the data by the forward model (``forward``) at the estimated coefficients;
-* a supplied last (D1 D3): its stated sigma.
+* a supplied last (D1 D3) or [(G.B)/DeltaPhi] of an earlier sheet: its stated sigma.
 """
 
 from __future__ import annotations
@@ -81,7 +81,7 @@ class DataCovariance:
             rec = self.red.records[key]
             val = self.red.values[key]
             kind, k, m = key
-            if kind == "X":
+            if kind in ("X", "P"):
                 out[i, i] += rec.sigma**2
             elif kind == "w":
                 by_position.setdefault(m, []).append(i)

@@ -45,11 +45,12 @@ def misalignment_over_scale(z: Mapping[Key, float], c: Constants, k: int, j: int
 
     Over whole turns the pair differs only in the sign of the rate along B_j; the inertial
     rate along +R1 (south) is w_T - W sin(lambda), hence the 2 W sin(lambda) of the print.
+    Without the pair, a supplied ("P", k, j) from an earlier sheet stands in (else None).
     """
     m = 2 * j - 1
     keys = (("G", k, m), ("G", k, m + 1), ("w", 0, m), ("w", 0, m + 1))
     if any(key not in z for key in keys):
-        return None
+        return z.get(("P", k, j))  # an earlier sheet's, when supplied (partial calibration)
     r1, r2, w1, w2 = (z[key] for key in keys)
     return (r1 - r2) / (w1 + w2 - 2.0 * c.w_sin_lambda / 3600.0)
 

@@ -7,6 +7,9 @@
   (step 5 comment): the computations then give exactly the constants of Chart II-16.
 * ``last_d1d3``: step 7, the last (D1 D3) of each accelerometer when positions 13 and 14
   were not performed.
+* ``prior_gyro``: step 3 of a partial calibration (Chart II-16's prerequisites in
+  parentheses): [(G_k.B_j)/DeltaPhi] of an earlier Calibration Results Sheet for the pairs
+  (2j-1, 2j) this run did not measure, with its standard error.
 * ``TableGeometry`` (optional): T^BI, the position-0 resolver readings and the resolver
   settings of the survey; used only to predict how table errors map into each position.
 
@@ -131,6 +134,10 @@ class CalibrationData(_In):
     last_d1d3_sigma: dict[int, float] = Field(
         default_factory=dict, description="standard error of the supplied (D1 D3), if known"
     )
+    prior_gyro: dict[int, dict[int, tuple[float, float]]] = Field(
+        default_factory=dict,
+        description="gyro k -> j -> ([(G_k.B_j)/DeltaPhi] pulses/deg, its sigma) carried "
+        "from an earlier Calibration Results Sheet")
     geometry: TableGeometry | None = None
 
     @model_validator(mode="after")
@@ -146,4 +153,7 @@ class CalibrationData(_In):
         for k in (*self.last_d1d3, *self.last_d1d3_sigma):
             if k not in (1, 2, 3):
                 raise ValueError(f"no accelerometer {k}")
+        for k, js in self.prior_gyro.items():
+            if k not in (1, 2, 3) or not set(js) <= {1, 2, 3}:
+                raise ValueError(f"prior_gyro: no gyro {k} or axis in {sorted(js)}")
         return self

@@ -7,7 +7,9 @@ Keys (kind, k, m):
 * ("G", k, m): gyro k's pulse rate at position m, pulses/s, (Sigma delta) / ((Sigma n1^T) S1^T);
 * ("F", k, m): accelerometer k's f2 - f1 at position m, pulses/s, each string's
   (Sigma gamma) / ((Sigma n1^T) S1^T) counted separately;
-* ("X", k, 0): the supplied last (D1 D3) of accelerometer k (Chart II-15 step 7).
+* ("X", k, 0): the supplied last (D1 D3) of accelerometer k (Chart II-15 step 7);
+* ("P", k, j): a supplied [(G_k.B_j)/DeltaPhi], pulses/deg, from an earlier sheet (the
+  prerequisite of a partial calibration when pair 2j-1, 2j was not measured).
 """
 
 from __future__ import annotations
@@ -72,4 +74,7 @@ def reduce(data: CalibrationData) -> Reduced:
             out.add(rec, strings[1][0] - strings[0][0])
     for k, x in sorted(data.last_d1d3.items()):
         out.add(Record(("X", k, 0), sigma=data.last_d1d3_sigma.get(k, 0.0)), x)
+    for k, js in sorted(data.prior_gyro.items()):
+        for j, (v, sig) in sorted(js.items()):
+            out.add(Record(("P", k, j), sigma=sig), v)
     return out

@@ -119,6 +119,9 @@ def calibration_document(out: Path, calib: CalibrationResults, timer_period_s: f
     kind = "diagonal"
     full_rows: list[str] = []
     note = covariance_note or "the calibration's predicted sigmas only: correlations unknown"
+    if covariance is not None and not any(r in set(covariance[0])
+                                          for r in map(tuple, order)):
+        covariance, note = None, "no constant of the calibration program determined"
     if covariance is not None:
         rows, cm = covariance
         idx = {tuple(x): i for i, x in enumerate(order)}
@@ -130,7 +133,8 @@ def calibration_document(out: Path, calib: CalibrationResults, timer_period_s: f
         full_rows = [f"{r[0]} {r[1]}" for r in rows if r in idx]
         diag_only = [f"{i} {p}" for i, p in order if (i, p) not in set(rows)]
         note = ("J Sigma_z J^T of the calibration program (Chart II-15 step 8); "
-                + ("rows from separate experiments (Chart II-16) have their variance only: "
+                + ("rows not computed by that program (separate experiments of Chart "
+                   "II-16, or constants taken from another sheet) have their variance only: "
                    + ", ".join(diag_only) if diag_only else "every row correlated"))
     started = run.get("started_utc") or ""
     return {

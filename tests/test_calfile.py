@@ -192,3 +192,20 @@ def test_station_apply_command(day, tmp_path):
                        capture_output=True, text=True, cwd=ROOT)
     assert r.returncode == 2
     assert r.stderr.strip().splitlines() == [f"error: {bad}: format: missing"]
+
+
+def test_partial_day_writes_a_file_that_apply_refuses_by_name(day, tmp_path):
+    """A day that determines nothing still writes a valid file; applying it names what
+    is missing."""
+    out = tmp_path / "part"
+    run_day(DayRequest(load_config(seed=11), out, only=("II-11",), positions=(7,),
+                       quiet=True), Console(quiet=True))
+    doc = json.loads((out / "calibration.json").read_text())
+    jsonschema = pytest.importorskip("jsonschema")
+    jsonschema.Draft202012Validator(json.loads(SCHEMA.read_text())).validate(doc)
+    assert doc["covariance"]["kind"] == "diagonal"
+    assert doc["covariance"]["note"] == "no constant of the calibration program determined"
+    cal = load(out / "calibration.json")
+    raw = read_raw(day[0] / "alignments" / "level-average-ieu.csv")
+    with pytest.raises(CalibrationFileError, match=r"no value for gyro1 DeltaPhi, .*accel3 D3$"):
+        apply_calibration(cal, raw)

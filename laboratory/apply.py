@@ -28,6 +28,7 @@ import numpy as np
 
 from laboratory.calfile import CalibrationFile, CalibrationFileError
 from procedures.isu.alignment.estimation import G0
+from station.errors import UseError
 
 ARCSEC = np.pi / (180.0 * 3600.0)
 DEG_HR = np.pi / 180.0 / 3600.0  # rad/s per deg/hr
@@ -45,7 +46,7 @@ NEWTON_STEPS = 6
 RATE_ITERATIONS = 4
 
 
-class RawFileError(ValueError):
+class RawFileError(UseError, ValueError):
     """A raw IEU sample file that cannot be read (the message names the file and column)."""
 
 

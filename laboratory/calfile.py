@@ -30,6 +30,7 @@ from procedures.isu.plan import DayPlan
 from procedures.isu.sheets import CalibrationResults
 from procedures.isu.site import Site
 from station.config.isu import StationConfig
+from station.errors import UseError
 
 FORMAT = "station-calibration-file"
 SCHEMA_VERSION = 1
@@ -66,7 +67,7 @@ MODELS = {
 }
 
 
-class CalibrationFileError(ValueError):
+class CalibrationFileError(UseError, ValueError):
     """A calibration file that is not one (the message names the file and the field)."""
 
 

@@ -139,3 +139,30 @@ def add_commands(app: typer.Typer) -> None:
         typer.echo(f"{res['sim_seconds'] / 3600:.2f} h simulated in {res['wall_seconds']:.1f} s; "
                    f"record in {target}")
         verdict_exit(res)
+
+
+    @command(app)
+    def apply(
+        cal_file: Annotated[Path, typer.Argument(help="calibration file (a day's "
+                            "DIR/calibration.json)")],
+        raw_file: Annotated[Path, typer.Argument(help="raw IEU samples (CSV with timer, "
+                            "gyro1..3, A1S1..A3S2 columns, as DIR/alignments/*-ieu.csv)")],
+        out: Annotated[Path | None, typer.Option("--out", help="compensated CSV to write "
+                       "(default: RAW_FILE with -compensated.csv)")] = None,
+    ) -> None:
+        """Apply a calibration file to raw IEU pulse counts: angular increments (rad) and
+        specific force (m/s^2) in the body frame, the Chart IV-1/IV-2 models inverted."""
+        from laboratory.apply import apply_calibration, read_raw, write_compensated
+        from laboratory.calfile import load as load_calfile
+
+        cal = load_calfile(cal_file)
+        raw = read_raw(raw_file)
+        comp = apply_calibration(cal, raw)
+        target = out or raw_file.with_name(raw_file.stem + "-compensated.csv")
+        write_compensated(target, raw, comp)
+        t = float(comp.dt.sum())
+        w = comp.dtheta.sum(axis=0) / t * 180.0 / 3.141592653589793 * 3600.0
+        f = (comp.force * comp.dt[:, None]).sum(axis=0) / t
+        typer.echo(f"{comp.dt.size} samples, {t:.1f} s; mean rate "
+                   f"{w[0]:.5f} {w[1]:.5f} {w[2]:.5f} deg/hr, mean specific force "
+                   f"{f[0]:.6f} {f[1]:.6f} {f[2]:.6f} m/s^2 (B1 B2 B3); written {target}")

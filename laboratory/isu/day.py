@@ -17,6 +17,7 @@ from pathlib import Path
 from rich.console import Console
 
 from laboratory import registry
+from laboratory.calfile import write_day_calibration
 from laboratory.connect import Connection, connect
 from laboratory.export import can_log, write_results_csv
 from laboratory.identity import RunIdentity, identified, isu_config, isu_identity
@@ -229,6 +230,7 @@ def _day(req: DayRequest, conn: Connection, journal: Journal, console: Console,
     write_results_csv(out, rows)
     if alignment:
         write_results_csv(out, alignment, "alignment.csv")
+    write_day_calibration(out, calib, cfg, data, req.plan, site, noise)  # calibration.json
     run.note(event="end", sim_seconds=st.clock.now())
     if not req.quiet:
         render_results(console, rows)

@@ -20,10 +20,9 @@ from typing import Any
 import numpy as np
 
 from laboratory.record import write_json
-from procedures.isu.calibration.compute import data_covariance, estimate
+from procedures.isu.calibration.compute import constants_covariance
 from procedures.isu.calibration.inputs import CalibrationData
 from procedures.isu.calibration.noise_spec import NoiseSpec
-from procedures.isu.calibration.reduce import reduce
 from procedures.isu.computations import calibration_data
 from procedures.isu.day import DayData
 from procedures.isu.plan import DayPlan
@@ -76,28 +75,8 @@ def calibration_covariance(data: CalibrationData, noise: NoiseSpec
                            ) -> tuple[list[Row], np.ndarray]:
     """Full covariance J Sigma_z J^T of the constants the calibration program computes
     (compute.predicted_sigmas keeps only its diagonal): the rows and the matrix."""
-    c = data.constants
-    red = reduce(data)
-    est = estimate(red.values, c)
-    keys = list(red.values)
-    cov = data_covariance(red, keys, data, noise, est)
-    z0 = np.array([red.values[k] for k in keys])
-    steps = np.sqrt(np.maximum(np.diag(cov), 0.0))
-    steps = np.where(steps > 0, steps, 1e-9 * np.maximum(np.abs(z0), 1.0))
-    rows = [r for r, v in est.items() if v is not None]
-    jac = np.zeros((len(rows), len(keys)))
-    for i, h in enumerate(steps):
-        zp, zm = dict(red.values), dict(red.values)
-        zp[keys[i]] = z0[i] + h
-        zm[keys[i]] = z0[i] - h
-        ep, em = estimate(zp, c), estimate(zm, c)
-        for j, r in enumerate(rows):
-            p, m = ep[r], em[r]
-            if p is None or m is None:
-                raise ValueError(f"{r[0]} {r[1]}: no estimate once datum {keys[i]} moved")
-            jac[j, i] = (p - m) / (2 * h)
-    m = jac @ cov @ jac.T
-    return rows, 0.5 * (m + m.T)
+    _, rows, cov = constants_covariance(data, noise)
+    return rows, cov
 
 
 # ----- writing -----

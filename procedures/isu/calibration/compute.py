@@ -79,10 +79,11 @@ def data_covariance(
     return DataCovariance(red, keys, c, noise, gyros, accels, table, tbr).matrix()
 
 
-def predicted_sigmas(
+def constants_covariance(
     data: CalibrationData, noise: NoiseSpec | None = None
-) -> tuple[dict[Row, float | None], dict[Row, float | None]]:
-    """(estimates, predicted standard errors) of every Chart II-5 constant."""
+) -> tuple[dict[Row, float | None], list[Row], np.ndarray]:
+    """(estimates, the rows determined, their full covariance J Sigma_z J^T): J is the
+    estimator's numerical Jacobian, Sigma_z the counter data's covariance."""
     noise = noise or NoiseSpec()
     c = data.constants
     red = reduce(data)
@@ -100,9 +101,17 @@ def predicted_sigmas(
         zm[keys[i]] = z0[i] - h
         ep, em = estimate(zp, c), estimate(zm, c)
         jac[:, i] = [_central_difference(ep[r], em[r], h, r, keys[i]) for r in rows]
-    var = np.einsum("ij,jk,ik->i", jac, cov, jac)
+    m = jac @ cov @ jac.T
+    return est, rows, 0.5 * (m + m.T)
+
+
+def predicted_sigmas(
+    data: CalibrationData, noise: NoiseSpec | None = None
+) -> tuple[dict[Row, float | None], dict[Row, float | None]]:
+    """(estimates, predicted standard errors) of every Chart II-5 constant."""
+    est, rows, cov = constants_covariance(data, noise)
     sig: dict[Row, float | None] = {r: None for r in est}
-    for r, v in zip(rows, var, strict=True):
+    for r, v in zip(rows, np.diag(cov), strict=True):
         sig[r] = float(np.sqrt(max(v, 0.0)))
     return est, sig
 

@@ -72,6 +72,14 @@ def end(e: OperatorError, run_dir: Path | None = None) -> NoReturn:
     raise typer.Exit(e.exit_code) from None
 
 
+def finished(res: dict, target: Path, hours: str = ".2f") -> None:
+    """A run command's last line (simulated hours, wall seconds, the record), then the exit
+    its verdict asks for (``verdict_exit``)."""
+    typer.echo(f"{res['sim_seconds'] / 3600:{hours}} h simulated in {res['wall_seconds']:.1f} s; "
+               f"record in {target}")
+    verdict_exit(res)
+
+
 def verdict_exit(res: dict) -> None:
     """End a completed run whose verdict is FAIL with exit 3 and its line (the record and
     the report are complete by then); nothing otherwise."""

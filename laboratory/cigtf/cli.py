@@ -13,10 +13,10 @@ from laboratory.app import (
     check_seed,
     command,
     console,
+    finished,
     new_or_resumed,
     reported,
     station_run,
-    verdict_exit,
 )
 from laboratory.identity import OperatorOpt, invoked
 
@@ -82,6 +82,4 @@ def add_commands(app: typer.Typer) -> None:
         if "served" in res:
             console.print(f"served rack (session {res['served']['session']}): "
                           f"{res['served']['note']}", markup=False)
-        typer.echo(f"{res['sim_seconds'] / 3600:.1f} h simulated in {res['wall_seconds']:.1f} s; "
-                   f"record in {target}")
-        verdict_exit(res)
+        finished(res, target, ".1f")

@@ -13,10 +13,10 @@ from laboratory.app import (
     check_seed,
     command,
     console,
+    finished,
     new_or_resumed,
     reported,
     station_run,
-    verdict_exit,
 )
 from laboratory.identity import OperatorOpt, invoked
 
@@ -58,6 +58,4 @@ def add_commands(app: typer.Typer) -> None:
             console.print(f"served rack (session {res['served']['session']}): "
                           f"{res['served']['note']} (pickoff-1 coning only: the true colatitudes "
                           "depend on the served rack's path and are left out)", markup=False)
-        typer.echo(f"{res['sim_seconds'] / 3600:.1f} h simulated in {res['wall_seconds']:.1f} s; "
-                   f"record in {target}")
-        verdict_exit(res)
+        finished(res, target, ".1f")

@@ -18,12 +18,12 @@ from laboratory.app import (
     command,
     console,
     fail,
+    finished,
     load_isu_config,
     new_or_resumed,
     release,
     reported,
     target_dir,
-    verdict_exit,
 )
 from laboratory.identity import OperatorOpt, invoked
 
@@ -84,9 +84,7 @@ def add_commands(app: typer.Typer) -> None:
         except typer.Exit as e:
             release(target, fresh_dir and e.exit_code == 2)
             raise
-        typer.echo(f"{res['sim_seconds'] / 3600:.2f} h simulated in {res['wall_seconds']:.1f} s; "
-                   f"record in {target}")
-        verdict_exit(res)
+        finished(res, target)
 
 
     @command(app)
@@ -136,9 +134,7 @@ def add_commands(app: typer.Typer) -> None:
         except typer.Exit as e:
             release(target, fresh_dir and e.exit_code == 2)
             raise
-        typer.echo(f"{res['sim_seconds'] / 3600:.2f} h simulated in {res['wall_seconds']:.1f} s; "
-                   f"record in {target}")
-        verdict_exit(res)
+        finished(res, target)
 
 
     @command(app)

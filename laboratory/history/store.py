@@ -24,7 +24,6 @@ from sqlalchemy import (
     Integer,
     String,
     create_engine,
-    delete,
     select,
 )
 from sqlalchemy.engine import Engine
@@ -227,8 +226,10 @@ def index_run(s: Session, run_dir: Path) -> RunRow:
     if ident.get("status") in (None, "running"):
         raise HistoryError(f"{f}: status {ident.get('status')!r}: the run has not finished")
     started = _started(ident, f)
-    s.execute(delete(RunRow).where(RunRow.run_uid == str(ident["run_uid"])))
-    s.flush()
+    earlier = s.scalar(select(RunRow).where(RunRow.run_uid == str(ident["run_uid"])))
+    if earlier is not None:  # through the ORM, so its units and results go with it
+        s.delete(earlier)
+        s.flush()
     verdict = ident.get("verdict")
     run = RunRow(run_uid=str(ident["run_uid"]), path=str(run_dir),
                  laboratory=str(ident.get("laboratory") or "?"), command=ident.get("command"),

@@ -136,13 +136,31 @@ def test_refusals_are_one_line(tmp_path: Path) -> None:
     assert p.returncode == 2 and p.stderr.startswith("error: history database")
 
 
-def test_a_run_outside_a_runs_directory_is_not_indexed_without_a_url(tmp_path: Path) -> None:
+def test_a_run_outside_a_runs_directory_is_not_indexed_without_a_url(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     from laboratory.history.store import history_url_for
 
-    assert history_url_for(tmp_path / "x") is None or "STATION_HISTORY_URL" in os.environ
+    monkeypatch.delenv("STATION_HISTORY_URL", raising=False)
+    assert history_url_for(tmp_path / "x") is None
     assert history_url_for(tmp_path / "runs" / "day" / "x") == \
-        f"sqlite:///{(tmp_path / 'runs' / 'history.sqlite').resolve()}" \
-        or "STATION_HISTORY_URL" in os.environ
+        f"sqlite:///{(tmp_path / 'runs' / 'history.sqlite').resolve()}"
+    monkeypatch.setenv("STATION_HISTORY_URL", "postgresql+psycopg://h/db")
+    assert history_url_for(tmp_path / "x") == "postgresql+psycopg://h/db"
+
+
+def test_the_cigtf_theta_per_phase_is_indexed(tmp_path: Path) -> None:
+    """A CIGTF run is indexed at its end under its runs directory (no URL set)."""
+    out = tmp_path / "runs" / "cigtf" / "one"
+    p = station("gyrocompass-test", "--out", str(out))
+    assert p.returncode == 0, p.stderr
+    from laboratory.history.store import RunRow, session, sqlite_url
+
+    with session(sqlite_url(tmp_path / "runs" / "history.sqlite")) as s:
+        (run,) = s.query(RunRow).all()
+        phases = json.loads((out / "gyrocompass.json").read_text())["phases"]
+        assert run.laboratory == "cigtf" and run.status == "completed"
+        assert [(r.instrument, r.parameter, r.estimate, r.sigma) for r in run.results] == [
+            (ph["phase"], "theta", ph["theta_arcsec"], ph["sigma_arcsec"]) for ph in phases]
 
 
 # ------------------------------------------------------------------------- PostgreSQL

@@ -175,7 +175,8 @@ def _read_json(path: Path) -> Any:
 
 def result_rows(run_dir: Path) -> list[dict[str, Any]]:
     """Every result row of a record: each list of dicts carrying a ``parameter`` in its
-    results files (Chart II-5's ``calibration`` for the ISU), with the list's name."""
+    results files (Chart II-5's ``calibration`` for the ISU), and the CIGTF's theta per
+    phase, with the list's name."""
     rows = []
     for name in RESULT_FILES:
         f = Path(run_dir) / name
@@ -190,6 +191,12 @@ def result_rows(run_dir: Path) -> list[dict[str, Any]]:
             for r in value:
                 if isinstance(r, dict) and isinstance(r.get("parameter"), str):
                     rows.append({"table": table, **r})
+                elif table == "phases" and isinstance(r, dict) and "theta_arcsec" in r:
+                    # the CIGTF's gyrocompassing error per phase (report 001, eqs. 20-25)
+                    rows.append({"table": table, "instrument": r.get("phase"),
+                                 "parameter": "theta", "units": "arcsec",
+                                 "estimate": r.get("theta_arcsec"),
+                                 "sigma": r.get("sigma_arcsec"), "verdict": r.get("verdict")})
     return rows
 
 

@@ -261,6 +261,16 @@ def _add_laboratory_commands() -> None:
 _add_laboratory_commands()
 
 
+def _add_history_commands() -> None:
+    """`station history` and `station trend`: the calibration history (laboratory/history)."""
+    from laboratory.history.cli import add_commands
+
+    add_commands(app)
+
+
+_add_history_commands()
+
+
 def main() -> None:
     """`station`: usage mistakes (an unknown option, a bad number) as one line on stderr."""
     usage_error = _usage_error()

@@ -19,6 +19,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from laboratory.history import index_after
 from laboratory.identity import Identifying, identified
 from laboratory.registry import Laboratory
 from laboratory.report import report_after
@@ -163,6 +164,7 @@ def journaled_run(out: Path, conn: Connection, resume: bool = False,
     try:
         with opened_journal(out, resume) as journal, ExitStack() as stack:
             stack.callback(report_after, out)  # after run.json closes; not for a refused run
+            stack.callback(index_after, out)  # history: after run.json closes
             kw: dict[str, Any] = {} if sheet_models is None else {"sheet_models": sheet_models}
             if identify is not None:
                 doc, station_id, unit = identify.config()

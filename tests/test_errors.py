@@ -20,6 +20,7 @@ from instruments.isu.table_controller import TableController
 from laboratory.apply import RawFileError
 from laboratory.calfile import CalibrationFileError
 from laboratory.cli import app
+from laboratory.history.store import HistoryError
 from laboratory.registry import UnknownLaboratory
 from laboratory.report.html import ReportError
 from laboratory.rundir import RunComplete, RunDirError
@@ -59,6 +60,7 @@ EXIT_CODES: dict[type[OperatorError], int] = {
     BadArgument: 2, ConfigError: 2, RunDirError: 2, JournalError: 2, ResumeMismatch: 2,
     NoServedRack: 2, WrongStation: 2, UnknownLaboratory: 2, ReportError: 2,
     CalibrationFileError: 2, RawFileError: 2,  # `station apply` (laboratory/calfile.py)
+    HistoryError: 2,
     RunComplete: 0,  # --resume of a finished run: nothing to do, said on stdout
     CheckFailed: 1, Implausible: 1, TooFewLines: 1, ProcedureError: 1, DriverError: 1,
     LinkTimeout: 1, MalformedReply: 1, ReadingOutOfRange: 1, InstrumentRefused: 1,

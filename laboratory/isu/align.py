@@ -32,6 +32,7 @@ from rich.console import Console
 from laboratory import registry
 from laboratory.connect import connect
 from laboratory.export import can_log, write_alignment_samples, write_results_csv
+from laboratory.history import index_after
 from laboratory.identity import identified, isu_config, isu_identity
 from laboratory.isu.display import DayDisplay
 from laboratory.isu.spec import noise_spec, site_of
@@ -290,6 +291,7 @@ def run_align(req: AlignRequest, console: Console | None = None,
     try:
         with opened_journal(out, req.resume) as journal, ExitStack() as stack:
             stack.callback(report_after, out)  # after run.json closes; not for a refused run
+            stack.callback(index_after, out)  # history: after run.json closes
             ident = stack.enter_context(identified(
                 out, "isu", "align", cfg.seed, isu_config(cfg), *isu_identity(cfg),
                 req.resume, journal.records))

@@ -20,6 +20,7 @@ from laboratory import registry
 from laboratory.calfile import write_day_calibration
 from laboratory.connect import Connection, connect
 from laboratory.export import can_log, write_results_csv
+from laboratory.history import index_after
 from laboratory.identity import RunIdentity, identified, isu_config, isu_identity
 from laboratory.isu.align import day_alignments, render_alignment
 from laboratory.isu.display import DayDisplay
@@ -171,6 +172,7 @@ def run_day(req: DayRequest, console: Console | None = None,
             # report.html of what the record holds, however it ended: after run.json is
             # closed, while this run still holds the directory (a refused run writes none)
             stack.callback(report_after, req.out)
+            stack.callback(index_after, req.out)  # history: after run.json closes
             ident = stack.enter_context(identified(
                 req.out, "isu", "day", req.cfg.seed, isu_config(req.cfg),
                 *isu_identity(req.cfg), req.resume, journal.records))

@@ -1,0 +1,147 @@
+"""Trends of a unit's constants across calibrations: the significance of each change and
+the turn-on-to-turn-on scatter against the predicted sigma.
+
+For each constant with an estimate and a sigma on two or more completed runs: every change
+between consecutive calibrations with z = change / sqrt(sigma_a^2 + sigma_b^2), flagged when
+|z| exceeds the two-sided level; and the chi-square of the day-to-day changes (taken with
+their correlations, it equals the weighted scatter about the weighted mean, n - 1 degrees of
+freedom), flagged when its upper tail probability is below 1 - level.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from scipy import stats
+
+from laboratory.history.store import RunRow
+
+
+@dataclass(frozen=True)
+class Point:
+    """One calibration of a constant."""
+
+    run_uid: str
+    date: str
+    path: str
+    estimate: float
+    sigma: float
+
+
+@dataclass(frozen=True)
+class Change:
+    """The change from one calibration to the next and its significance."""
+
+    before: Point
+    after: Point
+    delta: float
+    sigma: float
+    z: float
+    flagged: bool
+
+
+@dataclass
+class Trend:
+    """One constant across the unit's calibrations."""
+
+    instrument: str
+    parameter: str
+    units: str | None
+    points: list[Point] = field(default_factory=list)
+    changes: list[Change] = field(default_factory=list)
+    chi2: float = math.nan
+    dof: int = 0
+    p_value: float = math.nan
+    scatter: float = math.nan  # sample standard deviation of the estimates
+    predicted: float = math.nan  # root mean square of their predicted sigmas
+    scatter_flagged: bool = False
+
+    @property
+    def name(self) -> str:
+        return f"{self.instrument} {self.parameter}".strip()
+
+    @property
+    def flagged(self) -> bool:
+        return self.scatter_flagged or any(c.flagged for c in self.changes)
+
+
+def z_limit(level: float) -> float:
+    """|z| beyond which a change is significant at the two-sided ``level``."""
+    if not 0.0 < level < 1.0:
+        raise ValueError(f"--level must lie between 0 and 1, got {level:g}")
+    return float(stats.norm.ppf(0.5 + level / 2.0))
+
+
+def trends(runs: list[RunRow], level: float = 0.999) -> list[Trend]:
+    """Per constant (table order of its first appearance), the trend over ``runs`` (oldest
+    first): only completed runs' determined rows (an estimate and a positive sigma) count."""
+    zl = z_limit(level)
+    by_key: dict[tuple[str, str, str], Trend] = {}
+    for run in runs:
+        if run.status != "completed":
+            continue
+        for r in run.results:
+            if r.estimate is None or r.sigma is None or not r.sigma > 0:
+                continue
+            key = (r.table, r.instrument, r.parameter)
+            t = by_key.setdefault(key, Trend(r.instrument, r.parameter, r.units))
+            t.points.append(Point(run.run_uid, run.date, run.path, r.estimate, r.sigma))
+    out = [t for t in by_key.values() if len(t.points) >= 2]
+    for t in out:
+        _analyse(t, zl, level)
+    return out
+
+
+def _analyse(t: Trend, zl: float, level: float) -> None:
+    for a, b in zip(t.points, t.points[1:], strict=False):
+        s = math.hypot(a.sigma, b.sigma)
+        z = (b.estimate - a.estimate) / s
+        t.changes.append(Change(a, b, b.estimate - a.estimate, s, z, abs(z) > zl))
+    w = [1.0 / p.sigma ** 2 for p in t.points]
+    mean = sum(wi * p.estimate for wi, p in zip(w, t.points, strict=True)) / sum(w)
+    t.chi2 = sum(wi * (p.estimate - mean) ** 2 for wi, p in zip(w, t.points, strict=True))
+    t.dof = len(t.points) - 1
+    t.p_value = float(stats.chi2.sf(t.chi2, t.dof))
+    t.scatter_flagged = t.p_value < 1.0 - level
+    n = len(t.points)
+    m = sum(p.estimate for p in t.points) / n
+    t.scatter = math.sqrt(sum((p.estimate - m) ** 2 for p in t.points) / (n - 1))
+    t.predicted = math.sqrt(sum(p.sigma ** 2 for p in t.points) / n)
+
+
+def trend_plot(ts: list[Trend], path: Path, unit: str, level: float) -> None:
+    """trend.png: one panel per constant, each calibration's estimate less the weighted
+    mean with its 1-sigma bar; flagged changes drawn red."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    n = max(len(ts), 1)
+    cols = min(6, n)
+    rows = math.ceil(n / cols)
+    fig, axes = plt.subplots(rows, cols, figsize=(2.6 * cols, 2.0 * rows + 0.6), squeeze=False)
+    for ax in axes.flat[len(ts):]:
+        ax.set_visible(False)
+    for ax, t in zip(axes.flat, ts, strict=False):
+        w = [1.0 / p.sigma ** 2 for p in t.points]
+        mean = sum(wi * p.estimate for wi, p in zip(w, t.points, strict=True)) / sum(w)
+        x = list(range(1, len(t.points) + 1))
+        y = [p.estimate - mean for p in t.points]
+        ax.errorbar(x, y, yerr=[p.sigma for p in t.points], fmt="o", ms=3, color="C0")
+        for i, c in enumerate(t.changes):
+            ax.plot([x[i], x[i + 1]], [y[i], y[i + 1]], color="red" if c.flagged else "0.6",
+                    lw=1.5 if c.flagged else 0.8)
+        ax.axhline(0.0, color="0.8", lw=0.5)
+        colour = "red" if t.flagged else "black"
+        ax.set_title(f"{t.name} ({t.units or '-'})", fontsize=8, color=colour)
+        ax.tick_params(labelsize=6)
+        ax.ticklabel_format(axis="y", style="sci", scilimits=(-3, 3))
+        ax.yaxis.get_offset_text().set_fontsize(6)
+    fig.suptitle(f"{unit}: estimate less weighted mean per calibration (1 sigma bars; red: "
+                 f"beyond the {level:g} level)", fontsize=9)
+    fig.tight_layout()
+    fig.savefig(path, dpi=90)
+    plt.close(fig)

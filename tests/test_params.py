@@ -135,8 +135,8 @@ def test_day_request_is_a_value(tmp_path):
     cfg = load_config()
     r = DayRequest(cfg, str(tmp_path), only=["II-11"], positions=[7, 8])  # type: ignore[arg-type]
     assert r.out == Path(tmp_path) and r.only == ("II-11",) and r.positions == (7, 8)
-    assert (r.plan, r.align_plan, r.align, r.resume, r.links) == (
-        DayPlan(), AlignPlan(), True, False, None)
+    assert (r.plan, r.align_plan, r.tape_library, r.align, r.resume, r.links) == (
+        DayPlan(), None, None, True, False, None)  # None: the config's [alignment]
     assert r == DayRequest(cfg, tmp_path, only=("II-11",), positions=(7, 8))
     assert DayRequest(cfg, tmp_path, positions=()).positions == ()  # no positions, not all
     with pytest.raises(dataclasses.FrozenInstanceError):
@@ -146,7 +146,8 @@ def test_day_request_is_a_value(tmp_path):
 def test_align_request_defaults(tmp_path):
     r = AlignRequest(load_config(), str(tmp_path), "level")  # type: ignore[arg-type]
     assert (r.out, r.estimator, r.calibration, r.tape, r.plan, r.warmup_s) == (
-        Path(tmp_path), "average", None, None, AlignPlan(), None)
+        Path(tmp_path), "average", None, None, None, None)
+    assert load_config().alignment.plan() == AlignPlan()  # the embedded [alignment]
 
 
 # ----------------------------------------------------------------------------- ESG

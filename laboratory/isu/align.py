@@ -22,14 +22,15 @@ import math
 import time
 from collections.abc import Callable
 from contextlib import ExitStack
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, TypeVar
+from typing import TYPE_CHECKING, Any, TypeVar
 
 from pydantic import BaseModel, ValidationError
 from rich.console import Console
 
 from laboratory import registry
+from laboratory.calfile import write_day_calibration
 from laboratory.connect import connect
 from laboratory.export import can_log, write_alignment_samples, write_results_csv
 from laboratory.history import index_after
@@ -41,13 +42,15 @@ from laboratory.report import report_after
 from laboratory.rundir import opened_journal, prepare, resume_note
 from laboratory.tables import Column, print_fitted
 from laboratory.verdicts import judge_alignments, run_verdict
-from procedures.isu.alignment.align_math import rotation_error_arcsec
+from procedures.isu.alignment import estimation as es
+from procedures.isu.alignment.align_math import ARCSEC, rotation_error_arcsec
 from procedures.isu.alignment.common import Outcome, canonical_estimator
 from procedures.isu.alignment.options import DAY_ESTIMATORS, AlignmentOptions
 from procedures.isu.alignment.parameter_sheet import Tape
 from procedures.isu.alignment.preprocess import Constants, MissingConstants
 from procedures.isu.alignment.results_sheet import AlignPlan
 from procedures.isu.alignment.run import run_alignments
+from procedures.isu.alignment.tape_library import TapeLibrary
 from procedures.isu.computations import compute_calibration
 from procedures.isu.day import measure_day
 from procedures.isu.plan import DayPlan
@@ -121,7 +124,7 @@ def gyrocompass_latitude_limit_deg(cfg: StationConfig, plan: AlignPlan | None = 
     III-11's limit, ``gyro_error_model``): sigma_az = noise / (Omega cos(latitude)). Where
     that floor alone passes AZIMUTH_SIGMA_LIMIT_DEG the small-angle error model behind
     the reported sigma no longer holds, and the result would be no alignment at all."""
-    plan = plan or AlignPlan()
+    plan = plan or cfg.alignment.plan()
     noise = noise_spec(cfg)
     span_h = plan.gyro_K * plan.gyro_dt_s / 3600.0
     rate = math.sqrt(noise.gyro_arw_deg_rt_hr**2 / span_h + noise.gyro_drift_sigma_deg_hr**2)
@@ -144,10 +147,13 @@ def gyrocompass_refusal(cfg: StationConfig, plan: AlignPlan | None = None) -> st
 def day_alignments(st: IsuDrivers, run: Run, calib: CalibrationResults, cfg: StationConfig,
                    world: World | None,
                    tape_dir: Path | None = None, plan: AlignPlan | None = None,
-                   samples_dir: Path | None = None) -> list[dict]:
+                   samples_dir: Path | None = None,
+                   library: TapeLibrary | None = None) -> list[dict]:
     """After the calibration of ``station day``: the three alignments (those the
     calibration allows, ``day_methods``), as results entries. The gyrocompass alignment
-    is skipped near a pole (``gyrocompass_refusal``), its entry saying why."""
+    is skipped near a pole (``gyrocompass_refusal``), its entry saying why. ``plan``: the
+    config's ``[alignment]`` when None; ``library``: the tape library (None: none)."""
+    plan = plan or cfg.alignment.plan()
     methods = day_methods(calib)
     skipped = []
     why = gyrocompass_refusal(cfg, plan)
@@ -155,8 +161,8 @@ def day_alignments(st: IsuDrivers, run: Run, calib: CalibrationResults, cfg: Sta
         methods.pop("gyrocompass")
         skipped.append({"method": "gyrocompass", "skipped": why})
     opts = AlignmentOptions(noise=noise_spec(cfg), calib=calib, site=site_of(cfg),
-                            plan=plan or AlignPlan(), estimators=methods, tape_dir=tape_dir,
-                            calibration_id="this run (Chart II-15)")
+                            plan=plan, estimators=methods, tape_dir=tape_dir,
+                            calibration_id="this run (Chart II-15)", library=library)
     outcomes = run_alignments(st, run, opts)
     if samples_dir is not None:  # the raw IEU samples of each alignment as CSV
         write_alignment_samples(samples_dir, outcomes)
@@ -198,6 +204,70 @@ def load_tape(path: Path) -> Tape:
     return _sheet(path, Tape)
 
 
+# `station align` options per method: the plan's field for the level and gyrocompass record.
+RECORD_OPTIONS = {"K": ("level_K", "gyro_K"), "dt": ("level_dt_s", "gyro_dt_s"),
+                  "ieu_period": ("level_period_s", "gyro_period_s")}
+OPTION_NAMES = {"K": "--K", "dt": "--dt", "ieu_period": "--ieu-period", "eps_t_s": "--eps-t",
+                "sigma_g_g": "--sigma-g", "sigma_theta_arcsec": "--sigma-theta",
+                "mirror_readings": "--mirror-readings", "alpha_readings": "--alpha-readings",
+                "mirror_zenith": "--theta1", "surveyed_g": "--surveyed-g",
+                "surveyed_earth_rate": "--surveyed-earth-rate",
+                "known_colatitude": "--known-colatitude", "prior_attitude": "--prior-attitude",
+                "quick_K": "--quick-K"}
+
+
+def command_plan(cfg: StationConfig, method: str, given: dict[str, Any]) -> AlignPlan:
+    """The config's ``[alignment]`` plan with the command line's choices (None: not given);
+    ValueError naming the option when the plan it makes is not one."""
+    given = {k: v for k, v in given.items() if v is not None}
+    update: dict[str, Any] = {}
+    for name, value in given.items():
+        if name in RECORD_OPTIONS:
+            if method == "mirror":
+                raise ValueError(f"{OPTION_NAMES[name]}: the mirror alignment takes no IEU "
+                                 "record (K, Delta t and the IEU period are level and "
+                                 "gyrocompass choices)")
+            update[RECORD_OPTIONS[name][method == "gyrocompass"]] = value
+        else:
+            update[name] = value
+    try:
+        plan = AlignPlan.model_validate(cfg.alignment.plan().model_dump() | update)
+    except ValidationError as e:
+        err = e.errors()[0]
+        field_name = str(err["loc"][0]) if err["loc"] else ""
+        opt = next((OPTION_NAMES[k] for k, v in RECORD_OPTIONS.items() if field_name in v),
+                   OPTION_NAMES.get(field_name, "--dt / --ieu-period"))
+        raise ValueError(f"{opt}: {err['msg'].removeprefix('Value error, ')}") from None
+    limit = cfg.instruments.ieu.max_period_s
+    for name in ("level_period_s", "gyro_period_s"):
+        if getattr(plan, name) > limit:
+            raise ValueError(f"--ieu-period: {getattr(plan, name):g} s is longer than the "
+                             f"IEU's instruments.ieu.max_period_s = {limit:g} s")
+    return plan
+
+
+def check_tape_plan(tape: Tape, plan: AlignPlan, method: str, path: Path) -> None:
+    """The tape's K, Delta t, eps_t, sigma_g and sigma_theta against the plan, before the
+    run starts (the inputs the survey and calibration give are checked at Chart III-4
+    step 8 / III-8 step 7); ValueError naming the parameter."""
+    K, dt = ((plan.gyro_K, plan.gyro_dt_s) if method == "gyrocompass"
+             else (plan.level_K, plan.level_dt_s))
+    p = tape.params
+    for name, got, want in (("K", p.K, K), ("dt", p.dt, dt), ("eps_t", p.eps_t, plan.eps_t_s),
+                            ("sigma_g", p.sigma_g, plan.sigma_g_g * es.G0),
+                            ("sigma_theta", p.sigma_theta, plan.sigma_theta_arcsec * ARCSEC)):
+        if not math.isclose(got, want, rel_tol=1e-9):
+            raise ValueError(f"--tape {path}: tape parameter {name} differs from the "
+                             f"experiment's: tape {got:.6g}, experiment {want:.6g}")
+
+
+def tape_library(cfg: StationConfig, override: Path | None, run_uid: str
+                 ) -> TapeLibrary | None:
+    """The run's tape library: ``override`` (--tape-library), else the config's."""
+    root = override if override is not None else cfg.alignment.tape_library
+    return None if root is None else TapeLibrary(Path(root), run_uid)
+
+
 def render_alignment(console: Console, entries: list[dict]) -> None:
     """Chart III-1's rows on the console (split rather than cut when narrow)."""
     names = ("method", "technique", "K x dt", "about E", "about N", "azimuth",
@@ -236,8 +306,10 @@ class AlignRequest:
     ``calibration``: a run directory whose Calibration Results (and Survey Results) sheets
     to use; None: a full calibration day is measured first in the same run. ``tape``: a
     parameter tape to use instead of producing one (checked against the experiment: a
-    mismatch stops Chart III-4 step 8 / III-8 step 7 naming the parameter). ``plan``: the
-    alignment plan (K, Delta t, IEU period, options). ``warmup_s``: the turn-on warm-up
+    mismatch stops Chart III-4 step 8 / III-8 step 7 naming the parameter). ``tape_library``:
+    the library tapes are taken from and filed to (None: the config's ``[alignment]
+    tape_library``, if any). ``plan``: the alignment plan (K, Delta t, IEU period, options;
+    None: the config's ``[alignment]``). ``warmup_s``: the turn-on warm-up
     after an earlier calibration (default the day plan's). ``links``: run over the links of
     a rack served under that directory (real time). ``resume``: continue the interrupted
     alignment in ``out``. ``quiet``: no live display.
@@ -249,7 +321,8 @@ class AlignRequest:
     estimator: str = "average"
     calibration: Path | None = None
     tape: Path | None = None
-    plan: AlignPlan = field(default_factory=AlignPlan)
+    tape_library: Path | None = None
+    plan: AlignPlan | None = None
     warmup_s: float | None = None
     links: Path | None = None
     resume: bool = False
@@ -269,7 +342,8 @@ def run_align(req: AlignRequest, console: Console | None = None,
     written (ValueError, FileNotFoundError, RunDirError); a gyrocompass alignment near a
     pole is refused (``gyrocompass_refusal``).
     """
-    cfg, method, estimator, plan = req.cfg, req.method, req.estimator, req.plan
+    cfg, method, estimator = req.cfg, req.method, req.estimator
+    plan = req.plan or cfg.alignment.plan()
     calibration_dir, links, out = req.calibration, req.links, req.out
     est = canonical_estimator(method, estimator)
     if method == "gyrocompass" and (why := gyrocompass_refusal(cfg, plan)) is not None:
@@ -282,6 +356,7 @@ def run_align(req: AlignRequest, console: Console | None = None,
     tapes = {}
     if req.tape is not None:
         tapes = {method: load_tape(req.tape)}
+        check_tape_plan(tapes[method], plan, method, req.tape)
     prepare(out, req.resume, links)
     wall0 = time.perf_counter()
     conn = connect(registry.get("isu"), cfg, links, rack_hook)
@@ -315,13 +390,16 @@ def run_align(req: AlignRequest, console: Console | None = None,
                                                 site)
                     survey = data.survey
                     cal_id = "this run (Chart II-15)"
+                    write_day_calibration(out, calib, cfg, data, day_plan, site, noise)
                 else:
                     turn_on(st, run, day_plan.warmup_s if req.warmup_s is None
                             else req.warmup_s)
                     cal_id = str(calibration_dir)
                 opts = AlignmentOptions(noise=noise, calib=calib, survey=survey, site=site,
                                         plan=plan, estimators={method: (est,)}, tapes=tapes,
-                                        tape_dir=out / "tapes", calibration_id=cal_id)
+                                        tape_dir=out / "tapes", calibration_id=cal_id,
+                                        library=tape_library(cfg, req.tape_library,
+                                                             ident.run_uid))
                 outcomes = run_alignments(st, run, opts)
             write_sheets(out, run)
             entries = judge_alignments(alignment_entries(outcomes, conn.attitude_world),

@@ -27,6 +27,15 @@ from laboratory.app import (
 )
 from laboratory.identity import OperatorOpt, invoked
 
+TapeLibraryOpt = Annotated[Path | None, typer.Option("--tape-library", help="directory of "
+                           "parameter tapes: take the one matching the experiment's Chart I-8 "
+                           "parameters, or make one and file it there (default \\[alignment] "
+                           "tape_library)")]
+
+
+def _path(v: str | Path | None) -> Path | None:
+    return None if v is None else Path(v)
+
 
 def add_commands(app: typer.Typer) -> None:
     """Register this laboratory's commands on the station's command line."""
@@ -51,6 +60,7 @@ def add_commands(app: typer.Typer) -> None:
                          "measure (same unit, [identity] max_prior_age_days)")] = None,
         survey: Annotated[Path | None, typer.Option("--survey", help="earlier run directory "
                           "whose Survey Results Sheet is used instead of Chart I-2")] = None,
+        tape_library: TapeLibraryOpt = None,
         quiet: QuietOpt = False,
         operator: OperatorOpt = None,
     ) -> None:
@@ -66,7 +76,8 @@ def add_commands(app: typer.Typer) -> None:
         target, args = new_or_resumed("day", out, resume, {
             "seed": seed, "only": only or None, "positions": positions or None,
             "prior": None if prior is None else str(prior),
-            "survey": None if survey is None else str(survey)})
+            "survey": None if survey is None else str(survey),
+            "tape_library": None if tape_library is None else str(tape_library)})
         sel_only = tuple(args["only"]) if args["only"] else None
         sel_pos = tuple(args["positions"]) if args["positions"] else None
         with reported(lambda: None):
@@ -79,7 +90,8 @@ def add_commands(app: typer.Typer) -> None:
                 res = run_day(DayRequest(cfg, target, only=sel_only, positions=sel_pos,
                                          resume=resume is not None, links=links,
                                          start_s=start_at, quiet=quiet,
-                                         prior=args.get("prior"), survey=args.get("survey")),
+                                         prior=args.get("prior"), survey=args.get("survey"),
+                                         tape_library=_path(args.get("tape_library"))),
                                  console)
         except typer.Exit as e:
             release(target, fresh_dir and e.exit_code == 2)
@@ -96,6 +108,41 @@ def add_commands(app: typer.Typer) -> None:
         calibration: Annotated[Path | None, typer.Option("--calibration", help="run directory "
                                "whose Calibration Results Sheet to use (default: calibrate "
                                "first)")] = None,
+        tape: Annotated[Path | None, typer.Option("--tape", help="parameter tape (Chart I-7) "
+                        "for the posterior-mean technique, checked against this experiment's "
+                        "Chart I-8 parameters")] = None,
+        tape_library: TapeLibraryOpt = None,
+        k: Annotated[int | None, typer.Option("--K", help="number of intervals K of the "
+                     "level or gyrocompass record (default \\[alignment] level_K / gyro_K)")
+                     ] = None,
+        dt: Annotated[float | None, typer.Option("--dt", help="interval Delta t, s")] = None,
+        ieu_period: Annotated[float | None, typer.Option("--ieu-period", help="IEU sample "
+                              "period, s (divides Delta t)")] = None,
+        eps_t: Annotated[float | None, typer.Option("--eps-t", help="Chart I-8: prediction "
+                         "time after the data, s")] = None,
+        sigma_g: Annotated[float | None, typer.Option("--sigma-g", help="Chart I-8: rms error "
+                           "of g~, g")] = None,
+        sigma_theta: Annotated[float | None, typer.Option("--sigma-theta", help="Chart I-8: rms "
+                               "error of the prior vertical, arcsec")] = None,
+        mirror_readings: Annotated[int | None, typer.Option("--mirror-readings", help="mirror "
+                                   "alignment: autocollimator readings per mirror")] = None,
+        alpha_readings: Annotated[int | None, typer.Option("--alpha-readings", help="level: "
+                                  "readings of mirror 1's azimuth alpha1")] = None,
+        theta1: Annotated[bool | None, typer.Option("--theta1/--no-theta1", help="level: use "
+                          "the autocollimator's zenith angle theta1 (III-2.2)")] = None,
+        surveyed_g: Annotated[bool | None, typer.Option("--surveyed-g/--no-surveyed-g",
+                              help="use |g| from the survey (III-2.2, III-3.2)")] = None,
+        surveyed_earth_rate: Annotated[bool | None, typer.Option(
+            "--surveyed-earth-rate/--no-surveyed-earth-rate",
+            help="gyrocompass: |omega^E| from the survey (III-3.2)")] = None,
+        known_colatitude: Annotated[bool | None, typer.Option(
+            "--known-colatitude/--no-known-colatitude",
+            help="gyrocompass: the colatitude from the survey (III-3.2)")] = None,
+        prior_attitude: Annotated[str | None, typer.Option("--prior-attitude", help="nominal "
+                                  "T1 of Chart I-8 (I-3.1): resolvers, autocollimators or "
+                                  "quick")] = None,
+        quick_k: Annotated[int | None, typer.Option("--quick-K", help="intervals of the quick "
+                           "alignment (--prior-attitude quick)")] = None,
         config: ConfigOpt = None,
         seed: SeedOpt = None,
         out: OutOpt = None,
@@ -104,13 +151,27 @@ def add_commands(app: typer.Typer) -> None:
         quiet: QuietOpt = False,
         operator: OperatorOpt = None,
     ) -> None:
-        """One alignment (Part III): mirror, level or gyrocompass, with the chosen estimator."""
-        from laboratory.isu.align import AlignRequest, load_calibration, run_align
+        """One alignment (Part III): mirror, level or gyrocompass, with the chosen estimator.
+
+        Every choice of the alignment plan defaults to the config's \\[alignment] table.
+        """
+        from laboratory.isu.align import AlignRequest, command_plan, load_calibration, run_align
+        from laboratory.isu.align import load_tape as read_tape_file
 
         check_seed(seed)
+        given_plan = {"K": k, "dt": dt, "ieu_period": ieu_period, "eps_t_s": eps_t,
+                      "sigma_g_g": sigma_g, "sigma_theta_arcsec": sigma_theta,
+                      "mirror_readings": mirror_readings, "alpha_readings": alpha_readings,
+                      "mirror_zenith": theta1, "surveyed_g": surveyed_g,
+                      "surveyed_earth_rate": surveyed_earth_rate,
+                      "known_colatitude": known_colatitude, "prior_attitude": prior_attitude,
+                      "quick_K": quick_k}
         target, args = new_or_resumed("align", out, resume, {
             "seed": seed, "method": method, "estimator_requested": estimator,
-            "calibration": None if calibration is None else str(calibration)})
+            "calibration": None if calibration is None else str(calibration),
+            "tape": None if tape is None else str(tape),
+            "tape_library": None if tape_library is None else str(tape_library),
+            "plan": {k: v for k, v in given_plan.items() if v is not None} or None})
         method = args["method"]
         estimator = args["estimator_requested"] or "average"
         if method is None:
@@ -119,18 +180,28 @@ def add_commands(app: typer.Typer) -> None:
             fail(f"--method: unknown method {method!r}: mirror, level or gyrocompass")
         if estimator not in ("average", "posterior", "hybrid"):
             fail(f"--estimator: unknown estimator {estimator!r}: average, posterior or hybrid")
-        cal = None if args["calibration"] is None else Path(args["calibration"])
-        if cal is not None:
-            with reported(lambda: None):
+        cal = _path(args["calibration"])
+        tape_file = _path(args.get("tape"))
+        if tape_file is not None and estimator == "average":
+            fail("--tape: the simple average uses no tape (give --estimator posterior or "
+                 "hybrid)")
+        with reported(lambda: None):
+            if cal is not None:
                 load_calibration(cal)
+            if tape_file is not None:
+                read_tape_file(tape_file)
         cfg = load_isu_config(config, args["seed"])
+        with reported(lambda: None):
+            plan = command_plan(cfg, method, args.get("plan") or {})
         fresh_dir = target is None
         target = target_dir(target, "align", cfg.seed)
         try:
             with reported(lambda: target), invoked(operator):
                 res = run_align(AlignRequest(cfg, target, method, estimator, calibration=cal,
-                                             links=links, resume=resume is not None,
-                                             quiet=quiet), console)
+                                             tape=tape_file,
+                                             tape_library=_path(args.get("tape_library")),
+                                             plan=plan, links=links,
+                                             resume=resume is not None, quiet=quiet), console)
         except typer.Exit as e:
             release(target, fresh_dir and e.exit_code == 2)
             raise

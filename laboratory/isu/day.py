@@ -22,7 +22,7 @@ from laboratory.connect import Connection, connect
 from laboratory.export import can_log, write_results_csv
 from laboratory.history import index_after
 from laboratory.identity import RunIdentity, identified, isu_config, isu_identity
-from laboratory.isu.align import day_alignments, render_alignment
+from laboratory.isu.align import day_alignments, render_alignment, tape_library
 from laboratory.isu.display import DayDisplay
 from laboratory.isu.plots import nonlinearity_plot, results_plot
 from laboratory.isu.prior import CarriedSheets, carried_sheets
@@ -57,9 +57,11 @@ class DayRequest:
     hold no record unless ``resume``). ``only`` / ``positions``: measure only these charts /
     calibration positions (turn-on and survey always run). ``plan``: the day's required
     accuracies and operator choices. ``align``: run the three alignments of Part III after
-    the calibration, with ``align_plan``. ``links``: run over the links of a rack served
-    under that directory (real time); a resume then restores the completed charts instead of
-    replaying them, and repeats turn-on if the rack was restarted meanwhile. ``start_s``
+    the calibration, with ``align_plan`` (None: the config's ``[alignment]``), taking and
+    filing tapes in ``tape_library`` (None: the config's, if any). ``links``: run over the
+    links of a rack served under that directory (real time); a resume then restores the
+    completed charts instead of replaying them, and repeats turn-on if the rack was
+    restarted meanwhile. ``start_s``
     (virtual): begin at that simulated time, to compare with a rehearsal that began then.
     ``quiet``: no live display. ``prior`` / ``survey``: an earlier run whose Calibration /
     Survey Results Sheet this run carries forward (laboratory.isu.prior checks its unit and
@@ -75,7 +77,8 @@ class DayRequest:
     start_s: float = 0.0
     plan: DayPlan = field(default_factory=DayPlan)
     align: bool = True
-    align_plan: AlignPlan = field(default_factory=AlignPlan)
+    align_plan: AlignPlan | None = None
+    tape_library: Path | None = None
     quiet: bool = False
     prior: Path | None = None
     survey: Path | None = None
@@ -207,7 +210,9 @@ def _day(req: DayRequest, conn: Connection, journal: Journal, console: Console,
         if req.align and data.survey is not None:
             alignment = day_alignments(st, run, calib, cfg, conn.attitude_world,
                                        tape_dir=out / "tapes", plan=req.align_plan,
-                                       samples_dir=out)
+                                       samples_dir=out,
+                                       library=tape_library(cfg, req.tape_library,
+                                                            ident.run_uid))
     write_sheets(out, run)
     dphi = {int(r.instrument[4:]): scale_factor_arcsec(r.estimate) for r in calib.rows
             if r.parameter == "DeltaPhi" and r.estimate is not None}

@@ -41,6 +41,7 @@ from sim.isu.params import (
     TableParams,
     WorldParams,
 )
+from station.config.alignment import AlignmentSettings
 from station.config.file import (
     ConfigError,
     check_depth,
@@ -215,6 +216,7 @@ class StationConfig(BaseModel):
     links: Links
     faults: dict[Annotated[str, AfterValidator(_fault_instrument)], FaultSpec] = {}
     limits: IsuLimits = IsuLimits()  # acceptance limits (station/config/limits.py)
+    alignment: AlignmentSettings = AlignmentSettings()  # Part III plan, tape library
     identity: IsuIdentity
 
     @field_validator("faults")
@@ -252,6 +254,17 @@ class StationConfig(BaseModel):
                 f"the fastest accelerometer string runs at {f:.0f} Hz at 1.1 g (at most "
                 f"{65535 / f:.3g} s)")
         return v
+
+    @model_validator(mode="after")
+    def _alignment_periods_fit_the_ieu(self) -> StationConfig:
+        """An alignment's IEU sample period must be one the IEU can be set to."""
+        for name in ("level_period_s", "gyro_period_s"):
+            per = getattr(self.alignment, name)
+            if per > self.instruments.ieu.max_period_s:
+                raise ValueError(f"alignment.{name} = {per:g} s is longer than the IEU's "
+                                 f"instruments.ieu.max_period_s = "
+                                 f"{self.instruments.ieu.max_period_s:g} s")
+        return self
 
     def world_params(self) -> WorldParams:
         return WorldParams(

@@ -171,11 +171,14 @@ def site_rates(survey: SurveyResults | None, site: Site | None) -> tuple[float, 
 
 
 def experiment_params(plan: AlignPlan, noise: NoiseSpec, survey: SurveyResults | None,
-                      constants: Constants, K: int, dt: float) -> LevelParams:
-    """The Chart I-8 parameters this experiment specifies for a record of K x dt."""
+                      constants: Constants, K: int, dt: float,
+                      t1: np.ndarray | None = None) -> LevelParams:
+    """The Chart I-8 parameters this experiment specifies for a record of K x dt.
+
+    ``t1``: the nominal attitude the plan's way of I-3.1 gave (None: the resolvers', way 2)."""
     d1 = float(np.mean(constants.vector("accel", "D1")))
     return em.level_params(
-        noise, dt, K, t1=prior_t1(survey), g_tilde_g=survey_g(survey),
+        noise, dt, K, t1=prior_t1(survey) if t1 is None else t1, g_tilde_g=survey_g(survey),
         sigma_g_g=plan.sigma_g_g, sigma_theta_arcsec=plan.sigma_theta_arcsec,
         eps_t=plan.eps_t_s, d1_pps_per_g=d1,
     )

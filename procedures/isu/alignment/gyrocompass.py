@@ -161,7 +161,8 @@ def gyro_checks(e: str, model: dict, survey: SurveyResults | None, w_north: floa
 
 
 def gyrocompass_procedure(st: IsuDrivers, run: Run, options: AlignmentOptions,
-                          mirror: Outcome | None = None) -> list[Outcome]:
+                          mirror: Outcome | None = None, quick: bool = False
+                          ) -> list[Outcome]:
     """Tick Chart III-8; one Outcome (and Alignment Results Sheet) per technique that
     ``options`` asks for the gyrocompass method (the simple average when it names none).
 
@@ -169,12 +170,14 @@ def gyrocompass_procedure(st: IsuDrivers, run: Run, options: AlignmentOptions,
     (hybrid). ``mirror``: the mirror alignment of this run, which T is checked against at
     step 10 (else the survey's prediction, if the survey was made in this run); |omega| and
     the colatitude are checked against the survey's Earth rate (the site's without one),
-    |g| against the survey.
+    |g| against the survey. ``quick``: the quick alignment of I-3.1 way 3 (simple average
+    over ``plan.quick_K`` intervals; sheet ``III-8-quick``), which gives the nominal T1 of
+    Chart I-8.
     """
     noise, calib, survey, plan = options.noise, options.calib, options.survey, options.plan
     calibration_id = options.calibration_id
-    ests = options.techniques("gyrocompass") or ("average",)
-    K, dt = plan.gyro_K, plan.gyro_dt_s
+    ests = ("average",) if quick else (options.techniques("gyrocompass") or ("average",))
+    K, dt = plan.quick_K if quick else plan.gyro_K, plan.gyro_dt_s
     tapes = {e: t for e in ests if (t := options.tape_for("gyrocompass", e)) is not None}
     w_north, w_up = site_rates(survey, options.site)
     opts: dict[str, float] = {}
@@ -184,7 +187,9 @@ def gyrocompass_procedure(st: IsuDrivers, run: Run, options: AlignmentOptions,
         opts["g_survey"] = survey_g(survey)
     if plan.surveyed_earth_rate:
         opts["w_survey"] = math.hypot(w_north, w_up)
-    with run.sheet(CHART, TITLE) as sheet:
+    chart, title, suffix = ((f"{CHART}-quick", f"Quick {TITLE.lower()} (I-3.1, way 3)",
+                             "_quick") if quick else (CHART, TITLE, ""))
+    with run.sheet(chart, title) as sheet:
         with sheet.step("1", "Verify turn-on procedures and Alignment Results Sheet are "
                         "completed") as s:
             s.reading = require_turn_on(run) | {"K": K, "dt_s": dt, "estimators": list(ests),
@@ -210,7 +215,7 @@ def gyrocompass_procedure(st: IsuDrivers, run: Run, options: AlignmentOptions,
             s.reading = {"calibration_id": calibration_id, "constants": len(c.values)}
         sheet.done("6", "Enter number of samples K and inter-sample time Delta t",
                    {"K": K, "dt_s": dt})
-        params = experiment_params(plan, noise, survey, c, K, dt)
+        params = experiment_params(plan, noise, survey, c, K, dt, options.nominal_t1())
         with sheet.step("7", "Enter parameters from parameter evaluation program for "
                         "selected K and Delta t") as s:
             used = {}
@@ -260,7 +265,7 @@ def gyrocompass_procedure(st: IsuDrivers, run: Run, options: AlignmentOptions,
                            f"{len(record.recoveries)} recovered by RESEND",
                            "Q_IS term as Chart IV-2, (w.G)(w.S) (Chart III-9 prints (w.G)(a.S))"],
                 )
-                run.save_sheet(f"alignment_results_gyrocompass_{e}", sheet_model)
+                run.save_sheet(f"alignment_results_gyrocompass_{e}{suffix}", sheet_model)
                 out.append(Outcome("gyrocompass", e, K, dt, model["t"], t_ref,
                                    model["predicted"], model["limit"], sheet_model,
                                    {"parts": model["parts"], "g_body_g": model["g_b"].tolist(),

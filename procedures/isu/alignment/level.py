@@ -143,21 +143,26 @@ def level_checks(e: str, model: dict, survey: SurveyResults | None,
 
 
 def level_alignment_procedure(st: IsuDrivers, run: Run, options: AlignmentOptions,
-                              mirror: Outcome | None = None) -> list[Outcome]:
+                              mirror: Outcome | None = None, quick: bool = False
+                              ) -> list[Outcome]:
     """Tick Chart III-4; one Outcome (and Alignment Results Sheet) per technique that
     ``options`` asks for the level method (the simple average when it names none).
 
     ``options.tapes["level"]``: the posterior mean's tape; its Chart I-8 parameters are checked
     against this experiment's at step 8, and a mismatch stops the step naming the parameter.
     ``mirror``: the mirror alignment of this run, which T is checked against at step 12
-    (else the survey's prediction, if the survey was made in this run).
+    (else the survey's prediction, if the survey was made in this run). ``quick``: the
+    quick alignment of I-3.1 way 3 (simple average over ``plan.quick_K`` intervals; sheet
+    ``III-4-quick``), which gives the nominal T1 of Chart I-8.
     """
     noise, calib, survey, plan = options.noise, options.calib, options.survey, options.plan
     calibration_id = options.calibration_id
-    ests = options.techniques("level") or ("average",)
-    K, dt = plan.level_K, plan.level_dt_s
+    ests = ("average",) if quick else (options.techniques("level") or ("average",))
+    K, dt = plan.quick_K if quick else plan.level_K, plan.level_dt_s
     tapes = {e: t for e in ests if (t := options.tape_for("level", e)) is not None}
-    with run.sheet(CHART, TITLE) as sheet:
+    chart, title, suffix = ((f"{CHART}-quick", f"Quick {TITLE.lower()} (I-3.1, way 3)",
+                             "_quick") if quick else (CHART, TITLE, ""))
+    with run.sheet(chart, title) as sheet:
         with sheet.step("1", "Verify turn-on procedures and the Alignment Results Sheet "
                         "inputs are completed") as s:
             s.reading = require_turn_on(run) | {
@@ -188,7 +193,7 @@ def level_alignment_procedure(st: IsuDrivers, run: Run, options: AlignmentOption
                          "constants": {f"{i} {p}": v for (i, p), v in c.values.items()}}
         sheet.done("7", "Enter K and Delta t from the Alignment Results Sheet",
                    {"K": K, "dt_s": dt})
-        params = experiment_params(plan, noise, survey, c, K, dt)
+        params = experiment_params(plan, noise, survey, c, K, dt, options.nominal_t1())
         with sheet.step("8", "Enter parameters from parameter evaluation program for chosen "
                         "K and Delta t") as s:
             used = {}
@@ -246,7 +251,7 @@ def level_alignment_procedure(st: IsuDrivers, run: Run, options: AlignmentOption
                     notes=[f"IEU {record.K * spi} samples of {period} S2^T pulses; "
                            f"{len(record.recoveries)} recovered by RESEND"],
                 )
-                run.save_sheet(f"alignment_results_level_{e}", sheet_model)
+                run.save_sheet(f"alignment_results_level_{e}{suffix}", sheet_model)
                 out.append(Outcome("level", e, K, dt, model["t"], t_ref, model["predicted"],
                                    model["limit"], sheet_model,
                                    {"parts": model["parts"], "g_body_g": model["g_b"].tolist(),

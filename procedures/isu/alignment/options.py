@@ -15,9 +15,12 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from types import MappingProxyType
 
+import numpy as np
+
 from procedures.isu.alignment.common import canonical_estimator
 from procedures.isu.alignment.parameter_sheet import Tape
 from procedures.isu.alignment.results_sheet import METHODS, AlignPlan
+from procedures.isu.alignment.tape_library import TapeLibrary
 from procedures.isu.calibration.noise_spec import NoiseSpec
 from procedures.isu.sheets import CalibrationResults, SurveyResults
 from procedures.isu.site import Site
@@ -30,6 +33,15 @@ DAY_ESTIMATORS: Mapping[str, tuple[str, ...]] = MappingProxyType({
 
 
 @dataclass(frozen=True)
+class NominalAttitude:
+    """The nominal T1 (T^EB at position 0) of the Alignment Parameter Evaluation Sheet, and
+    which of the ways of I-3.1 gave it."""
+
+    t1: np.ndarray
+    source: str
+
+
+@dataclass(frozen=True)
 class AlignmentOptions:
     """The inputs and choices of the alignments of one run (see the module doc).
 
@@ -37,7 +49,9 @@ class AlignmentOptions:
     the tape its posterior-mean technique uses (checked at Chart III-4 step 8 / III-8 step
     7; a missing one is produced by Chart I-7 in the run, into ``tape_dir``). ``survey``
     None: the run's own Survey Results Sheet, if it made one. ``site``: the Earth rate the
-    gyrocompass checks against when there is no survey.
+    gyrocompass checks against when there is no survey. ``library``: the tape library
+    tapes are looked up in and filed to. ``nominal``: the nominal T1 of Chart I-8 (set by
+    ``run_alignments`` from the plan's way of I-3.1; None: the resolvers').
     """
 
     noise: NoiseSpec
@@ -49,6 +63,8 @@ class AlignmentOptions:
     tapes: Mapping[str, Tape] = field(default_factory=lambda: MappingProxyType({}))
     tape_dir: Path | None = None
     calibration_id: str | None = None
+    library: TapeLibrary | None = None
+    nominal: NominalAttitude | None = None
 
     def __post_init__(self) -> None:
         unknown = sorted(set(self.estimators) - set(METHODS))
@@ -64,6 +80,9 @@ class AlignmentOptions:
                for m, v in self.estimators.items()}
         object.__setattr__(self, "estimators", MappingProxyType(est))
         object.__setattr__(self, "tapes", MappingProxyType(dict(self.tapes)))
+
+    def nominal_t1(self) -> np.ndarray | None:
+        return None if self.nominal is None else self.nominal.t1
 
     def techniques(self, method: str) -> tuple[str, ...]:
         """The techniques (canonical: ``canonical_estimator``) applied to ``method``'s record."""

@@ -52,7 +52,8 @@ def parameter_evaluation(run: Run, experiments: dict[str, tuple[LevelParams, str
                     found = library.find(params)
                     s.reading = {"library": library.root.name,
                                  "reel_id": found.tape.sheet.reel_id if found.tape else None,
-                                 "why_not": found.why_not}
+                                 "why_not": found.why_not,
+                                 "t1_offset_arcsec": found.t1_offset_arcsec}
                 if found.tape is not None:
                     tapes[tag] = found.tape
                     run.save_sheet(f"alignment_parameters_{tag}", found.tape.sheet)

@@ -56,6 +56,7 @@ class Tape(BaseModel):
     M: list[list[float]]
     b: list[float]
     covariance: list[list[float]] = Field(description="A^-1, error covariance, (m/s^2)^2")
+    filed_by: str | None = Field(None, description="the run that filed it in a tape library")
 
     @model_validator(mode="after")
     def _shapes(self) -> Tape:

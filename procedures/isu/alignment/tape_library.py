@@ -9,24 +9,27 @@ reels of the experiment's K, Delta t and eps_t from the index and gives the firs
 passes the operator's check (``check_tape``); otherwise the procedure makes a tape and files
 it. The index is a cache: when it is missing, unreadable or does not list exactly the files
 present, it is rebuilt from the reels themselves, so two runs filing at once lose nothing.
-A reel filed by the run now looking (``run_uid``) is not offered to it: a resumed run then
-takes the same path it took before the interruption.
+Each reel names the run that filed it (``Tape.filed_by``); a reel filed by the run now
+looking (``run_uid``) is not offered to it, so a resumed run takes the same path it took
+before the interruption.
 """
 
 from __future__ import annotations
 
 import json
+import math
 from dataclasses import dataclass
 from pathlib import Path
 
 from pydantic import ValidationError
 
 from procedures.isu.alignment.estimation import LevelParams
-from procedures.isu.alignment.parameter_sheet import Tape, check_tape, write_tape
+from procedures.isu.alignment.parameter_sheet import Tape, check_tape, t1_angle_rad, write_tape
 from station.files import write_bytes
 
 INDEX = "index.json"
 INDEX_FORMAT = "isu-station tape library 1"
+ARCSEC_PER_RAD = 180.0 / math.pi * 3600.0
 
 
 @dataclass(frozen=True)
@@ -51,6 +54,7 @@ class Lookup:
     tape: Tape | None
     file: Path | None
     why_not: str | None = None
+    t1_offset_arcsec: float | None = None  # found: the reel's T1 against the experiment's
 
 
 class TapeLibrary:
@@ -79,12 +83,11 @@ class TapeLibrary:
             return None
 
     def _rebuild(self, files: list[str]) -> list[Reel]:
-        known = {r.file: r.filed_by for r in self._read_index() or []}
         reels = []
         for name in files:
             tape = self._load(self.root / name)
             if tape is not None:
-                reels.append(_reel(tape, name, known.get(name)))
+                reels.append(_reel(tape, name))
         self._write_index(reels)
         return reels
 
@@ -115,7 +118,8 @@ class TapeLibrary:
             except ValueError as e:
                 why = why or f"{r.reel_id}: {e}"
                 continue
-            return Lookup(tape, self.root / r.file)
+            offset = t1_angle_rad(tape.params.t1, params.t1) * ARCSEC_PER_RAD
+            return Lookup(tape, self.root / r.file, None, offset)
         return Lookup(None, None, why or "no readable reel")
 
     # ------------------------------------------------------------------ filing
@@ -125,9 +129,12 @@ class TapeLibrary:
         name = f"{tape.sheet.reel_id}.json"
         path = self.root / name
         if not path.exists():
+            tape = tape.model_copy(update={"filed_by": self.run_uid})
             write_tape(tape, path)
+        else:
+            tape = self._load(path) or tape
         reels = [r for r in self.reels() if r.file != name]
-        reels.append(_reel(tape, name, self.run_uid))
+        reels.append(_reel(tape, name))
         self._write_index(sorted(reels, key=lambda r: r.file))
         return path
 
@@ -138,6 +145,6 @@ class TapeLibrary:
         write_bytes(self.root / INDEX, json.dumps(data, indent=1).encode("utf-8"))
 
 
-def _reel(tape: Tape, name: str, filed_by: str | None) -> Reel:
+def _reel(tape: Tape, name: str) -> Reel:
     p = tape.sheet.params
-    return Reel(tape.sheet.reel_id, name, p.K, p.dt, p.eps_t, filed_by)
+    return Reel(tape.sheet.reel_id, name, p.K, p.dt, p.eps_t, tape.filed_by)

@@ -382,6 +382,10 @@ def run_align(req: AlignRequest, console: Console | None = None,
                          command="align", method=method,
                          estimator=est, estimator_requested=estimator,
                          calibration=str(calibration_dir) if calibration_dir else None,
+                         tape=None if req.tape is None else str(req.tape),
+                         tape_library=None if req.tape_library is None
+                         else str(req.tape_library),
+                         plan=plan.model_dump(),
                          session=conn.session.session if conn.session else None)
                 if calib is None:
                     data = measure_day(st, run, day_plan, site, cfg.isu.accels[0].f0_hz,

@@ -157,6 +157,7 @@ def add_commands(app: typer.Typer) -> None:
         """
         from laboratory.isu.align import AlignRequest, command_plan, load_calibration, run_align
         from laboratory.isu.align import load_tape as read_tape_file
+        from station.config.alignment import AlignPlan
 
         check_seed(seed)
         given_plan = {"K": k, "dt": dt, "ieu_period": ieu_period, "eps_t_s": eps_t,
@@ -192,7 +193,9 @@ def add_commands(app: typer.Typer) -> None:
                 read_tape_file(tape_file)
         cfg = load_isu_config(config, args["seed"])
         with reported(lambda: None):
-            plan = command_plan(cfg, method, args.get("plan") or {})
+            recorded = args.get("plan") or {}
+            plan = (AlignPlan.model_validate(recorded) if "level_K" in recorded  # resumed
+                    else command_plan(cfg, method, recorded))
         fresh_dir = target is None
         target = target_dir(target, "align", cfg.seed)
         try:

@@ -81,7 +81,8 @@ def add_commands(app: typer.Typer) -> None:
         sigmas), the scatter across days against the predicted sigma (chi-square), and
         trend.png; exit 1 when anything is flagged."""
         from laboratory.history.store import runs_of, session
-        from laboratory.history.trend import trend_plot, trends, z_limit
+        from laboratory.history.trend import COLUMNS, flags, trend_plot, trends, z_limit
+        from laboratory.history.trend import cells as trend_cells
 
         day = None
         if since is not None:
@@ -95,19 +96,12 @@ def add_commands(app: typer.Typer) -> None:
         if not ts:
             fail(f"trend: unit {unit} has no constant determined on two or more completed "
                  "runs in the history")
-        cols = [Column(c, right=c not in ("inst", "param", "units", "flag"))
-                for c in ("inst", "param", "units", "n", "last change", "z", "max |z|",
-                          "chi2/dof", "p", "scatter", "pred sigma", "flag")]
+        cols = [Column(c, right=c not in ("inst", "param", "units", "flag")) for c in COLUMNS]
         cells = []
         for t in ts:
-            last = t.changes[-1]
-            flag = ("[red]CHANGE[/]" if any(c.flagged for c in t.changes) else "") + (
-                " [red]SCATTER[/]" if t.scatter_flagged else "")
-            cells.append([t.instrument, t.parameter, t.units or "-", str(len(t.points)),
-                          f"{last.delta:+.3e}", f"{last.z:+.2f}",
-                          f"{max(abs(c.z) for c in t.changes):.2f}",
-                          f"{t.chi2:.2f}/{t.dof}", f"{t.p_value:.3g}",
-                          f"{t.scatter:.3e}", f"{t.predicted:.3e}", flag.strip() or "-"])
+            row = trend_cells(t)
+            row[-1] = " ".join(f"[red]{f}[/]" for f in flags(t)) or "-"
+            cells.append(row)
         print_fitted(console, f"Trend of {unit}: changes between consecutive calibrations "
                      f"(flag |z| > {zl:.2f}, level {level:g})", cols, cells)
         trend_plot(ts, plot, unit, level)

@@ -336,8 +336,19 @@ def build(run_dir: Path) -> dict:
         "tables": tables, "truth_tables": truth_tables, "alignments": alignments,
         "summaries": summaries, "truth_summaries": truth_summaries, "figures": figures,
         "checks": checks, "others": others,
-        "plots": plots, "config_text": config_text,
+        "plots": plots, "config_text": config_text, "history": _history(d),
     }
+
+
+def _history(d: Path) -> dict[str, Any]:
+    """The "History of this unit" section (laboratory/history/section.py); its one line
+    when the history cannot be had, never the report's failure."""
+    try:
+        from laboratory.history.section import safe_history_section
+    except Exception as e:  # noqa: BLE001 - the report never fails because of the history
+        return {"shown": False, "text": f"No history: the calibration history is unavailable "
+                f"({type(e).__name__}: {e})"}
+    return safe_history_section(d)
 
 
 def _environment() -> Environment:

@@ -68,11 +68,11 @@ def history_section(run_dir: Path, url: str | None = None,
                      f"this one ({len(upto)} runs in the history): nothing to trend yet.")
     png = io.BytesIO()
     trend_plot(ts, png, unit, level)
-    rows = [{"label": t.name, "cells": cells(t), "flagged": bool(flags(t))} for t in ts]
+    rows: list[dict[str, Any]] = [{"label": t.name, "cells": cells(t), "flagged": bool(flags(t))} for t in ts]
     return {"shown": True, "unit": unit, "runs": len(upto), "level": level,
             "z_limit": z_limit(level), "columns": list(COLUMNS), "rows": rows,
             "text": f"{len(upto)} runs of {unit} in the {lab} laboratory's history up to "
-                    f"and including this one; {sum(r['flagged'] for r in rows)} of "
+                    f"and including this one; {sum(bool(flags(t)) for t in ts)} of "
                     f"{len(rows)} constants flagged at the {level:g} level.",
             "plot": "data:image/png;base64," + base64.b64encode(png.getvalue()).decode()}
 

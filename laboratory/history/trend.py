@@ -140,6 +140,7 @@ def trend_plot(ts: list[Trend], path: Path | BinaryIO, unit: str, level: float) 
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    from matplotlib.ticker import MaxNLocator
 
     n = max(len(ts), 1)
     cols = min(6, n)
@@ -160,6 +161,7 @@ def trend_plot(ts: list[Trend], path: Path | BinaryIO, unit: str, level: float) 
         colour = "red" if t.flagged else "black"
         ax.set_title(f"{t.name} ({t.units or '-'})", fontsize=8, color=colour)
         ax.tick_params(labelsize=6)
+        ax.xaxis.set_major_locator(MaxNLocator(integer=True))  # calibration number
         ax.ticklabel_format(axis="y", style="sci", scilimits=(-3, 3))
         ax.yaxis.get_offset_text().set_fontsize(6)
     fig.suptitle(f"{unit}: estimate less weighted mean per calibration (1 sigma bars; red: "

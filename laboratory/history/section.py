@@ -68,7 +68,8 @@ def history_section(run_dir: Path, url: str | None = None,
                      f"this one ({len(upto)} runs in the history): nothing to trend yet.")
     png = io.BytesIO()
     trend_plot(ts, png, unit, level)
-    rows: list[dict[str, Any]] = [{"label": t.name, "cells": cells(t), "flagged": bool(flags(t))} for t in ts]
+    rows: list[dict[str, Any]] = [{"label": t.name, "cells": cells(t),
+                                   "flagged": bool(flags(t))} for t in ts]
     return {"shown": True, "unit": unit, "runs": len(upto), "level": level,
             "z_limit": z_limit(level), "columns": list(COLUMNS), "rows": rows,
             "text": f"{len(upto)} runs of {unit} in the {lab} laboratory's history up to "

@@ -129,7 +129,7 @@ def runs(tmp_path_factory: pytest.TempPathFactory) -> dict:
         assert p.returncode == 0 and "warning" not in p.stderr, p.stderr
         days.append(out)
     t = station("trend", UNIT, "--db", str(base / "runs" / "history.sqlite"), "--plot",
-                str(base / "trend.png"))
+                str(base / "trend.png"), "--html", str(base / "trend.html"))
     assert t.returncode == 0, t.stdout + t.stderr
     fourth = base / "runs" / "day4"
     assert station(*DAY, "--seed", "4", "--out", str(fourth)).returncode == 0
@@ -150,6 +150,15 @@ def test_the_third_run_shows_its_history(runs: dict, tmp_path: Path) -> None:
     for name, cells in dom.rows.items():
         assert cells[3] == "3", name  # three calibrations: this run and two before it
         assert cells[5] == z[name], name  # `station trend`'s z of the latest change
+
+
+def test_station_trend_html_is_the_same_section(runs: dict) -> None:
+    """`station trend UNIT --html FILE`: the section on a page of its own, the same rows."""
+    page, report = Dom(), Dom()
+    page.feed((runs["base"] / "trend.html").read_text(encoding="utf-8"))
+    report.feed((runs["days"][2] / "report.html").read_text(encoding="utf-8"))
+    assert page.shown == "yes" and page.plot_src.startswith("data:image/png;base64,")
+    assert page.rows == report.rows
 
 
 def test_the_first_run_has_no_earlier_runs(runs: dict, tmp_path: Path) -> None:

@@ -14,6 +14,7 @@ from laboratory.history.store import history_url_for, runs_of, session
 from laboratory.history.trend import (
     COLUMNS,
     DEFAULT_LEVEL,
+    Trend,
     cells,
     flags,
     trend_plot,
@@ -66,15 +67,21 @@ def history_section(run_dir: Path, url: str | None = None,
     if not ts:
         return _none(f"No constant of {unit} determined on two or more completed runs up to "
                      f"this one ({len(upto)} runs in the history): nothing to trend yet.")
+    return shown(ts, unit, level, f"{len(upto)} runs of {unit} in the {lab} laboratory's "
+                 "history up to and including this one")
+
+
+def shown(ts: list[Trend], unit: str, level: float, where: str) -> dict[str, Any]:
+    """The section for the trends ``ts`` of ``unit`` (``where`` says which runs they
+    cover): the plot as a data: URI, one row per constant as `station trend` prints it."""
     png = io.BytesIO()
     trend_plot(ts, png, unit, level)
     rows: list[dict[str, Any]] = [{"label": t.name, "cells": cells(t),
                                    "flagged": bool(flags(t))} for t in ts]
-    return {"shown": True, "unit": unit, "runs": len(upto), "level": level,
-            "z_limit": z_limit(level), "columns": list(COLUMNS), "rows": rows,
-            "text": f"{len(upto)} runs of {unit} in the {lab} laboratory's history up to "
-                    f"and including this one; {sum(bool(flags(t)) for t in ts)} of "
-                    f"{len(rows)} constants flagged at the {level:g} level.",
+    return {"shown": True, "unit": unit, "level": level, "z_limit": z_limit(level),
+            "columns": list(COLUMNS), "rows": rows,
+            "text": f"{where}; {sum(bool(flags(t)) for t in ts)} of {len(ts)} constants "
+                    f"flagged at the {level:g} level.",
             "plot": "data:image/png;base64," + base64.b64encode(png.getvalue()).decode()}
 
 

@@ -369,6 +369,12 @@ def render_report(run_dir: Path) -> str:
     return _environment().get_template("report.html.j2").render(**build(d))
 
 
+def render_history_page(history: dict[str, Any], db: str, since: str | None) -> str:
+    """`station trend --html`: the report's "History of this unit" section as a page."""
+    return _environment().get_template("trend.html.j2").render(history=history, db=db,
+                                                               since=since)
+
+
 def write_report(run_dir: Path, out: Path | None = None) -> Path:
     """Render the report of ``run_dir`` into ``out`` (default RUN_DIR/report.html),
     atomically; returns the file written."""

@@ -10,9 +10,12 @@ from __future__ import annotations
 
 import datetime as dt
 from pathlib import Path
-from typing import Annotated
+from typing import TYPE_CHECKING, Annotated
 
 import typer
+
+if TYPE_CHECKING:
+    from laboratory.history.trend import Trend
 
 DbOpt = Annotated[str | None, typer.Option(
     "--db", help="SQLAlchemy URL of the history database (default: $STATION_HISTORY_URL, "
@@ -26,6 +29,28 @@ def _url(db: str | None) -> str | None:
     from laboratory.history.store import sqlite_url
 
     return db if "://" in db else sqlite_url(Path(db))
+
+
+def _write_page(path: Path, ts: list[Trend], unit: str, level: float, url: str | None,
+                since: str | None) -> None:
+    """`--html FILE`: the unit's history as the report's section, on a page of its own."""
+    from sqlalchemy.engine import make_url
+
+    from laboratory.app import fail
+    from laboratory.history.section import shown
+    from laboratory.history.store import default_url
+    from laboratory.report import render_history_page
+    from station.files import write_bytes
+
+    n = len({p.run_uid for t in ts for p in t.points})
+    page = render_history_page(shown(ts, unit, level, f"{n} calibrations of {unit}"),
+                               make_url(url or default_url()).render_as_string(
+                                   hide_password=True), since)
+    try:
+        write_bytes(path, page.encode("utf-8"))
+    except OSError as e:
+        fail(f"--html {path}: cannot write: {e.strerror or e}")
+    typer.echo(f"trend page: {path}")
 
 
 def add_commands(app: typer.Typer) -> None:
@@ -75,13 +100,17 @@ def add_commands(app: typer.Typer) -> None:
             "--level", help="flag a change or a scatter beyond this two-sided level")] = 0.999,
         plot: Annotated[Path, typer.Option("--plot", help="the trend plot to write")]
         = Path("trend.png"),
+        html: Annotated[Path | None, typer.Option(
+            "--html", help="also write the report's History of this unit as this page")]
+        = None,
         db: DbOpt = None,
     ) -> None:
         """Per constant of a unit: the change between consecutive calibrations (z from both
         sigmas), the scatter across days against the predicted sigma (chi-square), and
         trend.png; exit 1 when anything is flagged."""
         from laboratory.history.store import runs_of, session
-        from laboratory.history.trend import trend_plot, trends, z_limit
+        from laboratory.history.trend import COLUMNS, flags, trend_plot, trends, z_limit
+        from laboratory.history.trend import cells as trend_cells
 
         day = None
         if since is not None:
@@ -95,19 +124,12 @@ def add_commands(app: typer.Typer) -> None:
         if not ts:
             fail(f"trend: unit {unit} has no constant determined on two or more completed "
                  "runs in the history")
-        cols = [Column(c, right=c not in ("inst", "param", "units", "flag"))
-                for c in ("inst", "param", "units", "n", "last change", "z", "max |z|",
-                          "chi2/dof", "p", "scatter", "pred sigma", "flag")]
+        cols = [Column(c, right=c not in ("inst", "param", "units", "flag")) for c in COLUMNS]
         cells = []
         for t in ts:
-            last = t.changes[-1]
-            flag = ("[red]CHANGE[/]" if any(c.flagged for c in t.changes) else "") + (
-                " [red]SCATTER[/]" if t.scatter_flagged else "")
-            cells.append([t.instrument, t.parameter, t.units or "-", str(len(t.points)),
-                          f"{last.delta:+.3e}", f"{last.z:+.2f}",
-                          f"{max(abs(c.z) for c in t.changes):.2f}",
-                          f"{t.chi2:.2f}/{t.dof}", f"{t.p_value:.3g}",
-                          f"{t.scatter:.3e}", f"{t.predicted:.3e}", flag.strip() or "-"])
+            row = trend_cells(t)
+            row[-1] = " ".join(f"[red]{f}[/]" for f in flags(t)) or "-"
+            cells.append(row)
         print_fitted(console, f"Trend of {unit}: changes between consecutive calibrations "
                      f"(flag |z| > {zl:.2f}, level {level:g})", cols, cells)
         trend_plot(ts, plot, unit, level)
@@ -120,5 +142,7 @@ def add_commands(app: typer.Typer) -> None:
                 typer.echo(f"flagged: {t.name} scatters beyond its predicted sigma (chi2 "
                            f"{t.chi2:.2f} on {t.dof} dof, p {t.p_value:.3g})")
         typer.echo(f"trend plot: {plot}")
+        if html is not None:
+            _write_page(html, ts, unit, level, _url(db), since)
         if any(t.flagged for t in ts):
             raise typer.Exit(1)

@@ -13,10 +13,15 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import BinaryIO
 
 from scipy import stats
 
 from laboratory.history.store import RunRow
+
+DEFAULT_LEVEL = 0.999  # the two-sided level beyond which `station trend` flags
+COLUMNS = ("inst", "param", "units", "n", "last change", "z", "max |z|", "chi2/dof", "p",
+           "scatter", "pred sigma", "flag")  # the trend table, in `station trend` and the report
 
 
 @dataclass(frozen=True)
@@ -67,6 +72,22 @@ class Trend:
         return self.scatter_flagged or any(c.flagged for c in self.changes)
 
 
+def flags(t: Trend) -> list[str]:
+    """What a constant's trend is flagged for: CHANGE (a change beyond the level), SCATTER."""
+    return (["CHANGE"] if any(c.flagged for c in t.changes) else []) + (
+        ["SCATTER"] if t.scatter_flagged else [])
+
+
+def cells(t: Trend) -> list[str]:
+    """A constant's row of the trend table (COLUMNS), as `station trend` and the report
+    print it: the latest change and its z, the largest |z|, the scatter's chi-square."""
+    last = t.changes[-1]
+    return [t.instrument, t.parameter, t.units or "-", str(len(t.points)),
+            f"{last.delta:+.3e}", f"{last.z:+.2f}", f"{max(abs(c.z) for c in t.changes):.2f}",
+            f"{t.chi2:.2f}/{t.dof}", f"{t.p_value:.3g}", f"{t.scatter:.3e}",
+            f"{t.predicted:.3e}", " ".join(flags(t)) or "-"]
+
+
 def z_limit(level: float) -> float:
     """|z| beyond which a change is significant at the two-sided ``level``."""
     if not 0.0 < level < 1.0:
@@ -74,7 +95,7 @@ def z_limit(level: float) -> float:
     return float(stats.norm.ppf(0.5 + level / 2.0))
 
 
-def trends(runs: list[RunRow], level: float = 0.999) -> list[Trend]:
+def trends(runs: list[RunRow], level: float = DEFAULT_LEVEL) -> list[Trend]:
     """Per constant (table order of its first appearance), the trend over ``runs`` (oldest
     first): only completed runs' determined rows (an estimate and a positive sigma) count."""
     zl = z_limit(level)
@@ -111,13 +132,15 @@ def _analyse(t: Trend, zl: float, level: float) -> None:
     t.predicted = math.sqrt(sum(p.sigma ** 2 for p in t.points) / n)
 
 
-def trend_plot(ts: list[Trend], path: Path, unit: str, level: float) -> None:
-    """trend.png: one panel per constant, each calibration's estimate less the weighted
-    mean with its 1-sigma bar; flagged changes drawn red."""
+def trend_plot(ts: list[Trend], path: Path | BinaryIO, unit: str, level: float) -> None:
+    """trend.png (a file, or PNG bytes into a binary stream): one panel per constant, each
+    calibration's estimate less the weighted mean with its 1-sigma bar; flagged changes
+    drawn red."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    from matplotlib.ticker import MaxNLocator
 
     n = max(len(ts), 1)
     cols = min(6, n)
@@ -138,10 +161,11 @@ def trend_plot(ts: list[Trend], path: Path, unit: str, level: float) -> None:
         colour = "red" if t.flagged else "black"
         ax.set_title(f"{t.name} ({t.units or '-'})", fontsize=8, color=colour)
         ax.tick_params(labelsize=6)
+        ax.xaxis.set_major_locator(MaxNLocator(integer=True))  # calibration number
         ax.ticklabel_format(axis="y", style="sci", scilimits=(-3, 3))
         ax.yaxis.get_offset_text().set_fontsize(6)
     fig.suptitle(f"{unit}: estimate less weighted mean per calibration (1 sigma bars; red: "
                  f"beyond the {level:g} level)", fontsize=9)
     fig.tight_layout()
-    fig.savefig(path, dpi=90)
+    fig.savefig(path, dpi=90, format="png")
     plt.close(fig)

@@ -336,8 +336,19 @@ def build(run_dir: Path) -> dict:
         "tables": tables, "truth_tables": truth_tables, "alignments": alignments,
         "summaries": summaries, "truth_summaries": truth_summaries, "figures": figures,
         "checks": checks, "others": others,
-        "plots": plots, "config_text": config_text,
+        "plots": plots, "config_text": config_text, "history": _history(d),
     }
+
+
+def _history(d: Path) -> dict[str, Any]:
+    """The "History of this unit" section (laboratory/history/section.py); its one line
+    when the history cannot be had, never the report's failure."""
+    try:
+        from laboratory.history.section import safe_history_section
+    except Exception as e:  # noqa: BLE001 - the report never fails because of the history
+        return {"shown": False, "text": f"No history: the calibration history is unavailable "
+                f"({type(e).__name__}: {e})"}
+    return safe_history_section(d)
 
 
 def _environment() -> Environment:
@@ -356,6 +367,12 @@ def render_report(run_dir: Path) -> str:
     if not holds_record(d):
         raise ReportError(f"RUN_DIR {d}: no run record there (no journal, sheets or results)")
     return _environment().get_template("report.html.j2").render(**build(d))
+
+
+def render_history_page(history: dict[str, Any], db: str, since: str | None) -> str:
+    """`station trend --html`: the report's "History of this unit" section as a page."""
+    return _environment().get_template("trend.html.j2").render(history=history, db=db,
+                                                               since=since)
 
 
 def write_report(run_dir: Path, out: Path | None = None) -> Path:

@@ -209,3 +209,22 @@ def test_partial_day_writes_a_file_that_apply_refuses_by_name(day, tmp_path):
     raw = read_raw(day[0] / "alignments" / "level-average-ieu.csv")
     with pytest.raises(CalibrationFileError, match=r"no value for gyro1 DeltaPhi, .*accel3 D3$"):
         apply_calibration(cal, raw)
+
+
+def test_align_that_calibrates_first_writes_the_calibration_file(tmp_path):
+    """`station align` without --calibration measures a day first: its record holds that
+    calibration's file too, with the Calibration Results Sheet's constants."""
+    from laboratory.isu.align import AlignRequest, run_align
+
+    out = tmp_path / "align"
+    run_align(AlignRequest(load_config(seed=2025), out, "mirror", quiet=True),
+              Console(quiet=True))
+    cal = load(out / "calibration.json")
+    sheet = json.loads((out / "sheets" / "calibration_results.json").read_text())
+    rows = {(r["instrument"], r["parameter"]): r for r in sheet["rows"]
+            if r["estimate"] is not None}
+    assert len(rows) == 69 and set(cal.values) == set(rows)
+    for key, r in rows.items():
+        assert (cal.values[key], cal.sigmas[key]) == (r["estimate"], r["sigma"]), key
+    run = json.loads((out / "run.json").read_text())
+    assert cal.doc["unit"]["isu"] == run["unit"]["isu"]

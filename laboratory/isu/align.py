@@ -156,6 +156,15 @@ def day_alignments(st: IsuDrivers, run: Run, calib: CalibrationResults, cfg: Sta
     plan = plan or cfg.alignment.plan()
     methods = day_methods(calib)
     skipped = []
+    if plan.accels != (1, 2, 3) or plan.gyros != (1, 2, 3):  # reduced sets: simple average
+        for method in ("level", "gyrocompass"):
+            if method not in methods:
+                continue
+            if (why := plan.reduced_refusal(method)) is not None:
+                methods.pop(method)
+                skipped.append({"method": method, "skipped": f"alignment.{why}"})
+            else:
+                methods[method] = ("average",)
     why = gyrocompass_refusal(cfg, plan)
     if "gyrocompass" in methods and why is not None:
         methods.pop("gyrocompass")
@@ -213,7 +222,7 @@ OPTION_NAMES = {"K": "--K", "dt": "--dt", "ieu_period": "--ieu-period", "eps_t_s
                 "mirror_zenith": "--theta1", "surveyed_g": "--surveyed-g",
                 "surveyed_earth_rate": "--surveyed-earth-rate",
                 "known_colatitude": "--known-colatitude", "prior_attitude": "--prior-attitude",
-                "quick_K": "--quick-K"}
+                "quick_K": "--quick-K", "accels": "--accels", "gyros": "--gyros"}
 
 
 def command_plan(cfg: StationConfig, method: str, given: dict[str, Any]) -> AlignPlan:
@@ -238,6 +247,9 @@ def command_plan(cfg: StationConfig, method: str, given: dict[str, Any]) -> Alig
         opt = next((OPTION_NAMES[k] for k, v in RECORD_OPTIONS.items() if field_name in v),
                    OPTION_NAMES.get(field_name, "--dt / --ieu-period"))
         raise ValueError(f"{opt}: {err['msg'].removeprefix('Value error, ')}") from None
+    why = plan.reduced_refusal(method)
+    if why is not None:
+        raise ValueError(f"--{why.split(':')[0].replace('/', ' / --')}:{why.split(':', 1)[1]}")
     limit = cfg.instruments.ieu.max_period_s
     for name in ("level_period_s", "gyro_period_s"):
         if getattr(plan, name) > limit:

@@ -37,6 +37,16 @@ def _path(v: str | Path | None) -> Path | None:
     return None if v is None else Path(v)
 
 
+def _instruments(option: str, text: str | None) -> list[int] | None:
+    """``1,2`` -> [1, 2]; a one-line refusal naming the option otherwise."""
+    if text is None:
+        return None
+    try:
+        return [int(x) for x in text.split(",") if x.strip()]
+    except ValueError:
+        fail(f"{option}: {text!r} is not a list of instrument numbers such as 1,2")
+
+
 def add_commands(app: typer.Typer) -> None:
     """Register this laboratory's commands on the station's command line."""
 
@@ -143,6 +153,11 @@ def add_commands(app: typer.Typer) -> None:
                                   "quick")] = None,
         quick_k: Annotated[int | None, typer.Option("--quick-K", help="intervals of the quick "
                            "alignment (--prior-attitude quick)")] = None,
+        accels: Annotated[str | None, typer.Option("--accels", help="accelerometers used, e.g. "
+                          "1,2 (two need --surveyed-g, III-2.2; the simple average only)")
+                          ] = None,
+        gyros: Annotated[str | None, typer.Option("--gyros", help="gyros used, e.g. 1 (a "
+                         "reduced gyrocompass set needs every survey input, III-3.2)")] = None,
         config: ConfigOpt = None,
         seed: SeedOpt = None,
         out: OutOpt = None,
@@ -166,7 +181,8 @@ def add_commands(app: typer.Typer) -> None:
                       "mirror_zenith": theta1, "surveyed_g": surveyed_g,
                       "surveyed_earth_rate": surveyed_earth_rate,
                       "known_colatitude": known_colatitude, "prior_attitude": prior_attitude,
-                      "quick_K": quick_k}
+                      "quick_K": quick_k, "accels": _instruments("--accels", accels),
+                      "gyros": _instruments("--gyros", gyros)}
         target, args = new_or_resumed("align", out, resume, {
             "seed": seed, "method": method, "estimator_requested": estimator,
             "calibration": None if calibration is None else str(calibration),

@@ -11,13 +11,18 @@ from __future__ import annotations
 
 from typing import Annotated, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, model_validator
+from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
+
+from sim.isu.params import AsTuple
 
 # I-3.1 lists three ways to the nominal T1 of Chart I-8: the autocollimators (Chart III-3:
 # here the mirror alignment of Chart III-2), the resolvers with T^BI of the survey (Chart
 # I-4), and a quick gyrocompass alignment (or a level alignment with the simple average).
 PRIOR_ATTITUDES = ("resolvers", "autocollimators", "quick")
 PriorAttitude = Literal["resolvers", "autocollimators", "quick"]
+Instrument = Literal[1, 2, 3]
+# The survey inputs a reduced instrument set needs (III-2.2, III-3.2).
+SURVEY_INPUTS = ("surveyed_g", "surveyed_earth_rate", "known_colatitude")
 
 
 class AlignPlan(BaseModel):
@@ -57,6 +62,35 @@ class AlignPlan(BaseModel):
     # I-3.1: where the nominal T1 of the Alignment Parameter Evaluation Sheet comes from
     prior_attitude: PriorAttitude = "resolvers"
     quick_K: int = Field(24, ge=2, le=20000, description="intervals of the quick alignment")
+    # III-2.2, III-3.2: the instruments the level and gyrocompass alignments use
+    accels: Annotated[tuple[Instrument, ...], AsTuple] = (1, 2, 3)
+    gyros: Annotated[tuple[Instrument, ...], AsTuple] = (1, 2, 3)
+
+    @field_validator("accels", "gyros")
+    @classmethod
+    def _distinct(cls, v: tuple[int, ...]) -> tuple[int, ...]:
+        if not v or len(set(v)) != len(v):
+            raise ValueError("name each instrument once, at least one (1, 2, 3)")
+        return tuple(sorted(v))
+
+    def reduced_refusal(self, method: str) -> str | None:
+        """Why this plan's instrument set cannot serve ``method`` (None: it can); the
+        geometry is checked when the alignment runs (procedures.isu.alignment.reduced)."""
+        if method == "mirror" or (self.accels == (1, 2, 3) and self.gyros == (1, 2, 3)):
+            return None
+        if method == "level":
+            if len(self.accels) < 2:
+                return "accels: the level alignment needs two accelerometers at least"
+            if len(self.accels) < 3 and not self.surveyed_g:
+                return "accels: two accelerometers need the surveyed |g| (surveyed_g, III-2.2)"
+            return None
+        missing = [n for n in SURVEY_INPUTS if not getattr(self, n)]
+        if missing:
+            return (f"accels/gyros: a reduced gyrocompass alignment needs every survey input "
+                    f"(III-3.2): set {', '.join(missing)}")
+        if len(self.accels) + len(self.gyros) < 3:
+            return "accels/gyros: the gyrocompass alignment needs three instruments at least"
+        return None
 
     @model_validator(mode="after")
     def _whole_samples(self) -> AlignPlan:

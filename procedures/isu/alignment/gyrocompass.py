@@ -25,6 +25,7 @@ from procedures.isu.alignment.common import (
     check_ieu_lines,
     experiment_params,
     ieu_period_ticks,
+    prior_t1,
     require_turn_on,
     set_position0,
     site_rates,
@@ -41,7 +42,13 @@ from procedures.isu.alignment.preprocess import (
     gyro_integrals,
 )
 from procedures.isu.alignment.preprocess import string_differences as p_of
-from procedures.isu.alignment.results_sheet import AlignmentResults
+from procedures.isu.alignment.reduced import (
+    ALL,
+    Instruments,
+    check_gyrocompass_set,
+    gyrocompass_attitude,
+)
+from procedures.isu.alignment.results_sheet import AlignmentResults, AlignPlan
 from procedures.isu.alignment.sampling import IeuRecord, collect_checked
 from procedures.isu.sheets import SurveyResults, scale_factor_arcsec
 from procedures.runner import Run
@@ -56,10 +63,25 @@ TITLE = "Gyrocompass alignment"
 GYRO_KEYS = [(f"gyro{k}", p) for k in (1, 2, 3) for p in GYRO_PARAMS]
 
 
-def gyro_x(record: IeuRecord, c: Constants) -> np.ndarray:
-    """Gyro part of X (Chart III-10), axis by axis (3K), arcsec."""
+def gyro_x(record: IeuRecord, c: Constants, inst: Instruments | None = None,
+           g_survey: float | None = None) -> np.ndarray:
+    """Gyro part of X (Chart III-10), axis by axis (3K), arcsec. With an accelerometer
+    absent (III-3.2), the gyros' g-sensitive terms take its component of g from the nominal
+    attitude and the surveyed |g|."""
     _, _, u = accel_integrals(p_of(record.strings), record.dt, c)
+    if inst is not None and inst.accels != ALL and inst.t_prior is not None and g_survey:
+        for k in set(ALL) - set(inst.accels):
+            u[:, k - 1] = g_survey * float(np.asarray(inst.t_prior)[0, k - 1])
     return gyro_integrals(record.gyro, record.dt, u, c).T.reshape(-1)
+
+
+def gyro_t(g_b: np.ndarray, w_b: np.ndarray, opts: dict[str, float],
+           inst: Instruments | None = None) -> np.ndarray:
+    """T by Chart III-11, or from a reduced instrument set (III-3.2, ``reduced``)."""
+    if inst is not None and inst.reduced:
+        return gyrocompass_attitude(g_b, w_b, inst, opts["g_survey"], opts["w_survey"],
+                                    opts["colatitude_deg"])
+    return gyrocompass_matrix(g_b, w_b, **opts)
 
 
 def matrices(estimator: str, K: int, dt: float, tape: Tape | None
@@ -74,21 +96,23 @@ def matrices(estimator: str, K: int, dt: float, tape: Tape | None
 
 
 def gyro_solution(record: IeuRecord, c: Constants, M: np.ndarray, b: np.ndarray,
-                  opts: dict[str, float]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(T, g_B in g, omega_B in deg/hr)."""
-    est = M @ np.concatenate((accel_x(record, c), gyro_x(record, c))) + b
+                  opts: dict[str, float], inst: Instruments | None = None
+                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(T, g_B in g, omega_B in deg/hr); ``inst``: the instruments used (all when None)."""
+    est = M @ np.concatenate((accel_x(record, c),
+                              gyro_x(record, c, inst, opts.get("g_survey")))) + b
     g_b, w_b = est[:3] / es.G0, est[3:]
-    return gyrocompass_matrix(g_b, w_b, **opts), g_b, w_b
+    return gyro_t(g_b, w_b, opts, inst), g_b, w_b
 
 
 def gyro_error_model(record: IeuRecord, c: Constants, M: np.ndarray, b: np.ndarray,
                      opts: dict[str, float], params: es.LevelParams, noise: NoiseSpec,
-                     w_horizontal: float) -> dict:
+                     w_horizontal: float, inst: Instruments | None = None) -> dict:
     """Predicted phi covariance (U, E, N) and the physical limits (Chart III-11)."""
-    t0, g_b, w_b = gyro_solution(record, c, M, b, opts)
+    t0, g_b, w_b = gyro_solution(record, c, M, b, opts, inst)
 
     def solve(cc: Constants) -> np.ndarray:
-        return gyro_solution(record, cc, M, b, opts)[0]
+        return gyro_solution(record, cc, M, b, opts, inst)[0]
 
     cal = em.calibration_terms(c, solve, ACCEL_KEYS + GYRO_KEYS)
     cov_cal = em.cov_of(cal.values())
@@ -96,7 +120,7 @@ def gyro_error_model(record: IeuRecord, c: Constants, M: np.ndarray, b: np.ndarr
     cov_gyro_cal = em.cov_of(v for k, v in cal.items() if k[0].startswith("gyro"))
     # g: the estimator's error covariance against g at t* (simple average or posterior)
     cov_g = es.error_covariance(M[:3, : 3 * params.K], b[:3], params) / es.G0**2
-    j_g = em.jacobian(em.phi_of(t0, lambda g: gyrocompass_matrix(g, w_b, **opts)), g_b, 1e-7)
+    j_g = em.jacobian(em.phi_of(t0, lambda g: gyro_t(g, w_b, opts, inst)), g_b, 1e-7)
     # omega: per-gyro noise averaged over the record, and the pier's mean tilt rate
     span = float(np.sum(record.dt))
     dphi = c.vector("gyro", "DeltaPhi")
@@ -105,7 +129,7 @@ def gyro_error_model(record: IeuRecord, c: Constants, M: np.ndarray, b: np.ndarr
     tilt = np.zeros((3, 3))
     tilt[1:, 1:] = em.tilt_rate_cov(noise, span)
     cov_w = cov_w + t0.T @ tilt @ t0  # earth (U, E, N) to body: T^T C T
-    j_w = em.jacobian(em.phi_of(t0, lambda w: gyrocompass_matrix(g_b, w, **opts)), w_b, 1e-4)
+    j_w = em.jacobian(em.phi_of(t0, lambda w: gyro_t(g_b, w, opts, inst)), w_b, 1e-4)
     cov = cov_cal + j_g @ cov_g @ j_g.T + j_w @ cov_w @ j_w.T
     bias = em.as_enu_arcsec(cov_bias)
     # azimuth limit: residual gyro bias (calibration) and the gyro's noise (N / sqrt(T))
@@ -124,9 +148,9 @@ def gyro_error_model(record: IeuRecord, c: Constants, M: np.ndarray, b: np.ndarr
         return np.array([float(np.linalg.norm(w)), ck.angle_deg(w, g)])
 
     cal_w = ck.cal_sigma(c, lambda cc: float(np.linalg.norm(gyro_solution(record, cc, M, b,
-                                                                          opts)[2])))
+                                                                          opts, inst)[2])))
     cal_col = ck.cal_sigma(c, lambda cc: ck.angle_deg(*gyro_solution(record, cc, M, b,
-                                                                     opts)[2:0:-1]))
+                                                                     opts, inst)[2:0:-1]))
     j_sw = em.jacobian(lambda w: scalars(g_b, w), w_b, 1e-4)
     j_sg = em.jacobian(lambda g: scalars(g, w_b), g_b, 1e-7)
     cov_s = j_sw @ cov_w @ j_sw.T + j_sg @ cov_g @ j_sg.T
@@ -160,6 +184,19 @@ def gyro_checks(e: str, model: dict, survey: SurveyResults | None, w_north: floa
     return out
 
 
+def check_instruments(plan: AlignPlan, inst: Instruments, ests: tuple[str, ...],
+                      opts: dict[str, float]) -> None:
+    """Refuse (CheckFailed) a gyrocompass alignment the plan's instruments cannot make."""
+    why = plan.reduced_refusal("gyrocompass")
+    if why is not None:
+        raise CheckFailed(why)
+    if inst.reduced:
+        check_gyrocompass_set(inst, opts["colatitude_deg"])
+        if any(e != "average" for e in ests):
+            raise CheckFailed("accels/gyros: the hybrid technique's tape is made for three "
+                              "accelerometers (Chart I-9): use the simple average")
+
+
 def gyrocompass_procedure(st: IsuDrivers, run: Run, options: AlignmentOptions,
                           mirror: Outcome | None = None, quick: bool = False
                           ) -> list[Outcome]:
@@ -189,12 +226,17 @@ def gyrocompass_procedure(st: IsuDrivers, run: Run, options: AlignmentOptions,
         opts["w_survey"] = math.hypot(w_north, w_up)
     chart, title, suffix = ((f"{CHART}-quick", f"Quick {TITLE.lower()} (I-3.1, way 3)",
                              "_quick") if quick else (CHART, TITLE, ""))
+    t_prior = options.nominal_t1()
+    inst = Instruments(plan.accels, plan.gyros, prior_t1(survey) if t_prior is None else t_prior)
     with run.sheet(chart, title) as sheet:
         with sheet.step("1", "Verify turn-on procedures and Alignment Results Sheet are "
                         "completed") as s:
             s.reading = require_turn_on(run) | {"K": K, "dt_s": dt, "estimators": list(ests),
                                                 "calibration_id": calibration_id,
-                                                "options": opts}
+                                                "options": opts,
+                                                "instruments": {"accels": list(plan.accels),
+                                                                "gyros": list(plan.gyros)}}
+            check_instruments(plan, inst, ests, opts)
         with sheet.step("1a", "(project addition) Set position 0 with bubble-level "
                         "corrections on phi1 and phi3") as s:
             position0 = s.reading = set_position0(st, noise)
@@ -235,7 +277,8 @@ def gyrocompass_procedure(st: IsuDrivers, run: Run, options: AlignmentOptions,
                                      plan.ieu_retakes)
             check_record(record, K, dt)
             mats = {e: matrices(e, K, dt, tapes.get(e)) for e in ests}
-            sols = {e: gyro_solution(record, c, M, b, opts) for e, (M, b) in mats.items()}
+            sols = {e: gyro_solution(record, c, M, b, opts, inst)
+                    for e, (M, b) in mats.items()}
             s.reading = record.summary() | {
                 e: {"g_body_g": sol[1].tolist(), "omega_body_deg_hr": sol[2].tolist()}
                 for e, sol in sols.items()}
@@ -251,7 +294,7 @@ def gyrocompass_procedure(st: IsuDrivers, run: Run, options: AlignmentOptions,
             out = []
             checked = {}
             for e, (M, b) in mats.items():
-                model = gyro_error_model(record, c, M, b, opts, params, noise, w_north)
+                model = gyro_error_model(record, c, M, b, opts, params, noise, w_north, inst)
                 checked[e] = gyro_checks(e, model, survey, w_north, w_up, reference)
                 sheet_model = AlignmentResults(
                     procedure="gyrocompass", estimator=e, calibration_id=calibration_id,
@@ -263,7 +306,10 @@ def gyrocompass_procedure(st: IsuDrivers, run: Run, options: AlignmentOptions,
                     options={k: float(v) for k, v in opts.items()},
                     notes=[f"IEU {record.K * spi} samples of {period} S2^T pulses; "
                            f"{len(record.recoveries)} recovered by RESEND",
-                           "Q_IS term as Chart IV-2, (w.G)(w.S) (Chart III-9 prints (w.G)(a.S))"],
+                           "Q_IS term as Chart IV-2, (w.G)(w.S) (Chart III-9 prints (w.G)(a.S))"]
+                    + ([f"{inst.describe()}: T fitted to their components with the "
+                        "surveyed |g|, |omega^E| and colatitude (III-3.2)"]
+                       if inst.reduced else []),
                 )
                 run.save_sheet(f"alignment_results_gyrocompass_{e}{suffix}", sheet_model)
                 out.append(Outcome("gyrocompass", e, K, dt, model["t"], t_ref,

@@ -30,6 +30,7 @@ from procedures.isu.alignment.common import (
     check_ieu_lines,
     experiment_params,
     ieu_period_ticks,
+    prior_t1,
     read_autocollimators,
     require_turn_on,
     set_position0,
@@ -40,7 +41,8 @@ from procedures.isu.alignment.options import AlignmentOptions
 from procedures.isu.alignment.parameter_sheet import Tape, check_tape
 from procedures.isu.alignment.preprocess import ACCEL_PARAMS, Constants, accel_integrals
 from procedures.isu.alignment.preprocess import string_differences as p_of
-from procedures.isu.alignment.results_sheet import AlignmentResults
+from procedures.isu.alignment.reduced import ALL, Instruments, check_level_set, complete_gravity
+from procedures.isu.alignment.results_sheet import AlignmentResults, AlignPlan
 from procedures.isu.alignment.sampling import IeuRecord, collect_checked
 from procedures.isu.sheets import SurveyResults
 from procedures.runner import Run
@@ -79,28 +81,41 @@ def check_record(record: IeuRecord, K: int, dt: float) -> None:
                           f"{record.dt.max()} s, not K = {K} of {dt} s")
 
 
+def level_t(g_b: np.ndarray, alpha1: float, theta1: float | None, g_survey: float | None,
+            inst: Instruments | None = None) -> np.ndarray:
+    """Chart III-7's T, with an absent accelerometer's component from |g| (III-2.2)."""
+    if inst is not None and inst.accels != ALL and g_survey is not None:
+        g_b = complete_gravity(g_b, inst, g_survey)
+    return level_matrix(g_b, alpha1, theta1_deg=theta1, g_survey=g_survey)
+
+
 def level_solution(record: IeuRecord, c: Constants, M: np.ndarray, b: np.ndarray, alpha1: float,
-                   theta1: float | None, g_survey: float | None) -> tuple[np.ndarray, np.ndarray]:
-    """(T, g_B in g) from a record, the constants and the estimator (Charts III-5..III-7)."""
+                   theta1: float | None, g_survey: float | None,
+                   inst: Instruments | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """(T, g_B in g) from a record, the constants and the estimator (Charts III-5..III-7);
+    ``inst``: the instruments used (III-2.2), all three accelerometers when None."""
     g_b = (M @ accel_x(record, c) + b) / es.G0
-    return level_matrix(g_b, alpha1, theta1_deg=theta1, g_survey=g_survey), g_b
+    if inst is not None and inst.accels != ALL and g_survey is not None:
+        g_b = complete_gravity(g_b, inst, g_survey)
+    return level_t(g_b, alpha1, theta1, g_survey), g_b
 
 
 def level_error_model(record: IeuRecord, c: Constants, M: np.ndarray, b: np.ndarray,
                       alpha1: float, theta1: float | None, g_survey: float | None,
-                      params: es.LevelParams, noise: NoiseSpec, n_alpha: int) -> dict:
+                      params: es.LevelParams, noise: NoiseSpec, n_alpha: int,
+                      inst: Instruments | None = None) -> dict:
     """Predicted phi covariance (U, E, N) of one level alignment and its physical limit."""
-    t0, g_b = level_solution(record, c, M, b, alpha1, theta1, g_survey)
+    t0, g_b = level_solution(record, c, M, b, alpha1, theta1, g_survey, inst)
 
     def solve(cc: Constants) -> np.ndarray:
-        return level_solution(record, cc, M, b, alpha1, theta1, g_survey)[0]
+        return level_solution(record, cc, M, b, alpha1, theta1, g_survey, inst)[0]
 
     cal = em.calibration_terms(c, solve, ACCEL_KEYS)
     cov_cal = em.cov_of(cal.values())
     cov_bias = em.cov_of(v for k, v in cal.items() if k in BIAS_KEYS)
     cov_g = es.error_covariance(M, b, params) / es.G0**2  # g^2, against g at t*
-    j_g = em.jacobian(em.phi_of(t0, lambda g: level_matrix(
-        g, alpha1, theta1_deg=theta1, g_survey=g_survey)), g_b, 1e-7)
+    j_g = em.jacobian(em.phi_of(t0, lambda g: level_t(g, alpha1, theta1, g_survey, inst)),
+                      g_b, 1e-7)
     sa = ac_sigma_arcsec(noise, n_alpha) / 3600.0  # deg
     angles = np.array([alpha1, theta1 if theta1 is not None else 90.0])
     j_a = em.jacobian(em.phi_of(t0, lambda x: level_matrix(
@@ -115,7 +130,7 @@ def level_error_model(record: IeuRecord, c: Constants, M: np.ndarray, b: np.ndar
     # |g|: the calibration constants and the estimator's error along the vertical
     u = g_b / np.linalg.norm(g_b)
     g_cal = ck.cal_sigma(c, lambda cc: float(np.linalg.norm(
-        level_solution(record, cc, M, b, alpha1, theta1, g_survey)[1])))
+        level_solution(record, cc, M, b, alpha1, theta1, g_survey, inst)[1])))
     g_sigma = math.hypot(g_cal, math.sqrt(max(float(u @ cov_g @ u), 0.0)))
     return {"t": t0, "g_b": g_b, "cov": cov, "predicted": em.as_enu_arcsec(cov),
             "limit": [bias[0], bias[1], ac_sigma_arcsec(noise, n_alpha)], "parts": parts,
@@ -142,6 +157,18 @@ def level_checks(e: str, model: dict, survey: SurveyResults | None,
     return out
 
 
+def check_instruments(plan: AlignPlan, inst: Instruments, ests: tuple[str, ...]) -> None:
+    """Refuse (CheckFailed) a level alignment the plan's accelerometers cannot make."""
+    why = plan.reduced_refusal("level")
+    if why is not None:
+        raise CheckFailed(why)
+    if plan.accels != ALL:
+        check_level_set(inst)
+        if any(e != "average" for e in ests):
+            raise CheckFailed("accels: the posterior mean's tape is made for three "
+                              "accelerometers (Chart I-9): use the simple average")
+
+
 def level_alignment_procedure(st: IsuDrivers, run: Run, options: AlignmentOptions,
                               mirror: Outcome | None = None, quick: bool = False
                               ) -> list[Outcome]:
@@ -162,6 +189,8 @@ def level_alignment_procedure(st: IsuDrivers, run: Run, options: AlignmentOption
     tapes = {e: t for e in ests if (t := options.tape_for("level", e)) is not None}
     chart, title, suffix = ((f"{CHART}-quick", f"Quick {TITLE.lower()} (I-3.1, way 3)",
                              "_quick") if quick else (CHART, TITLE, ""))
+    t_prior = options.nominal_t1()
+    inst = Instruments(plan.accels, plan.gyros, prior_t1(survey) if t_prior is None else t_prior)
     with run.sheet(chart, title) as sheet:
         with sheet.step("1", "Verify turn-on procedures and the Alignment Results Sheet "
                         "inputs are completed") as s:
@@ -169,7 +198,9 @@ def level_alignment_procedure(st: IsuDrivers, run: Run, options: AlignmentOption
                 "K": K, "dt_s": dt, "estimators": list(ests),
                 "calibration_id": calibration_id,
                 "options": {"mirror_zenith": plan.mirror_zenith, "surveyed_g": plan.surveyed_g},
+                "accelerometers": list(plan.accels),
             }
+            check_instruments(plan, inst, ests)
         with sheet.step("1a", "(project addition) Set position 0 with bubble-level "
                         "corrections on phi1 and phi3") as s:
             position0 = s.reading = set_position0(st, noise)
@@ -238,7 +269,7 @@ def level_alignment_procedure(st: IsuDrivers, run: Run, options: AlignmentOption
             checked = {}
             for e, (M, b) in mats.items():
                 model = level_error_model(record, c, M, b, alpha1, theta1, g_survey, params,
-                                          noise, plan.alpha_readings)
+                                          noise, plan.alpha_readings, inst)
                 checked[e] = level_checks(e, model, survey, reference)
                 sheet_model = AlignmentResults(
                     procedure="level", estimator=e, calibration_id=calibration_id,
@@ -249,7 +280,9 @@ def level_alignment_procedure(st: IsuDrivers, run: Run, options: AlignmentOption
                     physical_limit_arcsec=tuple(model["limit"]),
                     options={"theta1_deg": theta1, "g_survey_g": g_survey},
                     notes=[f"IEU {record.K * spi} samples of {period} S2^T pulses; "
-                           f"{len(record.recoveries)} recovered by RESEND"],
+                           f"{len(record.recoveries)} recovered by RESEND"]
+                    + ([f"{inst.describe()}: the absent accelerometer's component from the "
+                        "surveyed |g| (III-2.2)"] if plan.accels != ALL else []),
                 )
                 run.save_sheet(f"alignment_results_level_{e}{suffix}", sheet_model)
                 out.append(Outcome("level", e, K, dt, model["t"], t_ref, model["predicted"],

@@ -52,7 +52,8 @@ def numbers(model: type[BaseModel], at_: str = "") -> list[tuple[str, Any, list]
                     walk(a, where, meta)
         elif origin in (tuple, list):
             for i, a in enumerate(get_args(tp)):
-                walk(a, f"{where}.{i}", meta)
+                if a is not Ellipsis:  # tuple[X, ...]: X once
+                    walk(a, f"{where}.{i}", meta)
         elif origin is dict:
             walk(get_args(tp)[1], f"{where}.*", meta)
         elif isinstance(tp, type) and issubclass(tp, BaseModel):

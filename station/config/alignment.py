@@ -11,9 +11,11 @@ from __future__ import annotations
 
 from typing import Annotated, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
+from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, field_validator, model_validator
 
-from sim.isu.params import AsTuple
+# TOML arrays arrive as lists; the strict models hold tuples. (sim.isu.params has the same
+# converter; the procedures read this module and may not reach the simulator.)
+AsTuple = BeforeValidator(lambda v: tuple(v) if isinstance(v, list) else v)
 
 # I-3.1 lists three ways to the nominal T1 of Chart I-8: the autocollimators (Chart III-3:
 # here the mirror alignment of Chart III-2), the resolvers with T^BI of the survey (Chart

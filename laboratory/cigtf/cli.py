@@ -32,7 +32,7 @@ def add_commands(app: typer.Typer) -> None:
         resume: ResumeOpt = None,
         analyse: Annotated[Path | None, typer.Option(
             "--analyse", help="recompute the phase analysis from the journal in this "
-            "directory (e.g. after a stop)")] = None,
+            "directory (e.g. after a stop), with the run's own config.toml unless --config")] = None,
         config: Annotated[Path | None, typer.Option("--config", help="TOML with a \\[cigtf] "
                           "section (latitude_deg, noise and misalignment magnitudes)")] = None,
         links: Annotated[Path | None, typer.Option("--links", help="run against the rack "
@@ -49,9 +49,11 @@ def add_commands(app: typer.Typer) -> None:
 
         check_seed(seed)
         if analyse is not None:
+            from laboratory.cigtf.gyrocompassing import run_config
+
             with reported(lambda: None):
-                res = analyse_journal(analyse, load_cigtf_params(config),
-                                      load_cigtf_limits(config))
+                cfg = run_config(analyse, config)
+                res = analyse_journal(analyse, load_cigtf_params(cfg), load_cigtf_limits(cfg))
             for p in res["phases"]:
                 typer.echo(f"{p['phase']:>9}: theta {p['theta_arcsec']:+.2f} +/- "
                            f"{p['sigma_arcsec']:.2f} arcsec (n = {p['n']}, from the journal)")

@@ -150,6 +150,16 @@ def data_from_journal(path: Path) -> tuple[TestData, int | None]:
     return data, None if start is None else start.get("seed")
 
 
+def run_config(d: Path, config: Path | None) -> Path | None:
+    """The configuration a re-analysis of the run in ``d`` uses: ``config`` when given,
+    else the run's own saved DIR/config.toml (its truth needs the run's [cigtf] section),
+    else None (the defaults: a record from before saved configurations)."""
+    if config is not None:
+        return config
+    saved = Path(d) / "config.toml"
+    return saved if saved.is_file() else None
+
+
 def analyse_journal(d: Path, params: CigtfParams | None = None,
                     limits: CigtfLimits | None = None) -> dict:
     """`station gyrocompass-test --analyse DIR`: the analysis of every run the journal

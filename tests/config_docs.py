@@ -83,7 +83,7 @@ def dumps(doc: dict[str, Any]) -> str:
 
 def _cigtf_fields() -> dict[str, Any]:
     p = CigtfParams()
-    return {k: getattr(p, k) for k in CigtfConfig.model_fields if k != "limits"}
+    return {k: getattr(p, k) for k in CigtfConfig.model_fields if k not in ("limits", "eq27")}
 
 
 def _esg_fields() -> dict[str, Any]:

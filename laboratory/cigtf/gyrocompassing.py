@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
+from dataclasses import asdict
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -22,13 +23,14 @@ from laboratory.identity import Identifying
 from laboratory.record import write_json, write_sheets
 from laboratory.rundir import JOURNAL, RunDirError, prepare
 from laboratory.seeded import Seeded
-from laboratory.verdicts import judge_phases, run_verdict
+from laboratory.verdicts import judge_phases, run_verdict, truth_check
 from procedures.cigtf.analysis import phase_values, run_values
+from procedures.cigtf.budget import Eq27Values, budget_rows, corrected_phases
 from procedures.cigtf.procedure import TestData, TestPlan, gyrocompass_test
 from procedures.cigtf.significance import TestOutcome, judge_phase, shutdown_f_test
 from procedures.journal import JournalError, scan
 from sim.cigtf.world import CigtfParams
-from station.config.cigtf import CigtfConfig
+from station.config.cigtf import CigtfConfig, Eq27Config
 from station.config.limits import CigtfLimits
 from station.files import atomic_path
 from station.hil.session import params_digest
@@ -118,6 +120,31 @@ def analyse(data: TestData) -> tuple[list[dict], list[dict], list[dict], dict]:
     return runs, phases, tests, conclusions
 
 
+def eq27_values(cfg: Eq27Config | None, latitude_deg: float) -> Eq27Values | None:
+    """The laboratory's values for eq. 27 when the correction is asked for, else None."""
+    if cfg is None or not cfg.apply:
+        return None
+    return Eq27Values(latitude_deg, **cfg.model_dump(exclude={"apply"}))
+
+
+def budget_record(truth: dict[str, float] | None, lab: Eq27Values | None,
+                  phases: list[dict]) -> tuple[list[dict], dict | None]:
+    """The eq. 26-27 budget table and, with eq. 27, each phase's corrected theta judged
+    against -(a + d), the truth of an exact correction (``truth['north']``)."""
+    rows = budget_rows(truth, lab)
+    if lab is None:
+        return rows, None
+    north = None if truth is None else truth["north"]
+    fixed = corrected_phases(phases, lab)
+    for p in fixed:
+        p["truth"] = north
+        p["truth_check"] = truth_check([None if north is None else p["theta_arcsec"] - north],
+                                       [p["sigma_arcsec"]])
+    corr, sigma = lab.correction()
+    return rows, {"applied": True, "correction_arcsec": corr, "sigma_arcsec": sigma,
+                  "values": asdict(lab), "phases": fixed}
+
+
 def data_from_records(records: list[dict]) -> tuple[TestData, dict | None]:
     """The test data of a journal's records: every completed run (its step 5.2 recorded
     after its four orientations); and the run's start note."""
@@ -150,13 +177,24 @@ def data_from_journal(path: Path) -> tuple[TestData, int | None]:
     return data, None if start is None else start.get("seed")
 
 
+def run_config(d: Path, config: Path | None) -> Path | None:
+    """The configuration a re-analysis of the run in ``d`` uses: ``config`` when given,
+    else the run's own saved DIR/config.toml (its truth needs the run's [cigtf] section),
+    else None (the defaults: a record from before saved configurations)."""
+    if config is not None:
+        return config
+    saved = Path(d) / "config.toml"
+    return saved if saved.is_file() else None
+
+
 def analyse_journal(d: Path, params: CigtfParams | None = None,
-                    limits: CigtfLimits | None = None) -> dict:
+                    limits: CigtfLimits | None = None, eq27: Eq27Config | None = None) -> dict:
     """`station gyrocompass-test --analyse DIR`: the analysis of every run the journal
     completed, however the test ended; written to DIR/gyrocompass_analysis.json.
 
     The truth (eq. 26) is given when the journal's start note names the ``params``
     (default: the default fixture) by digest, and its run was virtual or served with truth.
+    ``eq27``: the correction's values (default: those the run's start note recorded).
     """
     d = Path(d)
     if not d.is_dir():
@@ -174,18 +212,26 @@ def analyse_journal(d: Path, params: CigtfParams | None = None,
                 == params_digest("cigtf", params)
                 and (served is None or bool(served.get("truth"))))
     runs, phases, tests, conclusions = analyse(data)
-    truth = None
+    truth = budget = None
     if truthful and isinstance(seed, int):
         with CigtfRack(seed, params) as twin:
             truth = twin.world.truth_theta_arcsec()
+            budget = twin.world.truth_budget()
     judge_phases(phases, truth, limits or CigtfLimits())  # as the run judges them
+    noted = (start or {}).get("eq27")
+    if eq27 is None and isinstance(noted, dict):
+        eq27 = Eq27Config(apply=True, **noted)
+    budget_rows_, corrected = budget_record(budget, eq27_values(eq27, params.latitude_deg),
+                                            phases)
     missing = [f"{ph}: {len(data.runs[ph])} completed run(s), a phase needs 2"
                for ph in PHASES if len(data.runs[ph]) < 2]
     res = {
         "seed": seed, "gsf": data.gsf or None, "runs": runs, "phases": phases,
         "delta_arcsec": conclusions.get("operating_instability_arcsec"),
         "Delta_arcsec": conclusions.get("shutdown_instability_arcsec"), "tests": tests,
-        "truth": {"theta_arcsec": truth},
+        "truth": {"theta_arcsec": truth,
+                  "north_arcsec": None if budget is None else budget["north"]},
+        "budget": budget_rows_, "eq27": corrected,
         "from_journal": True, "complete": any(r["kind"] == "note" and r["event"] == "end"
                                               for r in records),
         "incomplete_phases": missing, "verdict": run_verdict(phases),
@@ -221,13 +267,28 @@ def render_tables(console: Console, res: dict) -> None:
         q.add_row(x["name"], f"{x['statistic']:.3f}", f"{x['threshold']:.3f}",
                   str(x["dof"]), "yes" if x["significant"] else "no")
     console.print(q)
+    b = Table(title="Error budget of theta (eqs. 26-27), arcsec", box=box.SIMPLE_HEAD)
+    for c in ("term", "laboratory (eq. 27)", "sigma", "truth"):
+        b.add_column(c, justify="left" if c == "term" else "right")
+
+    def num(x: float | None, f: str) -> str:
+        return "-" if x is None else format(x, f)
+    for r in res.get("budget") or []:
+        b.add_row(r["term"], num(r["lab_arcsec"], "+.3f"), num(r["lab_sigma_arcsec"], ".3f"),
+                  num(r["truth"], "+.3f"))
+    console.print(b)
+    for p in (res.get("eq27") or {}).get("phases", []):
+        console.print(f"{p['phase']:>9}: theta (eq. 27) {p['theta_arcsec']:+.2f} +/- "
+                      f"{p['sigma_arcsec']:.2f} arcsec (correction "
+                      f"{p['correction_arcsec']:+.2f})")
 
 
 def run_gyrocompass_test(seed: int, out: Path, params: CigtfParams | None = None,
                          plan: TestPlan | None = None,
                          rack_hook: Callable[[CigtfRack], None] | None = None,
                          links: Path | None = None, resume: bool = False,
-                         limits: CigtfLimits | None = None) -> dict:
+                         limits: CigtfLimits | None = None,
+                         eq27: Eq27Config | None = None) -> dict:
     """Run the whole test into ``out``; ``rack_hook`` may inject faults into the rack;
     ``limits``: the acceptance limits of delta and Delta (default: station/config/limits.py).
 
@@ -235,25 +296,33 @@ def run_gyrocompass_test(seed: int, out: Path, params: CigtfParams | None = None
     raises ``NoServedRack`` or ``WrongStation`` (both OSError/ValueError) if it is not.
     ``resume``: continue the interrupted test in ``out`` (replayed and checked against its
     journal in virtual time); ``out`` must hold no record otherwise (RunDirError).
+    ``eq27``: the eq. 27 correction's values; applied (and recorded in the start note, for
+    ``--analyse``) when ``eq27.apply``. The budget table is written in any case.
     """
     out = Path(out)
     params = params or CigtfParams()
     prepare(out, resume, links)
     wall0 = time.perf_counter()
     digest = params_digest("cigtf", params)
+    lab27 = eq27_values(eq27, params.latitude_deg)
+    extra_start = {} if eq27 is None or not eq27.apply else {
+        "eq27": eq27.model_dump(exclude={"apply"})}
     conn = connect(registry.get("cigtf"), Seeded(params, seed), links, rack_hook)
     st, world = conn.drivers, conn.coefficient_world
     with journaled_run(out, conn, resume, renew=RENEW, seed=seed,
-                       test="gyrocompass", params_digest=digest,
+                       test="gyrocompass", params_digest=digest, **extra_start,
                        identify=Identifying("cigtf", "gyrocompass-test", seed, "cigtf",
                                             CigtfConfig, params)) as (run, extra, t_start):
         data = gyrocompass_test(st, run, plan)
         runs, phases, tests, conclusions = analyse(data)
         truth = world.truth_theta_arcsec() if world is not None else None
+        budget = world.truth_budget() if world is not None else None
         judge_phases(phases, truth, limits or CigtfLimits())
+        budget_table, corrected = budget_record(budget, lab27, phases)
         run.save_sheet("gyrocompass_runs", runs)
         run.save_sheet("gyrocompass_phases", phases)
         run.save_sheet("gyrocompass_conclusions", conclusions)
+        run.save_sheet("gyrocompass_budget", budget_table)
         write_sheets(out, run)
         res = {
             "seed": seed,
@@ -263,7 +332,10 @@ def run_gyrocompass_test(seed: int, out: Path, params: CigtfParams | None = None
             "delta_arcsec": conclusions.get("operating_instability_arcsec"),
             "Delta_arcsec": conclusions.get("shutdown_instability_arcsec"),
             "tests": tests,
-            "truth": {"theta_arcsec": truth},
+            "truth": {"theta_arcsec": truth,
+                      "north_arcsec": None if budget is None else budget["north"]},
+            "budget": budget_table,
+            "eq27": corrected,
             "verdict": run_verdict(phases),
             "sim_seconds": st.clock.now() - t_start,
             "wall_seconds": time.perf_counter() - wall0,

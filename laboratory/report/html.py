@@ -41,6 +41,8 @@ TABLE_TITLES = {
     "runs": "Runs: theta and its standard error (section 5.2)",
     "phases": "Phases (eqs. 20-25)",
     "tests": "Significance tests (section 5.4)",
+    "budget": "Error budget of theta (report 001, eqs. 26-27), arcsec",
+    "eq27 phases": "Phases corrected by eq. 27 (report 001, Appendix II)",
     "schedules": "Calibration schedules (pattern fit and readout)",
     "amplification": "Amplification of the readout error by strategy",
     "amplification_curve": "Amplification against pattern range (Figure 2)",

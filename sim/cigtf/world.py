@@ -140,3 +140,16 @@ class CigtfWorld:
         rhs = (-4 * m.b * d.d_i + 4 * m.c * d.d_os - 4 * m.b * ws + 4 * (m.a + m.d) * wc
                + (3 * eps + eta) * wc)
         return to_arcsec(-rhs / (4 * wc))
+
+    def truth_budget(self) -> dict[str, float]:
+        """Eq. 26 term by term from the true values, arcsec: the part of theta each term
+        makes (b D_I, c D_OS, b omega sin, (3 epsilon + eta)/4) and ``north`` = -(a + d),
+        the fixture's azimuth error; their sum is ``truth_theta_arcsec``."""
+        m, d = self.misalignments, self.p.model
+        eps = self.fixture._detent("v", 180)
+        eta = -eps
+        wc = EARTH_RATE * math.cos(self.latitude)
+        return {"b D_I": to_arcsec(m.b * d.d_i / wc), "c D_OS": to_arcsec(-m.c * d.d_os / wc),
+                "b omega sin": to_arcsec(m.b * math.tan(self.latitude)),
+                "(3 epsilon + eta)/4": to_arcsec(-(3 * eps + eta) / 4),
+                "north": to_arcsec(-(m.a + m.d))}

@@ -63,6 +63,24 @@ def max_current_noise_ma(latitude_deg: float, s_t: float) -> float:
 _DEFAULTS = CigtfParams()
 
 
+class Eq27Config(BaseModel):
+    """``[cigtf.eq27]``: the eq. 27 correction of report 001 (Appendix II) and the values
+    the laboratory has for it, each with its 1-sigma error: the bubble levels' b and c
+    (arcsec), the gyro's calibrated D_I and D_OS (deg/hr per g), the error of the fixture's
+    180 deg vertical null (arcsec). ``apply`` (or ``--eq27``) corrects each phase's theta."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False, strict=True)
+    apply: bool = False
+    b_arcsec: float = Field(0.0, ge=-600, le=600)
+    c_arcsec: float = Field(0.0, ge=-600, le=600)
+    level_sigma_arcsec: float = Field(0.5, ge=0, le=60)
+    d_i_deg_hr: float = Field(0.0, ge=-100, le=100)
+    d_os_deg_hr: float = Field(0.0, ge=-100, le=100)
+    drift_sigma_deg_hr: float = Field(0.0, ge=0, le=100)
+    v180_error_arcsec: float = Field(0.0, ge=-60, le=60)
+    null_sigma_arcsec: float = Field(0.5 / 3.0, ge=0, le=60)  # the fixture's 0.5 sec at 3 sigma
+
+
 class CigtfConfig(BaseModel):
     # Field order matters: the latitude is checked against the level error, then the
     # noise against the latitude (each error names the field that is out of bounds).
@@ -114,6 +132,7 @@ class CigtfConfig(BaseModel):
         return v
 
     limits: CigtfLimits = CigtfLimits()  # acceptance limits (station/config/limits.py)
+    eq27: Eq27Config = Eq27Config()  # the eq. 27 correction's values (laboratory side)
 
 
 def load_cigtf_params(path: str | Path | None) -> CigtfParams:
@@ -121,7 +140,8 @@ def load_cigtf_params(path: str | Path | None) -> CigtfParams:
     if path is None:
         return CigtfParams()
     cfg = read_section(path, "cigtf", CigtfConfig, "CIGTF")
-    return replace(CigtfParams(), **{k: v for k, v in cfg.model_dump(exclude={"limits"}).items()
+    dumped = cfg.model_dump(exclude={"limits", "eq27"})
+    return replace(CigtfParams(), **{k: v for k, v in dumped.items()
                                     if v is not None})
 
 
@@ -130,3 +150,10 @@ def load_cigtf_limits(path: str | Path | None) -> CigtfLimits:
     if path is None:
         return CigtfLimits()
     return read_section(path, "cigtf", CigtfConfig, "CIGTF").limits
+
+
+def load_cigtf_eq27(path: str | Path | None) -> Eq27Config:
+    """The ``[cigtf.eq27]`` of a CIGTF file (not applied, zero values, without one)."""
+    if path is None:
+        return Eq27Config()
+    return read_section(path, "cigtf", CigtfConfig, "CIGTF").eq27

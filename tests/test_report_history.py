@@ -1,7 +1,8 @@
 """The report's "History of this unit" (issue 16), in headless Chromium: after three short
-runs of one unit the third run's report.html shows the trend plot (it decodes) and one row
-per constant whose z is `station trend`'s; the first run's says in one line that there are
-no earlier runs; a later run never enters an earlier run's report."""
+runs of one unit the third run's report.html shows one row per constant whose z is `station
+trend`'s, each with an SVG sparkline of its three calibrations in the order of their
+estimates; the first run's says in one line that there are no earlier runs; a later run never
+enters an earlier run's report; building the report never imports matplotlib."""
 
 from __future__ import annotations
 
@@ -18,10 +19,13 @@ import pytest
 ROOT = Path(__file__).resolve().parent.parent
 DAY = ["day", "--only", "II-6", "--quiet"]  # the gyros' II-6 constants, under a second each
 UNIT = "ISU-000-001"
-# after the page has loaded: how wide the trend plot decoded (0 for a broken image)
-PROBE = ("<script>window.addEventListener('load', () => {const i = document.getElementById("
-         "'history-plot'); document.body.setAttribute('data-plot-width', i ? "
-         "String(i.naturalWidth) : 'none');});</script>")
+# after the page has loaded: each sparkline's circles' cy as Chromium's SVG geometry reads them
+# ('x' for a circle that is not an SVG element), and how many sparklines there are
+PROBE = ("<script>window.addEventListener('load', () => {const s = document.querySelectorAll("
+         "'#history svg'); for (const g of s) {g.setAttribute('data-cy', Array.from("
+         "g.querySelectorAll('circle')).map(c => c instanceof SVGCircleElement ? "
+         "String(c.cy.baseVal.value) : 'x').join(' '));} document.body.setAttribute("
+         "'data-sparklines', String(s.length));});</script>")
 
 
 def station(*args: str, cwd: Path = ROOT) -> subprocess.CompletedProcess:
@@ -43,37 +47,50 @@ def browser() -> str:
 
 class Dom(HTMLParser):
     """What the test reads of the rendered DOM: the history section's state and one-line
-    text, the trend table's rows and cells, and the plot's decoded width."""
+    text, the trend table's rows and cells (the sparkline's title apart), and per row its
+    sparklines: title, circles (cy as written, classes) and the probe's cy."""
 
     def __init__(self) -> None:
         super().__init__()
         self.shown: str | None = None
         self.none_text = ""
-        self.plot_width: str | None = None
-        self.plot_src = ""
+        self.sparklines: str | None = None  # the probe's count; None without the probe
         self.rows: dict[str, list[str]] = {}
+        self.sparks: dict[str, list[dict]] = {}
+        self.svgs = 0  # every <svg> in the document
         self._in_table = False
         self._row: list[str] | None = None
+        self._label = ""
         self._cell = False
         self._in_none = False
+        self._in_title = False
 
     def handle_starttag(self, tag: str, attrs: list[tuple[str, str | None]]) -> None:
         a = dict(attrs)
         if tag == "body":
-            self.plot_width = a.get("data-plot-width")
+            self.sparklines = a.get("data-sparklines")
         elif tag == "section" and a.get("id") == "history":
             self.shown = a.get("data-shown")
         elif tag == "p" and a.get("id") == "history-none":
             self._in_none = True
-        elif tag == "img" and a.get("id") == "history-plot":
-            self.plot_src = str(a.get("src"))
         elif tag == "table" and a.get("data-table") == "trend":
             self._in_table = True
         elif tag == "tr" and self._in_table and a.get("data-row"):
-            self._row = self.rows.setdefault(str(a["data-row"]), [])
+            self._label = str(a["data-row"])
+            self._row = self.rows.setdefault(self._label, [])
         elif tag == "td" and self._row is not None:
             self._row.append("")
             self._cell = True
+        elif tag == "svg":
+            self.svgs += 1
+            if self._row is not None:
+                self.sparks.setdefault(self._label, []).append(
+                    {"title": "", "cy": [], "classes": [], "probe": a.get("data-cy")})
+        elif tag == "title" and self._row is not None:
+            self._in_title = True
+        elif tag == "circle" and self._row is not None:
+            self.sparks[self._label][-1]["cy"].append(float(str(a["cy"])))
+            self.sparks[self._label][-1]["classes"].append(a.get("class"))
 
     def handle_endtag(self, tag: str) -> None:
         if tag == "table":
@@ -84,16 +101,20 @@ class Dom(HTMLParser):
             self._cell = False
         elif tag == "p":
             self._in_none = False
+        elif tag == "title":
+            self._in_title = False
 
     def handle_data(self, data: str) -> None:
         if self._in_none:
             self.none_text += data
-        if self._cell and self._row is not None:
+        if self._in_title and self._row is not None:
+            self.sparks[self._label][-1]["title"] += data
+        elif self._cell and self._row is not None:
             self._row[-1] += data
 
 
 def rendered(report: Path, tmp: Path) -> Dom:
-    """The report as Chromium builds it, with the plot's naturalWidth read after load."""
+    """The report as Chromium builds it, with the sparklines' geometry read after load."""
     page = tmp / f"probe-{report.parent.name}.html"
     page.write_text(report.read_text(encoding="utf-8").replace("</body>", PROBE + "</body>"),
                     encoding="utf-8")
@@ -139,33 +160,76 @@ def runs(tmp_path_factory: pytest.TempPathFactory) -> dict:
     return {"base": base, "days": days, "trend": t.stdout, "fourth": fourth, "again": again}
 
 
+def estimates(days: list[Path]) -> dict[str, list[float]]:
+    """Per constant ("gyro1 R") its estimate on each of ``days``, from their records."""
+    from laboratory.history.store import result_rows
+
+    out: dict[str, list[float]] = {}
+    for d in days:
+        for r in result_rows(d):
+            if r.get("estimate") is not None and (r.get("sigma") or 0) > 0:
+                name = f"{r.get('instrument') or ''} {r['parameter']}".strip()
+                out.setdefault(name, []).append(float(r["estimate"]))
+    return out
+
+
 def test_the_third_run_shows_its_history(runs: dict, tmp_path: Path) -> None:
     dom = rendered(runs["days"][2] / "report.html", tmp_path)
     assert dom.shown == "yes"
-    assert dom.plot_src.startswith("data:image/png;base64,")  # self-contained
-    assert dom.plot_width is not None and int(dom.plot_width) > 0  # the PNG decodes
     z = trend_z(runs["trend"])
     assert len(z) >= 12  # II-6 determines DeltaPhi and G.B1-3 of each gyro
     assert sorted(dom.rows) == sorted(z)
+    assert dom.svgs == len(z) and dom.sparklines == str(len(z))  # one svg per row, no plot
+    est = estimates(runs["days"])
     for name, cells in dom.rows.items():
         assert cells[3] == "3", name  # three calibrations: this run and two before it
         assert cells[5] == z[name], name  # `station trend`'s z of the latest change
+        [spark] = dom.sparks[name]
+        x = est[name]
+        assert len(x) == 3 and spark["title"].startswith(
+            f"{name} (") and "3 calibrations oldest first (the last is this run)" in spark[
+            "title"] and spark["title"].count("±") == 3, spark["title"]
+        cy = [float(v) for v in spark["probe"].split()]  # as Chromium's SVG geometry reads it
+        assert cy == pytest.approx(spark["cy"], abs=1e-5), name  # Chromium's float32
+        assert spark["classes"] == [None, None, "now"], name  # this run marked
+        # larger estimates higher up (smaller cy): the order of the estimates, top down
+        top_down = sorted(range(3), key=lambda i: -x[i])
+        assert [cy[i] for i in top_down] == sorted(cy), (name, x, cy)
+        assert cy[top_down[0]] < cy[top_down[-1]], (name, x, cy)
 
 
 def test_station_trend_html_is_the_same_section(runs: dict) -> None:
-    """`station trend UNIT --html FILE`: the section on a page of its own, the same rows."""
+    """`station trend UNIT --html FILE`: the section on a page of its own, the same rows
+    and sparklines (whose last point is the latest calibration there)."""
     page, report = Dom(), Dom()
     page.feed((runs["base"] / "trend.html").read_text(encoding="utf-8"))
     report.feed((runs["days"][2] / "report.html").read_text(encoding="utf-8"))
-    assert page.shown == "yes" and page.plot_src.startswith("data:image/png;base64,")
-    assert page.rows == report.rows
+    assert page.shown == "yes" and page.rows == report.rows and page.rows
+    for name, [spark] in page.sparks.items():
+        [ours] = report.sparks[name]
+        assert spark["cy"] == ours["cy"] and spark["title"] == ours["title"].replace(
+            "the last is this run", "the last is the latest"), name
+    assert (runs["base"] / "trend.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"  # still drawn
 
 
 def test_the_first_run_has_no_earlier_runs(runs: dict, tmp_path: Path) -> None:
     dom = rendered(runs["days"][0] / "report.html", tmp_path)
-    assert dom.shown == "no" and dom.plot_width == "none" and not dom.rows
+    assert dom.shown == "no" and dom.sparklines == "0" and not dom.rows and not dom.svgs
     assert dom.none_text == (f"No earlier runs of {UNIT} in the calibration history: this "
                              "is its first; nothing to trend yet.")
+
+
+def test_the_report_with_history_never_imports_matplotlib(runs: dict) -> None:
+    """Building the report of a run with a history leaves matplotlib unimported: the
+    sparklines are SVG markup written in Python."""
+    code = ("import sys; from pathlib import Path; from laboratory.report import "
+            "render_report; html = render_report(Path(sys.argv[1])); "
+            "print(html.count('<svg class=\"spark\"'), 'matplotlib' in sys.modules)")
+    p = subprocess.run([sys.executable, "-c", code, str(runs["days"][2])], cwd=ROOT,
+                       env={k: v for k, v in os.environ.items() if k != "STATION_HISTORY_URL"},
+                       capture_output=True, text=True, timeout=300)
+    assert p.returncode == 0, p.stderr
+    assert p.stdout == f"{len(trend_z(runs['trend']))} False\n"
 
 
 def test_a_later_run_stays_out_of_an_earlier_report(runs: dict) -> None:

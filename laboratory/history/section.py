@@ -1,15 +1,15 @@
 """The report's "History of this unit": the trend of the run's unit over this run and its
 predecessors in the calibration history (never later runs), as `station trend` shows it,
-with the trend plot inline. Any failure is the section's one line, never the report's."""
+with each constant's trend as an inline SVG sparkline (no plotting library on the report's
+path). Any failure is the section's one line, never the report's."""
 
 from __future__ import annotations
 
-import base64
-import io
 import json
 from pathlib import Path
 from typing import Any
 
+from laboratory.history.sparkline import sparkline
 from laboratory.history.store import history_url_for, runs_of, session
 from laboratory.history.trend import (
     COLUMNS,
@@ -17,7 +17,6 @@ from laboratory.history.trend import (
     Trend,
     cells,
     flags,
-    trend_plot,
     trends,
     z_limit,
 )
@@ -39,8 +38,8 @@ def _none(text: str) -> dict[str, Any]:
 def history_section(run_dir: Path, url: str | None = None,
                     level: float = DEFAULT_LEVEL) -> dict[str, Any]:
     """The section of the run in ``run_dir`` from the history at ``url`` (default: where
-    the run was indexed at its end): ``shown`` with unit, text, plot (a data: URI), columns
-    and rows; or not shown, with the one line saying why."""
+    the run was indexed at its end): ``shown`` with unit, text, columns and rows (each
+    with its sparkline); or not shown, with the one line saying why."""
     try:
         ident = json.loads((Path(run_dir) / "run.json").read_text(encoding="utf-8"))
     except (OSError, ValueError):
@@ -68,21 +67,21 @@ def history_section(run_dir: Path, url: str | None = None,
         return _none(f"No constant of {unit} determined on two or more completed runs up to "
                      f"this one ({len(upto)} runs in the history): nothing to trend yet.")
     return shown(ts, unit, level, f"{len(upto)} runs of {unit} in the {lab} laboratory's "
-                 "history up to and including this one")
+                 "history up to and including this one", "this run")
 
 
-def shown(ts: list[Trend], unit: str, level: float, where: str) -> dict[str, Any]:
+def shown(ts: list[Trend], unit: str, level: float, where: str,
+          last: str = "the latest") -> dict[str, Any]:
     """The section for the trends ``ts`` of ``unit`` (``where`` says which runs they
-    cover): the plot as a data: URI, one row per constant as `station trend` prints it."""
-    png = io.BytesIO()
-    trend_plot(ts, png, unit, level)
+    cover): one row per constant as `station trend` prints it, with its sparkline (SVG
+    markup; its last point is ``last``)."""
     rows: list[dict[str, Any]] = [{"label": t.name, "cells": cells(t),
-                                   "flagged": bool(flags(t))} for t in ts]
+                                   "flagged": bool(flags(t)), "spark": sparkline(t, last)}
+                                  for t in ts]
     return {"shown": True, "unit": unit, "level": level, "z_limit": z_limit(level),
             "columns": list(COLUMNS), "rows": rows,
             "text": f"{where}; {sum(bool(flags(t)) for t in ts)} of {len(ts)} constants "
-                    f"flagged at the {level:g} level.",
-            "plot": "data:image/png;base64," + base64.b64encode(png.getvalue()).decode()}
+                    f"flagged at the {level:g} level."}
 
 
 def safe_history_section(run_dir: Path, url: str | None = None) -> dict[str, Any]:

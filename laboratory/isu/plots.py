@@ -1,14 +1,13 @@
 """Plots of a run, rendered from its record (matplotlib, no display).
 
 matplotlib is imported when a plot is drawn, not with this module: a run draws its plots
-after its record is closed, and a command that draws none never pays for it. A bare
-``Figure`` (no pyplot, no backend switching) renders to PNG through savefig's own canvas.
+after its record is closed, and a command that draws none never pays for it.
 """
 
 from __future__ import annotations
 
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -17,17 +16,20 @@ from procedures.isu.computations import _count_sigma  # the fit's own weights
 from procedures.isu.nonlinearity import fit_nonlinearity
 
 if TYPE_CHECKING:
-    from matplotlib.figure import Figure
+    from types import ModuleType
 
 TRUTH_SIGMAS = 4.0  # the simulation's truth check: |error| within 4 predicted sigma
 
 
-def figure(**kw: Any) -> Figure:
-    """A matplotlib figure with no display and no pyplot state (imported here, on first
-    use: about 0.3 s that a run without plots does not spend)."""
-    from matplotlib.figure import Figure
+def pyplot() -> ModuleType:
+    """matplotlib.pyplot on the Agg backend (no display), imported on first use: about
+    0.3 s that a command drawing no plot does not spend."""
+    import matplotlib
 
-    return Figure(**kw)
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
 
 
 def nonlinearity_plot(points: dict[int, list[dict]], path: Path, noise: NoiseSpec | None = None,
@@ -38,8 +40,8 @@ def nonlinearity_plot(points: dict[int, list[dict]], path: Path, noise: NoiseSpe
     if not points:
         return
     noise = noise or NoiseSpec.model_validate({})
-    fig = figure(figsize=(4.4 * len(points), 6.8))
-    axes = fig.subplots(2, len(points), squeeze=False)
+    plt = pyplot()
+    fig, axes = plt.subplots(2, len(points), figsize=(4.4 * len(points), 6.8), squeeze=False)
     for i, (k, rows) in enumerate(sorted(points.items())):
         w = np.array([r["w_deg_hr"] for r in rows])
         p = np.array([r["p_dot"] for r in rows])
@@ -69,6 +71,7 @@ def nonlinearity_plot(points: dict[int, list[dict]], path: Path, noise: NoiseSpe
     fig.suptitle("Gyro scale-factor nonlinearity (Chart II-7)")
     fig.tight_layout()
     fig.savefig(path, dpi=110)
+    plt.close(fig)
 
 
 def results_plot(rows: list[dict], path: Path) -> bool:
@@ -87,8 +90,8 @@ def results_plot(rows: list[dict], path: Path) -> bool:
         return False
     labels = [f"{r['instrument']} {r['parameter']} ({r['units']})" for r in use]
     y = np.arange(len(use))
-    fig = figure(figsize=(8, max(2.5, 1.2 + 0.22 * len(use))))
-    ax = fig.subplots()
+    plt = pyplot()
+    fig, ax = plt.subplots(figsize=(8, max(2.5, 1.2 + 0.22 * len(use))))
     colours = ["tab:red" if abs(v) > bound else "tab:blue" for v in vals]
     ax.barh(y, vals, color=colours)
     for b in (bound, -bound) if sim else (bound,):
@@ -100,4 +103,5 @@ def results_plot(rows: list[dict], path: Path) -> bool:
                  + ("error over sigma" if sim else "estimate against limits"))
     fig.tight_layout()
     fig.savefig(path, dpi=110)
+    plt.close(fig)
     return True

@@ -2,7 +2,8 @@
 
 For each command (``station day``, ``station gyrocompass-test``, ``station esg-calibration``,
 ``station --help``), run ``--repeat`` times as ``python -m laboratory.cli ...`` with
-PYTHONPATH set to the tree under test, it prints the minimum and median wall time of the
+PYTHONPATH set to the tree under test (the tree's own `station` module from its
+pyproject, for an older revision), it prints the minimum and median wall time of the
 whole process, the time inside the run (results.json ``wall_seconds``, else the closing
 line), lab time per wall second and the peak memory of the process (its own rusage). Then,
 where the tree has them, bench/ieu_stream.ieu_cost_per_sample(4.0) and
@@ -39,6 +40,7 @@ COMMANDS: dict[str, list[str]] = {  # name -> arguments after `station` ({out}: 
     "esg": ["esg-calibration", "--out", "{out}"],
     "help": ["--help"],
 }
+DEFAULT_CLI = "laboratory.cli"
 CLOSING = re.compile(r"([0-9.]+) h simulated in ([0-9.]+) s")
 NA = "n/a (not in this revision)"
 
@@ -53,12 +55,26 @@ class Sample:
     peak_mb: float  # the process's maximum resident set
 
 
+def cli_module(root: Path) -> str:
+    """The module of the tree's ``station`` script (pyproject [project.scripts]): run as
+    ``python -m`` it is the command a user runs (laboratory.cli now, station.cli before
+    issue 14)."""
+    import tomllib
+
+    try:
+        doc = tomllib.loads((root / "pyproject.toml").read_text())
+        return str(doc["project"]["scripts"]["station"]).split(":")[0]
+    except (OSError, ValueError, KeyError):
+        return DEFAULT_CLI
+
+
 @dataclass
 class Tree:
     """A source tree under test: its label and its root (PYTHONPATH)."""
 
     label: str
     root: Path
+    cli: str = DEFAULT_CLI
     samples: dict[str, list[Sample]] = field(default_factory=dict)
     costs: dict[str, str] = field(default_factory=dict)
 
@@ -85,7 +101,7 @@ def run_once(tree: Tree, name: str, scratch: Path, i: int) -> Sample:
     log = scratch / f"{tree.label}-{name}-{i}.log"
     with log.open("wb") as fh:
         t0 = time.perf_counter()
-        p = subprocess.Popen([sys.executable, "-m", "laboratory.cli", *args], cwd=scratch,
+        p = subprocess.Popen([sys.executable, "-m", tree.cli, *args], cwd=scratch,
                              env=env, stdout=fh, stderr=subprocess.STDOUT)
         _, status, usage = os.wait4(p.pid, 0)
         wall = time.perf_counter() - t0
@@ -207,6 +223,7 @@ def main(argv: list[str] | None = None) -> None:
         scratch = Path(stack.enter_context(tempfile.TemporaryDirectory(prefix="speed-")))
         for t in trees:
             t.samples = {n: [] for n in names}
+            t.cli = cli_module(t.root)
         for i in range(a.repeat):
             for name in names:
                 order = trees if i % 2 == 0 else trees[::-1]

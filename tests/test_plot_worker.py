@@ -1,0 +1,55 @@
+"""The day's plots drawn beside the run (laboratory/isu/plot_worker.py, issue 17): the child
+writes the same bytes this process would, and where it cannot, this process draws them."""
+
+from __future__ import annotations
+
+import subprocess
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from laboratory.isu import plot_worker
+from laboratory.isu.plot_worker import PlotWorker, draw_here
+
+ROWS = [{"instrument": f"gyro{k}", "parameter": "R", "units": "deg/hr", "estimate": 1.0 + k,
+         "sigma": 0.01, "error": 0.01 * (k - 2), "truth": 1.0, "limit": None}
+        for k in (1, 2, 3)]
+
+
+def test_the_child_writes_what_this_process_writes(tmp_path: Path) -> None:
+    with PlotWorker() as w:
+        w.draw([("results_plot", {"rows": ROWS, "path": tmp_path / "child.png"})])
+        w.wait()
+    assert draw_here([("results_plot", {"rows": ROWS, "path": tmp_path / "here.png"})]) == [None]
+    assert (tmp_path / "child.png").read_bytes() == (tmp_path / "here.png").read_bytes()
+
+
+def test_without_a_child_the_plots_are_drawn_here(tmp_path: Path,
+                                                  monkeypatch: pytest.MonkeyPatch) -> None:
+    def refuse(*a: Any, **k: Any) -> None:
+        raise OSError("no processes left")
+
+    monkeypatch.setattr(plot_worker.subprocess, "Popen", refuse)
+    with PlotWorker() as w:
+        w.draw([("results_plot", {"rows": ROWS, "path": tmp_path / "r.png"})])
+        w.wait()
+    assert (tmp_path / "r.png").stat().st_size > 1000
+
+
+def test_a_plot_that_fails_fails_as_it_would_here(tmp_path: Path) -> None:
+    """The child reports the failure, this process draws it again and raises its error."""
+    with PlotWorker() as w:
+        w.draw([("results_plot", {"rows": [{"error": 1.0, "sigma": 1.0}],
+                                  "path": tmp_path / "r.png"})])
+        with pytest.raises(KeyError, match="instrument"):
+            w.wait()
+    assert not (tmp_path / "r.png").exists()
+
+
+def test_a_day_that_stops_ends_its_child() -> None:
+    w = PlotWorker()
+    proc = w._proc
+    assert isinstance(proc, subprocess.Popen)
+    w.close()
+    assert proc.poll() is not None

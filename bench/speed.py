@@ -24,6 +24,7 @@ import contextlib
 import json
 import os
 import re
+import signal
 import statistics
 import subprocess
 import sys
@@ -210,6 +211,7 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--no-costs", action="store_true", help="skip the IEU stream and gate "
                     "cost figures")
     a = ap.parse_args(argv)
+    signal.signal(signal.SIGTERM, lambda *_: sys.exit(143))  # still remove the worktree
     names = [n.strip() for n in a.commands.split(",") if n.strip()]
     bad = [n for n in names if n not in COMMANDS]
     if bad:

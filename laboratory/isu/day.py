@@ -24,10 +24,10 @@ from laboratory.history import index_after
 from laboratory.identity import RunIdentity, identified, isu_config, isu_identity
 from laboratory.isu.align import day_alignments, render_alignment
 from laboratory.isu.display import DayDisplay
-from laboratory.isu.plot_worker import PlotWorker
 from laboratory.isu.prior import CarriedSheets, carried_sheets
 from laboratory.isu.spec import noise_spec, site_of
 from laboratory.isu.truth import calibration_truth
+from laboratory.plot_worker import PlotWorker
 from laboratory.record import write_results, write_sheets
 from laboratory.report import report_after
 from laboratory.rundir import opened_journal, prepare, resume_note
@@ -46,6 +46,8 @@ from procedures.journal import Journal
 from procedures.runner import Run
 from station.config.isu import StationConfig
 from station.racks.isu import SimulatedRack
+
+PLOTS = "laboratory.isu.plots"  # the day's plots, drawn beside it (laboratory.plot_worker)
 
 
 @dataclass(frozen=True)
@@ -175,7 +177,7 @@ def run_day(req: DayRequest, console: Console | None = None,
             ident = stack.enter_context(identified(
                 req.out, "isu", "day", req.cfg.seed, isu_config(req.cfg),
                 *isu_identity(req.cfg), req.resume, journal.records))
-            plotter = stack.enter_context(PlotWorker())  # imports matplotlib meanwhile
+            plotter = stack.enter_context(PlotWorker(PLOTS))  # imports matplotlib meanwhile
             return _day(req, conn, journal, console, wall0, ident, carried, plotter)
     finally:
         conn.close()
@@ -215,9 +217,9 @@ def _day(req: DayRequest, conn: Connection, journal: Journal, console: Console,
     rows = judge_constants(results_rows(calib, calibration_truth(world) if world else {}),
                            cfg.limits)
     plotter.draw([  # drawn beside the rest of the record; waited for before the end note
-        ("nonlinearity_plot", {"points": data.nonlinearity, "path": out / "nonlinearity.png",
-                               "noise": noise, "dphi_arcsec": dphi}),
-        ("results_plot", {"rows": rows, "path": out / "results.png"})])
+        (f"{PLOTS}:nonlinearity_plot", {"points": data.nonlinearity, "noise": noise,
+                                        "path": out / "nonlinearity.png", "dphi_arcsec": dphi}),
+        (f"{PLOTS}:results_plot", {"rows": rows, "path": out / "results.png"})])
     res = {
         "seed": cfg.seed,
         "sim_seconds": st.clock.now(),

@@ -1,11 +1,11 @@
 """A run's plots drawn beside the run (issue 17: plots off the critical path).
 
 A child process started when a run starts imports matplotlib (and the plotting modules)
-while the simulation runs, then draws the plots it is sent while this process writes the
-rest of the record; the run waits for them before its end note, so the run directory is
-the same. Where the child cannot be started, or fails, the same functions draw the same
-plots here, in this process. A job is ``("module:function", keywords)``; the keyword
-``path`` is the file, written atomically.
+while the simulation runs, then draws the plots it is sent (as soon as their data exist)
+while this process goes on; the run waits for them before its end note (only then are
+they renamed into place), so the run directory is the same. Where the child cannot be
+started, or fails, the same functions draw the same plots here, in this process. A job is
+``("module:function", keywords)``; the keyword ``path`` is the file, written atomically.
 """
 
 from __future__ import annotations
@@ -24,26 +24,45 @@ from typing import Any
 Job = tuple[str, dict[str, Any]]  # "module:function", its keywords (one of them path)
 
 
-@contextmanager
-def written(path: Path) -> Iterator[Path]:
-    """station.files.atomic_path for a file written while the run writes others beside it:
-    its temporary, ``.<name>.plot-<pid><suffix>``, is one that atomic_path's clearing of a
-    record file's stale temporaries (``.<stem>.tmp-*``: results.json beside results.png)
-    never matches, and it clears only its own."""
-    from station.files import fsync_dir
+def temporary(path: Path, pid: int | None = None) -> Path:
+    """The temporary a plot of ``path`` is drawn to: ``.<name>.plot-<pid><suffix>``, one
+    that station.files.atomic_path's clearing of a record file's stale temporaries
+    (``.<stem>.tmp-*``: results.json beside results.png) never matches."""
+    return path.with_name(f".{path.name}.plot-{pid or os.getpid()}{path.suffix}")
 
+
+def _clear_stale(path: Path) -> None:
     for old in path.parent.glob(f".{path.name}.plot-*"):
         old.unlink(missing_ok=True)
-    tmp = path.with_name(f".{path.name}.plot-{os.getpid()}{path.suffix}")
+
+
+def _installed(tmp: Path, path: Path) -> None:
+    """``tmp`` synced and renamed over ``path``, the directory synced."""
+    from station.files import fsync_dir
+
+    with tmp.open("rb") as f:
+        os.fsync(f.fileno())
+    os.replace(tmp, path)
+    fsync_dir(path.parent)
+
+
+@contextmanager
+def written(path: Path) -> Iterator[Path]:
+    """station.files.atomic_path for a plot drawn while the run writes files beside it
+    (its temporary is ``temporary(path)``; it clears only its own stale ones)."""
+    _clear_stale(path)
+    tmp = temporary(path)
     try:
         yield tmp
         if tmp.exists():
-            with tmp.open("rb") as f:
-                os.fsync(f.fileno())
-            os.replace(tmp, path)
-            fsync_dir(path.parent)
+            _installed(tmp, path)
     finally:
         tmp.unlink(missing_ok=True)
+
+
+def _draw(name: str, kw: dict[str, Any]) -> None:
+    module, _, function = name.partition(":")
+    getattr(importlib.import_module(module), function)(**kw)
 
 
 def draw_here(jobs: list[Job], raising: bool = False) -> list[str | None]:
@@ -52,10 +71,8 @@ def draw_here(jobs: list[Job], raising: bool = False) -> list[str | None]:
     done: list[str | None] = []
     for name, kw in jobs:
         try:
-            module, _, function = name.partition(":")
-            draw = getattr(importlib.import_module(module), function)
             with written(Path(kw["path"])) as tmp:
-                draw(**{**kw, "path": tmp})
+                _draw(name, {**kw, "path": tmp})
             done.append(None)
         except Exception as e:  # noqa: BLE001  # reported; the parent draws it again
             if raising:
@@ -67,10 +84,15 @@ def draw_here(jobs: list[Job], raising: bool = False) -> list[str | None]:
 class PlotWorker:
     """A child process that draws plot jobs: ``draw`` sends them, ``wait`` returns once
     every plot is written (drawing here what the child did not). ``modules``: those the
-    child imports at once, while the run runs (the plotting functions' own)."""
+    child imports at once, while the run runs (the plotting functions' own).
+
+    The child draws each plot to a temporary beside its file; only ``wait`` renames them
+    into place, so a run that stops before it (``close``) leaves no plot it would not have
+    left when it drew them itself, at the same point."""
 
     def __init__(self, *modules: str) -> None:
         self._jobs: list[Job] = []
+        self._temps: list[Path] = []
         env = dict(os.environ, PYTHONPATH=os.pathsep.join(p for p in sys.path if p))
         try:
             self._proc: subprocess.Popen[bytes] | None = subprocess.Popen(
@@ -88,19 +110,26 @@ class PlotWorker:
         self.close()
 
     def draw(self, jobs: list[Job]) -> None:
-        """Send ``jobs`` to the child (all of one day: the child draws one batch)."""
+        """Send ``jobs`` to the child (the one batch of a run) to draw while this process
+        goes on."""
         self._jobs = list(jobs)
+        paths = [Path(kw["path"]) for _, kw in self._jobs]
+        for path in paths:
+            _clear_stale(path)
+        self._temps = [temporary(path) for path in paths]
         p = self._proc
         if p is None or p.stdin is None:
             return
+        sent = [(name, {**kw, "path": tmp})
+                for (name, kw), tmp in zip(self._jobs, self._temps, strict=True)]
         try:
-            p.stdin.write(pickle.dumps(self._jobs))
+            p.stdin.write(pickle.dumps(sent))
             p.stdin.close()
         except OSError:  # the child is gone: wait() draws them here
-            self.close()
+            self._end_child()
 
     def wait(self) -> None:
-        """Every job's plot is written once this returns."""
+        """Every job's plot is in place once this returns."""
         results: list[str | None] = [""] * len(self._jobs)
         p = self._proc
         if p is not None and p.stdout is not None:
@@ -110,26 +139,39 @@ class PlotWorker:
                     results = got
             except (OSError, EOFError, pickle.UnpicklingError):
                 pass
-            p.wait()
-            self._proc = None
-        again = [j for j, r in zip(self._jobs, results, strict=True) if r is not None]
-        self._jobs = []
-        if again:  # as the day drew them before: an error here is the day's
+            self._end_child()
+        again = []
+        for job, tmp, r in zip(self._jobs, self._temps, results, strict=True):
+            if r is None and tmp.exists():
+                _installed(tmp, Path(job[1]["path"]))
+            else:
+                tmp.unlink(missing_ok=True)
+                again.append(job)
+        self._jobs, self._temps = [], []
+        if again:  # as the run drew them before: an error here is the run's
             draw_here(again, raising=True)
 
-    def close(self) -> None:
-        """End the child if it still runs (a day that stopped before its plots)."""
+    def _end_child(self) -> None:
         p, self._proc = self._proc, None
-        if p is not None and p.poll() is None:
+        if p is None:
+            return
+        if p.poll() is None:
             p.kill()
-            p.wait()
-        if p is not None:
-            for f in (p.stdin, p.stdout):
-                if f is not None:
-                    try:
-                        f.close()
-                    except OSError:
-                        pass
+        p.wait()
+        for f in (p.stdin, p.stdout):
+            if f is not None:
+                try:
+                    f.close()
+                except OSError:
+                    pass
+
+    def close(self) -> None:
+        """End the child if it still runs and remove what it drew but was not installed
+        (a run that stopped before its plots)."""
+        self._end_child()
+        for tmp in self._temps:
+            tmp.unlink(missing_ok=True)
+        self._jobs, self._temps = [], []
 
 
 def main() -> None:
@@ -147,7 +189,14 @@ def main() -> None:
     data = sys.stdin.buffer.read()
     if not data:
         return
-    sys.stdout.buffer.write(pickle.dumps(draw_here(pickle.loads(data))))
+    done: list[str | None] = []
+    for name, kw in pickle.loads(data):  # to the parent's temporaries: it renames them
+        try:
+            _draw(name, kw)
+            done.append(None)
+        except Exception as e:  # noqa: BLE001  # reported; the parent draws it again
+            done.append(f"{name}: {type(e).__name__}: {e}".splitlines()[0])
+    sys.stdout.buffer.write(pickle.dumps(done))
     sys.stdout.buffer.flush()
 
 

@@ -48,12 +48,18 @@ def test_a_plot_that_fails_fails_as_it_would_here(tmp_path: Path) -> None:
     assert not (tmp_path / "r.png").exists()
 
 
-def test_a_day_that_stops_ends_its_child() -> None:
-    w = PlotWorker()
+def test_a_run_that_stops_before_waiting_leaves_no_plot(tmp_path: Path) -> None:
+    """The child draws to a temporary; only wait() puts the plot in place, so a run that
+    stops first (close) ends the child and leaves neither the plot nor a temporary."""
+    w = PlotWorker("laboratory.isu.plots")
     proc = w._proc
     assert isinstance(proc, subprocess.Popen)
+    w.draw([(RESULTS, {"rows": ROWS, "path": tmp_path / "r.png"})])
+    proc.wait()  # the child has drawn (or failed): either way nothing is in place yet
+    assert not (tmp_path / "r.png").exists()
     w.close()
     assert proc.poll() is not None
+    assert list(tmp_path.iterdir()) == []
 
 
 def test_a_plot_beside_a_record_file_of_its_stem_leaves_it_alone(tmp_path: Path) -> None:

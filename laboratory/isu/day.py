@@ -205,21 +205,22 @@ def _day(req: DayRequest, conn: Connection, journal: Journal, console: Console,
         data = measure_day(st, run, req.plan, site, cfg.isu.accels[0].f0_hz, req.only,
                            req.positions, noise=noise, survey=carried.survey)
         calib = compute_calibration(run, data, req.plan, noise, site, prior=carried.prior)
+        dphi = {int(r.instrument[4:]): scale_factor_arcsec(r.estimate) for r in calib.rows
+                if r.parameter == "DeltaPhi" and r.estimate is not None}
+        world = conn.coefficient_world
+        rows = judge_constants(results_rows(calib, calibration_truth(world) if world else {}),
+                               cfg.limits)
+        plotter.draw([  # drawn during the alignments; waited for before the end note
+            (f"{PLOTS}:nonlinearity_plot", {"points": data.nonlinearity, "noise": noise,
+                                            "path": out / "nonlinearity.png",
+                                            "dphi_arcsec": dphi}),
+            (f"{PLOTS}:results_plot", {"rows": rows, "path": out / "results.png"})])
         alignment = []
         if req.align and data.survey is not None:
             alignment = day_alignments(st, run, calib, cfg, conn.attitude_world,
                                        tape_dir=out / "tapes", plan=req.align_plan,
                                        samples_dir=out)
     write_sheets(out, run)
-    dphi = {int(r.instrument[4:]): scale_factor_arcsec(r.estimate) for r in calib.rows
-            if r.parameter == "DeltaPhi" and r.estimate is not None}
-    world = conn.coefficient_world
-    rows = judge_constants(results_rows(calib, calibration_truth(world) if world else {}),
-                           cfg.limits)
-    plotter.draw([  # drawn beside the rest of the record; waited for before the end note
-        (f"{PLOTS}:nonlinearity_plot", {"points": data.nonlinearity, "noise": noise,
-                                        "path": out / "nonlinearity.png", "dphi_arcsec": dphi}),
-        (f"{PLOTS}:results_plot", {"rows": rows, "path": out / "results.png"})])
     res = {
         "seed": cfg.seed,
         "sim_seconds": st.clock.now(),

@@ -15,13 +15,15 @@ import os
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
-from typing import Annotated, Any, NoReturn
+from typing import TYPE_CHECKING, Annotated, Any, NoReturn
 
 import typer
 from rich.console import Console
 
-from station.config.isu import ConfigError, StationConfig, load_config
 from station.errors import BadArgument, OperatorError, UseError, VerdictFailed
+
+if TYPE_CHECKING:
+    from station.config.isu import StationConfig
 
 app = typer.Typer(add_completion=False, no_args_is_help=True,
                   help="The simulated inertial-instrument laboratories.")
@@ -100,6 +102,11 @@ def fail(msg: object) -> NoReturn:
 
 
 def load_isu_config(config: Path | None, seed: int | None = None) -> StationConfig:
+    """The ISU laboratory's config (``--config`` over the default, ``--seed``); a bad one
+    ends the command (exit 2). Its reader (pydantic, the instruments' params) is imported
+    here, not when the command line starts."""
+    from station.config.isu import ConfigError, load_config
+
     check_seed(seed)
     try:
         return load_config(config, seed=seed)
@@ -187,6 +194,7 @@ StationOpt = Annotated[str, typer.Option("--station", help="which laboratory: is
 def lab_config(station: str, config: Path | None, seed: int | None) -> tuple[Any, Any]:
     """The laboratory of ``--station`` and its config read as its own commands read it."""
     from laboratory import registry
+    from station.config.file import ConfigError
 
     check_seed(seed)
     try:
@@ -207,6 +215,8 @@ def station_run(load_params: Callable[[Path | None], Any], config: Path | None,
     """Load a station's params from ``config`` and ``run(params, dir)``: exit 2 on a bad
     config, directory or served rack, 1 when a step fails (the journal keeps every
     completed step). Returns the results and the run directory."""
+    from station.config.file import ConfigError
+
     with reported(lambda: None):
         try:
             params = load_params(config)

@@ -17,7 +17,7 @@ from collections.abc import Callable, Iterator
 from contextlib import ExitStack, contextmanager
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from laboratory.history import index_after
 from laboratory.identity import Identifying, identified
@@ -28,9 +28,11 @@ from procedures.runner import Run
 from station.clock import Clock, WallClock
 from station.drivers.driver_set import DriverSet
 from station.hil.profile import ServedRun, WrongStation, attach
-from station.hil.server import ServedStation
 from station.hil.session import Session
 from station.racks.base import Rack, open_drivers
+
+if TYPE_CHECKING:  # the server brings every laboratory's CAN hub (the ISU's IEU): on use only
+    from station.hil.server import ServedStation
 
 
 @dataclass
@@ -72,6 +74,8 @@ class Connection:
 def served_station(lab: Laboratory, cfg: Any) -> ServedStation:
     """What ``station serve`` serves of a laboratory: its seed and config digest (the
     session publishes them) and how to build its rack on the server's environment."""
+    from station.hil.server import ServedStation
+
     return ServedStation(lab.name, lab.seed_of(cfg), lab.digest(cfg),
                          lambda env: lab.build_rack(cfg, env))
 

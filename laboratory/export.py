@@ -13,12 +13,12 @@ import json
 from collections.abc import Iterable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-import can
-
-from station.drivers.isu.ieu import IeuDriver
 from station.files import atomic_path, write_bytes
+
+if TYPE_CHECKING:  # python-can and the IEU's driver are the ISU's: imported by can_log
+    from station.drivers.isu.ieu import IeuDriver
 
 CAN_LOG = "ieu.asc"
 SAMPLES_DIR = "alignments"
@@ -84,6 +84,8 @@ def can_log(out: Path, ieu: IeuDriver) -> Iterator[Path]:
     """Log every IEU frame (both directions) to DIR/ieu.asc through ``can.Logger`` while the
     block runs. Times are the frames' simulated (virtual) seconds, absolute: the log's time
     origin is the simulation's. The log is kept if the block raises (a stopped run)."""
+    import can
+
     path = Path(out) / CAN_LOG
     raised: BaseException | None = None
     with atomic_path(path) as tmp:

@@ -30,7 +30,6 @@ from typing import Annotated, Any
 
 import typer
 
-from laboratory.record import write_json
 from station.errors import OperatorError, StopError
 from station.files import write_bytes
 
@@ -205,6 +204,10 @@ class RunIdentity:
                 "special_procedures": special_procedures}
 
     def write(self) -> None:
+        """run.json (laboratory.record is imported here: it brings the procedures, which a
+        command line that only starts or shows its help does not need)."""
+        from laboratory.record import write_json
+
         write_json(self.out / RUN_JSON, self.record)
 
 

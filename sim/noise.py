@@ -12,7 +12,6 @@ from collections.abc import Callable
 from typing import overload
 
 import numpy as np
-from scipy.signal import lfilter
 
 from sim.rng import stream
 
@@ -92,10 +91,19 @@ class KnotProcess:
 
 
 def _ar1(a: float, x: float, w: np.ndarray) -> np.ndarray:
-    """x_i = a x_{i-1} + w_i from x_0 = x: the recursion run by scipy.signal.lfilter
-    (a stable first-order filter: finite for every 0 <= a <= 1 and every finite w)."""
-    y, _ = lfilter([1.0], [1.0, -a], w, zi=[a * x])
-    return y
+    """x_i = a x_{i-1} + w_i from x_0 = x (a stable first-order filter: finite for every
+    0 <= a <= 1 and every finite w).
+
+    The same operations in the same order as scipy.signal.lfilter([1], [1, -a], w,
+    zi=[a x]), so the same bits; a plain loop (about 0.25 ms per 4096-knot block) because
+    importing scipy.signal costs about 0.3 s of every command's start."""
+    out = [0.0] * len(w)
+    y = a * x
+    for i, wi in enumerate(w.tolist()):
+        y += wi
+        out[i] = y
+        y *= a
+    return np.array(out)
 
 
 class RandomWalk:

@@ -58,6 +58,20 @@ def test_the_recursion_is_the_ar1_recursion():
         assert np.allclose(_ar1(a, 0.7, w), want, rtol=1e-12, atol=1e-12)
 
 
+def test_the_recursion_gives_lfilters_bits():
+    """The loop that replaced scipy.signal.lfilter (issue 17: not imported at start) gives
+    the same bits, so every record drawn from a Gauss-Markov process is unchanged."""
+    from scipy.signal import lfilter
+
+    rng = np.random.default_rng(17)
+    for a in (0.0, 1e-300, 0.057, 0.5, 0.9944, 0.999999, 1.0):
+        for scale in (1e-15, 1e-6, 1.0, 1e3):
+            w = rng.standard_normal(4096) * scale
+            x = float(rng.standard_normal()) * scale
+            want, _ = lfilter([1.0], [1.0, -a], w, zi=[a * x])
+            assert np.array_equal(_ar1(a, x, w), want)
+
+
 @pytest.mark.parametrize(("h", "tau"), [(60.0, 21.0), (10.0, 3.5), (10.0, 1e-3), (60.0, 1e12)])
 def test_finite_where_the_closed_form_gave_nan(h, tau):
     """The issue's values: the pier wander's 60-s knots with tau 21 s and a gyro drift's

@@ -20,6 +20,7 @@ from laboratory import registry
 from laboratory.connect import connect, journaled_run
 from laboratory.export import write_results_csv
 from laboratory.identity import Identifying
+from laboratory.plot_worker import PlotWorker
 from laboratory.record import write_json, write_sheets
 from laboratory.rundir import JOURNAL, RunDirError, prepare
 from laboratory.seeded import Seeded
@@ -32,7 +33,6 @@ from procedures.journal import JournalError, scan
 from sim.cigtf.world import CigtfParams
 from station.config.cigtf import CigtfConfig, Eq27Config
 from station.config.limits import CigtfLimits
-from station.files import atomic_path
 from station.hil.session import params_digest
 from station.racks.cigtf import CigtfRack
 
@@ -309,10 +309,11 @@ def run_gyrocompass_test(seed: int, out: Path, params: CigtfParams | None = None
         "eq27": eq27.model_dump(exclude={"apply"})}
     conn = connect(registry.get("cigtf"), Seeded(params, seed), links, rack_hook)
     st, world = conn.drivers, conn.coefficient_world
-    with journaled_run(out, conn, resume, renew=RENEW, seed=seed,
-                       test="gyrocompass", params_digest=digest, **extra_start,
-                       identify=Identifying("cigtf", "gyrocompass-test", seed, "cigtf",
-                                            CigtfConfig, params)) as (run, extra, t_start):
+    with PlotWorker(__name__) as plots, journaled_run(  # plots: matplotlib imported meanwhile
+            out, conn, resume, renew=RENEW, seed=seed, test="gyrocompass", params_digest=digest,
+            **extra_start,
+            identify=Identifying("cigtf", "gyrocompass-test", seed, "cigtf", CigtfConfig,
+                                 params)) as (run, extra, t_start):
         data = gyrocompass_test(st, run, plan)
         runs, phases, tests, conclusions = analyse(data)
         truth = world.truth_theta_arcsec() if world is not None else None
@@ -341,9 +342,9 @@ def run_gyrocompass_test(seed: int, out: Path, params: CigtfParams | None = None
             "wall_seconds": time.perf_counter() - wall0,
             **extra,
         }
+        plots.draw([(f"{__name__}:theta_plot", {"res": res, "path": out / "gyrocompass.png"})])
         write_json(out / "gyrocompass.json", res)
         write_results_csv(out, res["runs"], "gyrocompass.csv")
-        with atomic_path(out / "gyrocompass.png") as tmp:
-            theta_plot(res, tmp)
+        plots.wait()
         run.note(event="end", sim_seconds=st.clock.now() - t_start)
         return res

@@ -28,6 +28,7 @@ from laboratory.connect import connect, journaled_run
 from laboratory.esg.truth import true_pickoff1_coning_arcsec
 from laboratory.export import write_results_csv
 from laboratory.identity import Identifying
+from laboratory.plot_worker import Job, PlotWorker
 from laboratory.record import write_json, write_sheets
 from laboratory.rundir import prepare
 from laboratory.seeded import Seeded
@@ -39,13 +40,13 @@ from procedures.esg.calibration import SCHEDULES, ScheduleResult, assign, calibr
 from sim.esg.world import EsgParams, EsgWorld
 from station.config.esg import EsgConfig
 from station.config.limits import EsgLimits
-from station.files import atomic_path
 from station.racks.esg import EsgRack
 
 if TYPE_CHECKING:
     from rich.console import Console
 
 GOAL_ARCSEC = 15.0
+STRATEGY = strategy.__name__  # Figure 2's plot, drawn beside the run (laboratory.plot_worker)
 STUDY_RANGES = tuple(range(35, 48))
 STUDY_POINTS = 6000
 REPORT_POINTS = (("great_circle", 43.0), ("cosine", 37.0))
@@ -208,10 +209,9 @@ def run_esg_calibration(seed: int, out: Path, params: EsgParams | None = None,
     wall0 = time.perf_counter()
     conn = connect(registry.get("esg"), Seeded(params, seed), links, rack_hook)
     st, served, world = conn.drivers, conn.served, conn.coefficient_world
-    with journaled_run(out, conn, resume, renew=RENEW, seed=seed,
-                       test="esg-calibration",
-                       identify=Identifying("esg", "esg-calibration", seed, "esg",
-                                            EsgConfig, params)) as (
+    with PlotWorker(__name__, STRATEGY) as plots, journaled_run(  # matplotlib meanwhile
+            out, conn, resume, renew=RENEW, seed=seed, test="esg-calibration",
+            identify=Identifying("esg", "esg-calibration", seed, "esg", EsgConfig, params)) as (
             run, extra, t_start):
         acq = acquire(st, run, plan)
         points, bud = assign(acq, plan, plan.lines_per_setting)
@@ -254,20 +254,23 @@ def run_esg_calibration(seed: int, out: Path, params: EsgParams | None = None,
             "verdict": run_verdict(schedules),
             **extra,
         }
+        jobs: list[Job] = []
         if with_study:
             curve, amp, edge = study()
             res_json["amplification"] = amp
             res_json["amplification_curve"] = curve
             res_json["edge_resolution"] = edge
-            with atomic_path(out / "esg_strategy.png") as tmp:
-                strategy.figure2_plot(curve, tmp)
+            jobs.append((f"{STRATEGY}:figure2_plot", {"rows": curve,
+                                                      "path": out / "esg_strategy.png"}))
             run.save_sheet("esg_strategy", curve)
-        with atomic_path(out / "esg_calibration.png") as tmp:
-            calibration_plot(results, tmp)
+        jobs.append((f"{__name__}:calibration_plot", {"results": results,
+                                                       "path": out / "esg_calibration.png"}))
+        plots.draw(jobs)  # drawn beside the rest of the record; waited for before the end
         write_sheets(out, run)
         res_json["sim_seconds"] = st.clock.now() - t_start
         res_json["wall_seconds"] = time.perf_counter() - wall0
         write_json(out / "esg.json", res_json)
         write_results_csv(out, schedules, "esg.csv")
+        plots.wait()
         run.note(event="end", sim_seconds=st.clock.now() - t_start)
         return res_json

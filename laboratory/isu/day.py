@@ -24,10 +24,10 @@ from laboratory.history import index_after
 from laboratory.identity import RunIdentity, identified, isu_config, isu_identity
 from laboratory.isu.align import day_alignments, render_alignment, tape_library
 from laboratory.isu.display import DayDisplay
-from laboratory.isu.plots import nonlinearity_plot, results_plot
 from laboratory.isu.prior import CarriedSheets, carried_sheets
 from laboratory.isu.spec import noise_spec, site_of
 from laboratory.isu.truth import calibration_truth
+from laboratory.plot_worker import PlotWorker
 from laboratory.record import write_results, write_sheets
 from laboratory.report import report_after
 from laboratory.rundir import opened_journal, prepare, resume_note
@@ -45,8 +45,9 @@ from procedures.isu.sheets import (
 from procedures.journal import Journal
 from procedures.runner import Run
 from station.config.isu import StationConfig
-from station.files import atomic_path
 from station.racks.isu import SimulatedRack
+
+PLOTS = "laboratory.isu.plots"  # the day's plots, drawn beside it (laboratory.plot_worker)
 
 
 @dataclass(frozen=True)
@@ -179,13 +180,14 @@ def run_day(req: DayRequest, console: Console | None = None,
             ident = stack.enter_context(identified(
                 req.out, "isu", "day", req.cfg.seed, isu_config(req.cfg),
                 *isu_identity(req.cfg), req.resume, journal.records))
-            return _day(req, conn, journal, console, wall0, ident, carried)
+            plotter = stack.enter_context(PlotWorker(PLOTS))  # imports matplotlib meanwhile
+            return _day(req, conn, journal, console, wall0, ident, carried, plotter)
     finally:
         conn.close()
 
 
 def _day(req: DayRequest, conn: Connection, journal: Journal, console: Console,
-         wall0: float, ident: RunIdentity, carried: CarriedSheets) -> dict:
+         wall0: float, ident: RunIdentity, carried: CarriedSheets, plotter: PlotWorker) -> dict:
     cfg, out, links = req.cfg, req.out, req.links
     st = conn.station
     sid = conn.session.session if conn.session else None
@@ -206,6 +208,16 @@ def _day(req: DayRequest, conn: Connection, journal: Journal, console: Console,
         data = measure_day(st, run, req.plan, site, cfg.isu.accels[0].f0_hz, req.only,
                            req.positions, noise=noise, survey=carried.survey)
         calib = compute_calibration(run, data, req.plan, noise, site, prior=carried.prior)
+        dphi = {int(r.instrument[4:]): scale_factor_arcsec(r.estimate) for r in calib.rows
+                if r.parameter == "DeltaPhi" and r.estimate is not None}
+        world = conn.coefficient_world
+        rows = judge_constants(results_rows(calib, calibration_truth(world) if world else {}),
+                               cfg.limits)
+        plotter.draw([  # drawn during the alignments; waited for before the end note
+            (f"{PLOTS}:nonlinearity_plot", {"points": data.nonlinearity, "noise": noise,
+                                            "path": out / "nonlinearity.png",
+                                            "dphi_arcsec": dphi}),
+            (f"{PLOTS}:results_plot", {"rows": rows, "path": out / "results.png"})])
         alignment = []
         if req.align and data.survey is not None:
             alignment = day_alignments(st, run, calib, cfg, conn.attitude_world,
@@ -214,15 +226,6 @@ def _day(req: DayRequest, conn: Connection, journal: Journal, console: Console,
                                        library=tape_library(cfg, req.tape_library,
                                                             ident.run_uid))
     write_sheets(out, run)
-    dphi = {int(r.instrument[4:]): scale_factor_arcsec(r.estimate) for r in calib.rows
-            if r.parameter == "DeltaPhi" and r.estimate is not None}
-    with atomic_path(out / "nonlinearity.png") as tmp:
-        nonlinearity_plot(data.nonlinearity, tmp, noise, dphi)
-    world = conn.coefficient_world
-    rows = judge_constants(results_rows(calib, calibration_truth(world) if world else {}),
-                           cfg.limits)
-    with atomic_path(out / "results.png") as tmp:
-        results_plot(rows, tmp)
     res = {
         "seed": cfg.seed,
         "sim_seconds": st.clock.now(),
@@ -238,6 +241,7 @@ def _day(req: DayRequest, conn: Connection, journal: Journal, console: Console,
     if alignment:
         write_results_csv(out, alignment, "alignment.csv")
     write_day_calibration(out, calib, cfg, data, req.plan, site, noise)  # calibration.json
+    plotter.wait()
     run.note(event="end", sim_seconds=st.clock.now())
     if not req.quiet:
         render_results(console, rows)

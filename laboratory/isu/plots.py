@@ -1,20 +1,35 @@
-"""Plots of a run, rendered from its record (matplotlib, no display)."""
+"""Plots of a run, rendered from its record (matplotlib, no display).
+
+matplotlib is imported when a plot is drawn, not with this module: a run draws its plots
+after its record is closed, and a command that draws none never pays for it.
+"""
 
 from __future__ import annotations
 
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-import matplotlib
+import numpy as np
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
+from procedures.isu.calibration.noise_spec import NoiseSpec
+from procedures.isu.computations import _count_sigma  # the fit's own weights
+from procedures.isu.nonlinearity import fit_nonlinearity
 
-from procedures.isu.calibration.noise_spec import NoiseSpec  # noqa: E402
-from procedures.isu.computations import _count_sigma  # noqa: E402  # the fit's own weights
-from procedures.isu.nonlinearity import fit_nonlinearity  # noqa: E402
+if TYPE_CHECKING:
+    from types import ModuleType
 
 TRUTH_SIGMAS = 4.0  # the simulation's truth check: |error| within 4 predicted sigma
+
+
+def pyplot() -> ModuleType:
+    """matplotlib.pyplot on the Agg backend (no display), imported on first use: about
+    0.3 s that a command drawing no plot does not spend."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
 
 
 def nonlinearity_plot(points: dict[int, list[dict]], path: Path, noise: NoiseSpec | None = None,
@@ -25,6 +40,7 @@ def nonlinearity_plot(points: dict[int, list[dict]], path: Path, noise: NoiseSpe
     if not points:
         return
     noise = noise or NoiseSpec.model_validate({})
+    plt = pyplot()
     fig, axes = plt.subplots(2, len(points), figsize=(4.4 * len(points), 6.8), squeeze=False)
     for i, (k, rows) in enumerate(sorted(points.items())):
         w = np.array([r["w_deg_hr"] for r in rows])
@@ -74,6 +90,7 @@ def results_plot(rows: list[dict], path: Path) -> bool:
         return False
     labels = [f"{r['instrument']} {r['parameter']} ({r['units']})" for r in use]
     y = np.arange(len(use))
+    plt = pyplot()
     fig, ax = plt.subplots(figsize=(8, max(2.5, 1.2 + 0.22 * len(use))))
     colours = ["tab:red" if abs(v) > bound else "tab:blue" for v in vals]
     ax.barh(y, vals, color=colours)

@@ -12,12 +12,13 @@ import json
 import math
 import sys
 from pathlib import Path
-from typing import Any
-
-from jinja2 import Environment, PackageLoader, StrictUndefined, select_autoescape
+from typing import TYPE_CHECKING, Any
 
 from station.errors import UseError
 from station.files import write_bytes
+
+if TYPE_CHECKING:
+    from jinja2 import Environment
 
 REPORT_NAME = "report.html"
 RESULT_FILES = ("results.json", "gyrocompass.json", "esg.json", "gyrocompass_analysis.json")
@@ -354,6 +355,10 @@ def _history(d: Path) -> dict[str, Any]:
 
 
 def _environment() -> Environment:
+    """The templates' environment; jinja2 is imported here, when a report is written after
+    the record is closed, not when a command starts."""
+    from jinja2 import Environment, PackageLoader, StrictUndefined, select_autoescape
+
     return Environment(loader=PackageLoader("laboratory.report", "templates"),
                        autoescape=select_autoescape(default=True, default_for_string=True),
                        undefined=StrictUndefined, trim_blocks=True, lstrip_blocks=True)

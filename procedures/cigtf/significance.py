@@ -1,11 +1,13 @@
-"""Significance tests of report 001 section 5.4 at the actual degrees of freedom."""
+"""Significance tests of report 001 section 5.4 at the actual degrees of freedom.
+
+The points are scipy.special's (stdtrit, fdtri): the very functions scipy.stats.t.ppf and
+f.ppf return, so the same bits, without importing scipy.stats (about 0.25 s at start).
+"""
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-
-from scipy import stats
 
 from procedures.cigtf.analysis import PhaseValues
 
@@ -28,12 +30,16 @@ class TestOutcome:
 
 def t_threshold(dof: int, alpha: float = ALPHA) -> float:
     """Two-sided Student t point; 1.96 for the report's large dof."""
-    return float(stats.t.ppf(1.0 - alpha / 2.0, dof))
+    from scipy.special import stdtrit
+
+    return float(stdtrit(dof, 1.0 - alpha / 2.0))
 
 
 def f_threshold(dfn: int, dfd: int, alpha: float = ALPHA) -> float:
     """Upper F point: 1.53 (24, 900), 1.91 (9, 360), 2.30 (9, 24) in the report."""
-    return float(stats.f.ppf(1.0 - alpha, dfn, dfd))
+    from scipy.special import fdtri
+
+    return float(fdtri(dfn, dfd, 1.0 - alpha))
 
 
 def noise_f_test(phase: PhaseValues, alpha: float = ALPHA) -> TestOutcome:

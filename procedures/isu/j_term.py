@@ -19,7 +19,6 @@ from collections.abc import Callable
 from typing import TYPE_CHECKING
 
 import numpy as np
-from scipy.integrate import quad
 
 from procedures.isu.common import patch, set_modes, set_position
 from procedures.isu.plan import DayPlan
@@ -62,7 +61,10 @@ def profile(phi0_deg: float, w0: float, w1: float, acc: float,
 
 def gate_integrals(phi: Callable[[float], float], t0: float,
                    t1: float) -> tuple[float, float, float]:
-    """theta (deg), int sin(phi2) dt, int cos(phi2) dt over [t0, t1] (times relative)."""
+    """theta (deg), int sin(phi2) dt, int cos(phi2) dt over [t0, t1] (times relative).
+    scipy.integrate is imported here, when a J-term chart is computed, not at start."""
+    from scipy.integrate import quad
+
     s = quad(lambda t: math.sin(phi(t) * DEG), t0, t1, limit=400, epsabs=1e-10)[0]
     c = quad(lambda t: math.cos(phi(t) * DEG), t0, t1, limit=400, epsabs=1e-10)[0]
     return phi(t1) - phi(t0), s, c

@@ -1,0 +1,51 @@
+"""Commands start at once: what a command line imports before it runs anything (issue 17).
+
+Exact assertions on the modules a fresh interpreter holds after an import, never timings:
+the command line itself loads no numerical, plotting, database or template package; the
+path of `station day` up to the start of the run loads no plotting, templates, database,
+and of scipy only what the simulation itself calls (not scipy.signal, .integrate, .stats).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+HEAVY = ("matplotlib", "scipy", "sqlalchemy", "jinja2", "pandas")
+
+
+def loaded(module: str, prefixes: tuple[str, ...]) -> list[str]:
+    """The modules named by ``prefixes`` (a package and its submodules) that a fresh
+    interpreter holds after ``import module``."""
+    code = (f"import json, sys, {module}; print(json.dumps(sorted(m for m in sys.modules "
+            f"if any(m == p or m.startswith(p + '.') for p in {list(prefixes)!r}))))")
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    out = subprocess.run([sys.executable, "-c", code], cwd=ROOT, env=env, capture_output=True,
+                         text=True, check=True).stdout
+    return list(json.loads(out))
+
+
+def test_the_command_line_loads_no_heavy_package() -> None:
+    """`import laboratory.cli` (every command registered, `station --help`) loads none of
+    matplotlib, scipy, sqlalchemy, jinja2, pandas."""
+    assert loaded("laboratory.cli", HEAVY) == []
+
+
+def test_the_command_line_loads_neither_the_config_nor_the_simulation() -> None:
+    """Nor pydantic, numpy, simpy or the CAN database: a command imports its own
+    laboratory's modules when it runs."""
+    assert loaded("laboratory.cli", ("numpy", "pydantic", "simpy", "cantools", "can")) == []
+
+
+def test_the_day_before_its_run_loads_no_plots_reports_or_history() -> None:
+    """`station day`'s modules, imported before the run starts: matplotlib (the plots),
+    jinja2 (the report), sqlalchemy (the history) and the parts of scipy the simulation does
+    not call are imported only when (and if) they are used."""
+    mods = loaded("laboratory.isu.day", HEAVY)
+    assert [m for m in mods if m.split(".")[0] != "scipy"] == []
+    unused = ("scipy.signal", "scipy.integrate", "scipy.stats", "scipy.interpolate")
+    assert [m for m in mods if m.startswith(unused)] == []

@@ -1,0 +1,83 @@
+"""A run's plots drawn beside the run (laboratory/plot_worker.py, issue 17): the child
+writes the same bytes this process would, and where it cannot, this process draws them."""
+
+from __future__ import annotations
+
+import subprocess
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from laboratory import plot_worker
+from laboratory.plot_worker import PlotWorker, draw_here
+
+RESULTS = "laboratory.isu.plots:results_plot"
+ROWS = [{"instrument": f"gyro{k}", "parameter": "R", "units": "deg/hr", "estimate": 1.0 + k,
+         "sigma": 0.01, "error": 0.01 * (k - 2), "truth": 1.0, "limit": None}
+        for k in (1, 2, 3)]
+
+
+def test_the_child_writes_what_this_process_writes(tmp_path: Path) -> None:
+    with PlotWorker("laboratory.isu.plots") as w:
+        w.draw([(RESULTS, {"rows": ROWS, "path": tmp_path / "child.png"})])
+        w.wait()
+    assert draw_here([(RESULTS, {"rows": ROWS, "path": tmp_path / "here.png"})]) == [None]
+    assert (tmp_path / "child.png").read_bytes() == (tmp_path / "here.png").read_bytes()
+
+
+def test_without_a_child_the_plots_are_drawn_here(tmp_path: Path,
+                                                  monkeypatch: pytest.MonkeyPatch) -> None:
+    def refuse(*a: Any, **k: Any) -> None:
+        raise OSError("no processes left")
+
+    monkeypatch.setattr(plot_worker.subprocess, "Popen", refuse)
+    with PlotWorker() as w:
+        w.draw([(RESULTS, {"rows": ROWS, "path": tmp_path / "r.png"})])
+        w.wait()
+    assert (tmp_path / "r.png").stat().st_size > 1000
+
+
+def test_a_plot_that_fails_fails_as_it_would_here(tmp_path: Path) -> None:
+    """The child reports the failure, this process draws it again and raises its error."""
+    with PlotWorker() as w:
+        w.draw([(RESULTS, {"rows": [{"error": 1.0, "sigma": 1.0}],
+                                  "path": tmp_path / "r.png"})])
+        with pytest.raises(KeyError, match="instrument"):
+            w.wait()
+    assert not (tmp_path / "r.png").exists()
+
+
+def test_a_run_that_stops_before_waiting_leaves_no_plot(tmp_path: Path) -> None:
+    """The child draws to a temporary; only wait() puts the plot in place, so a run that
+    stops first (close) ends the child and leaves neither the plot nor a temporary."""
+    w = PlotWorker("laboratory.isu.plots")
+    proc = w._proc
+    assert isinstance(proc, subprocess.Popen)
+    w.draw([(RESULTS, {"rows": ROWS, "path": tmp_path / "r.png"})])
+    proc.wait()  # the child has drawn (or failed): either way nothing is in place yet
+    assert not (tmp_path / "r.png").exists()
+    w.close()
+    assert proc.poll() is not None
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_a_plot_beside_a_record_file_of_its_stem_leaves_it_alone(tmp_path: Path) -> None:
+    """results.png drawn while results.json is written: neither clears the other's
+    temporary (atomic_path clears ``.results.tmp-*`` of a killed writer)."""
+    from station.files import atomic_path
+
+    with atomic_path(tmp_path / "results.json") as tmp_json:
+        tmp_json.write_text("{}")
+        assert draw_here([(RESULTS, {"rows": ROWS, "path": tmp_path / "results.png"})]) == [None]
+        assert tmp_json.exists()
+    with atomic_path(tmp_path / "results.json") as tmp_json:  # and the other way round
+        for old in tmp_path.glob(".results.png.plot-*"):  # a plot being drawn
+            raise AssertionError(f"{old} left behind")
+        (tmp_path / ".results.png.plot-1.png").write_bytes(b"png")
+        tmp_json.write_text("[]")
+        with atomic_path(tmp_path / "results.json") as again:
+            again.write_text("[]")
+    assert (tmp_path / ".results.png.plot-1.png").exists()
+    assert sorted(p.name for p in tmp_path.iterdir() if not p.name.startswith(".")) == [
+        "results.json", "results.png"]

@@ -91,8 +91,8 @@ def test_a_bad_spec_is_refused_naming_the_field(tmp_path: Path) -> None:
     f.write_text('command = "dance"\n')
     with pytest.raises(SpecError, match=r"s\.toml: command: .*unknown command 'dance'"):
         load_spec(f)
-    f.write_text('command = "day"\n[random]\n"isu.site.latitude_deg" = [50.0, 40.0]\n')
-    with pytest.raises(SpecError, match=r"random: .*isu\.site\.latitude_deg.*not a range"):
+    f.write_text('command = "day"\n[random]\n"site.latitude_deg" = [50.0, 40.0]\n')
+    with pytest.raises(SpecError, match=r"random: .*site\.latitude_deg.*not a range"):
         load_spec(f)
 
 
@@ -259,3 +259,12 @@ def test_resume_of_another_spec_is_refused(tmp_path: Path) -> None:
     run_campaign(s, tmp_path / "c", workers=0)
     with pytest.raises(SpecError, match="started from another spec"):
         run_campaign(s.model_copy(update={"seed": 5}), tmp_path / "c", workers=0, resume=True)
+
+
+def test_a_day_plan_path_on_another_laboratory_is_the_tasks_failure(tmp_path: Path) -> None:
+    s = CampaignSpec.model_validate({"command": "esg-calibration", "seeds": 1,
+                                     "grid": {"plan.min_turns": [20]}})
+    res = run_campaign(s, tmp_path / "c", workers=0)
+    assert (res.ran, res.failed) == (1, 1)
+    assert CampaignStore(tmp_path / "c").table("failures")["message"].tolist() == [
+        "ValueError: plan.min_turns: the day plan is the isu laboratory's, not esg's"]

@@ -8,6 +8,9 @@ chi^2(n-1)/(n-1): the script prints its mean (1 expected) and the fraction of se
 the central 95 % interval, for both phases, and the phase theta's |error| / sigma.
 
     python bench/gyrocompass_mc.py [N] [first_seed]
+
+Kept as a script for its paired runs, which a campaign's independent tasks do not express;
+the per-seed errors against the predicted sigma are the campaign bench/campaigns/gyrocompass.toml.
 """
 
 from __future__ import annotations

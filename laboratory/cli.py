@@ -271,6 +271,16 @@ def _add_history_commands() -> None:
 _add_history_commands()
 
 
+def _add_campaign_command() -> None:
+    """`station campaign`: Monte Carlo campaigns on Dask (laboratory/campaign)."""
+    from laboratory.campaign.cli import add_commands
+
+    add_commands(app)
+
+
+_add_campaign_command()
+
+
 def main() -> None:
     """`station`: usage mistakes (an unknown option, a bad number) as one line on stderr."""
     usage_error = _usage_error()

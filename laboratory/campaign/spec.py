@@ -1,0 +1,140 @@
+"""A campaign's spec (SPEC.toml): the command, its options, seeds and sweeps, and its tasks.
+
+A task is one run of the command: its index, its run seed and its sweep values. Seeds come
+from ``numpy.random.SeedSequence(seed).spawn``: task i's seed and random draws depend on the
+campaign seed and i only, so a campaign is reproducible and a task's result does not depend
+on which worker runs it, nor on how many tasks the campaign has.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import itertools
+import json
+import math
+import tomllib
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
+
+# command -> its laboratory (the run functions of laboratory/pytest_plugin.py)
+COMMANDS = {"day": "isu", "align": "isu", "gyrocompass-test": "cigtf",
+            "esg-calibration": "esg"}
+PLAN_PREFIX = "plan."  # sweep paths into the day plan (procedures/isu/plan.py), not the config
+
+Scalar = float | int | bool | str
+
+
+class SpecError(ValueError):
+    """A campaign spec that cannot be run (one line naming the file and field)."""
+
+
+class CampaignSpec(BaseModel):
+    """SPEC.toml: see docs/campaigns.md."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+    command: str
+    seeds: int = Field(1, ge=1, le=1_000_000)  # tasks per grid point
+    seed: int = Field(0, ge=0)  # the campaign seed
+    config: str | None = None  # a station config (relative to the spec); None: the default
+    options: dict[str, Any] = {}  # the command's options (day: only, positions, align, ...)
+    grid: dict[str, list[Scalar]] = {}  # every combination of these values
+    random: dict[str, tuple[float, float]] = {}  # uniform draws per task in [low, high]
+
+    @field_validator("command")
+    @classmethod
+    def _known(cls, v: str) -> str:
+        if v not in COMMANDS:
+            raise ValueError(f"unknown command {v!r} (known: {', '.join(COMMANDS)})")
+        return v
+
+    @field_validator("grid")
+    @classmethod
+    def _lists(cls, v: dict[str, list[Scalar]]) -> dict[str, list[Scalar]]:
+        for path, values in v.items():
+            if not values:
+                raise ValueError(f"grid {path!r}: no values")
+        return v
+
+    @field_validator("random")
+    @classmethod
+    def _ranges(cls, v: dict[str, tuple[float, float]]) -> dict[str, tuple[float, float]]:
+        for path, (lo, hi) in v.items():
+            if not (math.isfinite(lo) and math.isfinite(hi) and lo <= hi):
+                raise ValueError(f"random {path!r}: [{lo}, {hi}] is not a range")
+        return v
+
+    @property
+    def lab(self) -> str:
+        return COMMANDS[self.command]
+
+    def sweep_paths(self) -> list[str]:
+        """The sweep's dotted paths: grid first, then random (the Parquet's setting columns)."""
+        return list(self.grid) + [p for p in self.random if p not in self.grid]
+
+    def points(self) -> list[dict[str, Scalar]]:
+        """The grid's points (one empty point without a grid)."""
+        keys = list(self.grid)
+        return [dict(zip(keys, combo, strict=True))
+                for combo in itertools.product(*(self.grid[k] for k in keys))]
+
+    def n_tasks(self) -> int:
+        return len(self.points()) * self.seeds
+
+    def digest(self) -> str:
+        """Of the spec's content: a resume runs only the campaign it started."""
+        blob = json.dumps(self.model_dump(mode="json"), sort_keys=True).encode()
+        return hashlib.sha256(blob).hexdigest()[:16]
+
+
+@dataclass(frozen=True)
+class Task:
+    """One run of a campaign: index, run seed, sweep values (dotted path -> value)."""
+
+    index: int
+    seed: int
+    values: dict[str, Scalar]
+
+
+def tasks(spec: CampaignSpec) -> list[Task]:
+    """Every task of ``spec``, grid point major, seed minor."""
+    points = spec.points()
+    n = len(points) * spec.seeds
+    children = np.random.SeedSequence(spec.seed).spawn(n)
+    out = []
+    for i, child in enumerate(children):
+        values: dict[str, Scalar] = dict(points[i // spec.seeds])
+        run_seed = int(child.generate_state(1)[0])  # 32 bits: every laboratory's seed
+        if spec.random:
+            rng = np.random.default_rng(child.spawn(1)[0])
+            for path, (lo, hi) in spec.random.items():
+                values[path] = float(rng.uniform(lo, hi))
+        out.append(Task(i, run_seed, values))
+    return out
+
+
+def load_spec(path: Path) -> CampaignSpec:
+    """SPEC.toml, its config path made absolute (SpecError naming the file and field)."""
+    path = Path(path)
+    try:
+        doc = tomllib.loads(path.read_text())
+    except OSError as e:
+        raise SpecError(f"{path}: cannot read ({e.strerror or e})") from None
+    except tomllib.TOMLDecodeError as e:
+        raise SpecError(f"{path}: not TOML ({e})") from None
+    try:
+        spec = CampaignSpec.model_validate(doc)
+    except ValidationError as e:
+        err = e.errors()[0]
+        where = ".".join(str(x) for x in err["loc"]) or "the top"
+        raise SpecError(f"{path}: {where}: {err['msg']}") from None
+    if spec.config is not None:
+        cfg = (path.parent / spec.config).resolve()
+        if not cfg.is_file():
+            raise SpecError(f"{path}: config: no file {cfg}")
+        spec = spec.model_copy(update={"config": str(cfg)})
+    return spec

@@ -1,0 +1,151 @@
+"""One campaign task: the command on its virtual station, and one row per constant.
+
+The task runs in a fresh temporary directory through the run functions of the station's
+pytest plugin (``laboratory/pytest_plugin.py``: the same virtual station with dotted-path
+overrides), so its rows depend on the spec and the task only. A refusal or a stop is the
+task's failure (its one-line message), not a Dask error: retrying it would fail again.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import os
+import socket
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+from laboratory.campaign.spec import PLAN_PREFIX, CampaignSpec, Task
+
+Row = dict[str, Any]
+
+
+def _num(x: Any) -> float:
+    return float(x) if isinstance(x, int | float) and not isinstance(x, bool) else math.nan
+
+
+def _row(instrument: str, parameter: str, units: str, estimate: Any, truth: Any,
+         sigma: Any, error: Any = None) -> Row:
+    est, tru, sig = _num(estimate), _num(truth), _num(sigma)
+    err = _num(error) if error is not None else est - tru
+    return {"instrument": instrument, "parameter": parameter, "units": units,
+            "estimate": est, "truth": tru, "error": err, "sigma": sig,
+            "z": err / sig if sig > 0 else math.nan}
+
+
+def isu_rows(res: dict[str, Any]) -> list[Row]:
+    """Chart II-5 rows, then each alignment's errors about east, north and up (truth 0)."""
+    rows = [_row(r["instrument"], r["parameter"], r.get("units") or "", r.get("estimate"),
+                 r.get("truth"), r.get("sigma"), r.get("error"))
+            for r in res.get("calibration") or () if isinstance(r, dict)]
+    for e in res.get("alignment") or ():
+        errs = list(e.get("level_error_arcsec") or (None, None)) + [e.get("azimuth_error_arcsec")]
+        for axis, err, sig in zip(("east", "north", "azimuth"), errs,
+                                  e.get("predicted_sigma_arcsec") or (None,) * 3, strict=False):
+            rows.append(_row(f"{e['method']}/{e['estimator']}", axis, "arcsec", err, 0.0, sig,
+                             err))
+    return rows
+
+
+def cigtf_rows(res: dict[str, Any]) -> list[Row]:
+    """Each phase's theta against the true theta; the instabilities delta and Delta."""
+    truth = (res.get("truth") or {}).get("theta_arcsec")
+    rows = [_row(p["phase"], "theta", "arcsec", p["theta_arcsec"], truth, p["sigma_arcsec"])
+            for p in res.get("phases") or ()]
+    rows += [_row("operating", "delta", "arcsec", res.get("delta_arcsec"), None, None),
+             _row("shutdown", "Delta", "arcsec", res.get("Delta_arcsec"), None, None)]
+    return rows
+
+
+def esg_rows(res: dict[str, Any]) -> list[Row]:
+    """Per schedule: the assignment rms (an error, truth 0) against its predicted rms; the
+    readout and calibration rms against the true ones (no sigma)."""
+    rows = []
+    for s in res.get("schedules") or ():
+        a = s.get("assignment_rms_arcsec")
+        rows.append(_row(s["name"], "assignment_rms", "arcsec", a, 0.0,
+                         s.get("predicted_assignment_rms_arcsec"), a))
+        for q in ("readout", "calibration"):
+            rows.append(_row(s["name"], f"{q}_rms", "arcsec", s.get(f"{q}_rms_arcsec"),
+                             s.get(f"true_{q}_rms_arcsec"), None))
+    return rows
+
+
+ROWS = {"day": isu_rows, "align": isu_rows, "gyrocompass-test": cigtf_rows,
+        "esg-calibration": esg_rows}
+
+
+def options(spec: CampaignSpec, plan_values: dict[str, Any]) -> dict[str, Any]:
+    """The run function's keyword options: the spec's (lists as tuples), the day plan."""
+    opts = {k: tuple(v) if isinstance(v, list) else v for k, v in spec.options.items()}
+    if plan_values:
+        from laboratory.pytest_plugin import override
+        from procedures.isu.plan import DayPlan
+
+        opts["plan"] = override(opts.get("plan", DayPlan()), plan_values)
+    return opts
+
+
+def replaced(obj: Any, path: str, value: Any) -> Any:
+    """A frozen dataclass with the dotted ``path`` set (ValueError naming an unknown field)."""
+    head, _, rest = path.partition(".")
+    if not dataclasses.is_dataclass(obj) or head not in {f.name for f in dataclasses.fields(obj)}:
+        raise ValueError(f"config override {path!r}: no field {head!r} in "
+                         f"{type(obj).__name__}")
+    new = replaced(getattr(obj, head), rest, value) if rest else value
+    return dataclasses.replace(obj, **{head: new})  # type: ignore[type-var]
+
+
+def station(lab: str, seed: int, over: dict[str, Any], config: Path | None) -> Any:
+    """The plugin's virtual station; a laboratory whose params are a dataclass (CIGTF, ESG)
+    gets its overrides here (the plugin's ``override`` reads pydantic models only)."""
+    from laboratory.pytest_plugin import VirtualStation, virtual_station
+    from laboratory.seeded import Seeded
+
+    st = virtual_station(lab, seed, None, config)
+    if not over:
+        return st
+    params = getattr(st.cfg, "params", None)
+    if params is not None and dataclasses.is_dataclass(params):
+        for path, value in over.items():
+            params = replaced(params, path, value)
+        return VirtualStation(st.lab, Seeded(params, st.cfg.seed), dict(over))
+    return virtual_station(lab, seed, over, config)
+
+
+def run_task(spec: CampaignSpec, task: Task) -> dict[str, Any]:
+    """Run ``task``; returns index, seed, values, rows, failure (a line or None), wall_s
+    and worker (host:pid)."""
+    t0 = time.perf_counter()
+    rows: list[Row] = []
+    failure = None
+    try:
+        from laboratory.pytest_plugin import PROCEDURES
+
+        lab, fn = PROCEDURES[spec.command]
+        plan = {k[len(PLAN_PREFIX):]: v for k, v in task.values.items()
+                if k.startswith(PLAN_PREFIX)}
+        if plan and spec.lab != "isu":
+            raise ValueError(f"{', '.join(PLAN_PREFIX + k for k in plan)}: the day plan is "
+                             f"the isu laboratory's, not {spec.lab}'s")
+        over = {k: v for k, v in task.values.items() if not k.startswith(PLAN_PREFIX)}
+        st = station(lab, task.seed, over, Path(spec.config) if spec.config else None)
+        opts = options(spec, plan)
+        with tempfile.TemporaryDirectory(prefix="campaign-") as d:
+            res = fn(st, Path(d) / "run", opts)
+        rows = ROWS[spec.command](res)
+    except Exception as e:  # noqa: BLE001 - any refusal or stop is the task's failure
+        from laboratory.app import one_line
+
+        failure = f"{type(e).__name__}: {one_line(e)}"
+        rows = []
+    return {"index": task.index, "seed": task.seed, "values": dict(task.values),
+            "rows": rows, "failure": failure, "wall_s": time.perf_counter() - t0,
+            "worker": f"{socket.gethostname()}:{os.getpid()}"}
+
+
+def noop(x: int) -> int:
+    """A task that does nothing: Dask's round trip per task (bench/campaign_overhead.py)."""
+    return x

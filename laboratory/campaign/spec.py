@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
 
-# command -> its laboratory (the run functions of laboratory/pytest_plugin.py)
+# command -> its laboratory (the run functions of laboratory.virtual)
 COMMANDS = {"day": "isu", "align": "isu", "gyrocompass-test": "cigtf",
             "esg-calibration": "esg"}
 PLAN_PREFIX = "plan."  # sweep paths into the day plan (procedures/isu/plan.py), not the config

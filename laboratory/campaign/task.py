@@ -1,14 +1,13 @@
 """One campaign task: the command on its virtual station, and one row per constant.
 
-The task runs in a fresh temporary directory through the run functions of the station's
-pytest plugin (``laboratory/pytest_plugin.py``: the same virtual station with dotted-path
-overrides), so its rows depend on the spec and the task only. A refusal or a stop is the
+The task runs in a fresh temporary directory through the run functions of
+``laboratory.virtual`` (the virtual station with dotted-path overrides the pytest plugin also
+uses), so its rows depend on the spec and the task only. A refusal or a stop is the
 task's failure (its one-line message), not a Dask error: retrying it would fail again.
 """
 
 from __future__ import annotations
 
-import dataclasses
 import math
 import os
 import socket
@@ -81,37 +80,17 @@ def options(spec: CampaignSpec, plan_values: dict[str, Any]) -> dict[str, Any]:
     """The run function's keyword options: the spec's (lists as tuples), the day plan."""
     opts = {k: tuple(v) if isinstance(v, list) else v for k, v in spec.options.items()}
     if plan_values:
-        from laboratory.pytest_plugin import override
+        from laboratory.virtual import override
         from procedures.isu.plan import DayPlan
 
         opts["plan"] = override(opts.get("plan", DayPlan()), plan_values)
     return opts
 
 
-def replaced(obj: Any, path: str, value: Any) -> Any:
-    """A frozen dataclass with the dotted ``path`` set (ValueError naming an unknown field)."""
-    head, _, rest = path.partition(".")
-    if not dataclasses.is_dataclass(obj) or head not in {f.name for f in dataclasses.fields(obj)}:
-        raise ValueError(f"config override {path!r}: no field {head!r} in "
-                         f"{type(obj).__name__}")
-    new = replaced(getattr(obj, head), rest, value) if rest else value
-    return dataclasses.replace(obj, **{head: new})  # type: ignore[type-var]
-
-
 def station(lab: str, seed: int, over: dict[str, Any], config: Path | None) -> Any:
-    """The plugin's virtual station; a laboratory whose params are a dataclass (CIGTF, ESG)
-    gets its overrides here (the plugin's ``override`` reads pydantic models only)."""
-    from laboratory.pytest_plugin import VirtualStation, virtual_station
-    from laboratory.seeded import Seeded
+    """The virtual station of ``lab`` with the task's overrides (laboratory.virtual)."""
+    from laboratory.virtual import virtual_station
 
-    st = virtual_station(lab, seed, None, config)
-    if not over:
-        return st
-    params = getattr(st.cfg, "params", None)
-    if params is not None and dataclasses.is_dataclass(params):
-        for path, value in over.items():
-            params = replaced(params, path, value)
-        return VirtualStation(st.lab, Seeded(params, st.cfg.seed), dict(over))
     return virtual_station(lab, seed, over, config)
 
 
@@ -122,7 +101,7 @@ def run_task(spec: CampaignSpec, task: Task) -> dict[str, Any]:
     rows: list[Row] = []
     failure = None
     try:
-        from laboratory.pytest_plugin import PROCEDURES
+        from laboratory.virtual import PROCEDURES
 
         lab, fn = PROCEDURES[spec.command]
         plan = {k[len(PLAN_PREFIX):]: v for k, v in task.values.items()

@@ -118,6 +118,28 @@ def add_commands(app: typer.Typer) -> None:
 
 
     @command(app)
+    def plan(
+        config: ConfigOpt = None,
+        out: Annotated[Path | None, typer.Option("--out", help="directory for the charts, "
+                       "accuracy.csv and times.json (default runs/plan/<UTC>-seed<N>)")] = None,
+        require: Annotated[list[str] | None, typer.Option("--require", help="a required "
+                           "accuracy over the config's \\[plan], NAME=VALUE; repeatable")
+                           ] = None,
+    ) -> None:
+        """Accuracy against collection time (Charts II-18..II-24) for this station, predicted
+        by the covariance model, and the collection times the requirements imply (II-6.2)."""
+        from laboratory.isu.planning import run_plan
+
+        cfg = load_isu_config(config, None)
+        with reported(lambda: None):
+            cfg = required(cfg, require)
+        target = target_dir(out, "plan", cfg.seed)
+        with reported(lambda: target):
+            run_plan(cfg, target, console)
+        typer.echo(f"written {target}")
+
+
+    @command(app)
     def align(
         method: Annotated[str | None, typer.Option("--method", help="mirror | level | "
                           "gyrocompass (required for a new run)")] = None,

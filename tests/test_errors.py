@@ -81,6 +81,8 @@ NOT_OPERATOR_ERRORS = {
     "station.hil.session.BadSession": "read by profile.served, which raises NoServedRack",
     # ValueErrors met at a command's boundary, which turns them into exit 2
     "station.hil.links_dir.LinksDirError": "a ValueError `station serve` refuses (exit 2)",
+    "procedures.isu.accuracy.Unreachable":
+        "a ValueError `station day` meets before anything is written (exit 2)",
     "procedures.isu.alignment.preprocess.MissingConstants":
         "a ValueError the day catches to leave an alignment out; inside a step it stops it",
 }

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Annotated
+from typing import TYPE_CHECKING, Annotated
 
 import typer
 
@@ -27,6 +27,9 @@ from laboratory.app import (
 )
 from laboratory.identity import OperatorOpt, invoked
 
+if TYPE_CHECKING:
+    from station.config.isu import StationConfig
+
 TapeLibraryOpt = Annotated[Path | None, typer.Option("--tape-library", help="directory of "
                            "parameter tapes: take the one matching the experiment's Chart I-8 "
                            "parameters, or make one and file it there (default \\[alignment] "
@@ -45,6 +48,14 @@ def _instruments(option: str, text: str | None) -> list[int] | None:
         return [int(x) for x in text.split(",") if x.strip()]
     except ValueError:
         fail(f"{option}: {text!r} is not a list of instrument numbers such as 1,2")
+
+
+def required(cfg: StationConfig, items: list[str] | None) -> StationConfig:
+    """The config with ``--require NAME=VALUE`` over its ``[plan]`` (ValueError naming an
+    unknown name or a bad value)."""
+    from station.config.plan import with_required
+
+    return cfg.model_copy(update={"plan": with_required(cfg.plan, items or [])})
 
 
 def add_commands(app: typer.Typer) -> None:
@@ -71,6 +82,10 @@ def add_commands(app: typer.Typer) -> None:
         survey: Annotated[Path | None, typer.Option("--survey", help="earlier run directory "
                           "whose Survey Results Sheet is used instead of Chart I-2")] = None,
         tape_library: TapeLibraryOpt = None,
+        require: Annotated[list[str] | None, typer.Option("--require", help="a required "
+                           "accuracy over the config's \\[plan], NAME=VALUE (gyro_scale_factor, "
+                           "gyro_drift_deg_hr, accel_scale_factor_ppm, accel_bias_micro_g, "
+                           "max_gate_minutes); repeatable")] = None,
         quiet: QuietOpt = False,
         operator: OperatorOpt = None,
     ) -> None:
@@ -87,12 +102,15 @@ def add_commands(app: typer.Typer) -> None:
             "seed": seed, "only": only or None, "positions": positions or None,
             "prior": None if prior is None else str(prior),
             "survey": None if survey is None else str(survey),
-            "tape_library": None if tape_library is None else str(tape_library)})
+            "tape_library": None if tape_library is None else str(tape_library),
+            "require": require or None})
         sel_only = tuple(args["only"]) if args["only"] else None
         sel_pos = tuple(args["positions"]) if args["positions"] else None
         with reported(lambda: None):
             check_selection(sel_only, sel_pos)
         cfg = load_isu_config(config, args["seed"])
+        with reported(lambda: None):
+            cfg = required(cfg, args.get("require"))
         fresh_dir = target is None
         target = target_dir(target, "day", cfg.seed)
         try:
@@ -107,6 +125,28 @@ def add_commands(app: typer.Typer) -> None:
             release(target, fresh_dir and e.exit_code == 2)
             raise
         finished(res, target)
+
+
+    @command(app)
+    def plan(
+        config: ConfigOpt = None,
+        out: Annotated[Path | None, typer.Option("--out", help="directory for the charts, "
+                       "accuracy.csv and times.json (default runs/plan/<UTC>-seed<N>)")] = None,
+        require: Annotated[list[str] | None, typer.Option("--require", help="a required "
+                           "accuracy over the config's \\[plan], NAME=VALUE; repeatable")
+                           ] = None,
+    ) -> None:
+        """Accuracy against collection time (Charts II-18..II-24) for this station, predicted
+        by the covariance model, and the collection times the requirements imply (II-6.2)."""
+        from laboratory.isu.planning import run_plan
+
+        cfg = load_isu_config(config, None)
+        with reported(lambda: None):
+            cfg = required(cfg, require)
+        target = target_dir(out, "plan", cfg.seed)
+        with reported(lambda: target):
+            run_plan(cfg, target, console)
+        typer.echo(f"written {target}")
 
 
     @command(app)

@@ -11,7 +11,7 @@ from __future__ import annotations
 import time
 from collections.abc import Callable
 from contextlib import ExitStack
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from rich.console import Console
@@ -37,6 +37,7 @@ from procedures.isu.alignment.results_sheet import AlignPlan
 from procedures.isu.computations import compute_calibration
 from procedures.isu.day import EXPERIMENTS, measure_day
 from procedures.isu.plan import DayPlan
+from procedures.isu.settings import collection_times
 from procedures.isu.sheets import (
     ISU_SHEETS,
     CalibrationResults,
@@ -54,7 +55,8 @@ PLOTS = "laboratory.isu.plots"  # the day's plots, drawn beside it (laboratory.p
 class DayRequest:
     """One `station day` run: what to measure, where to record it and how to run it.
 
-    ``cfg``: the station config (its seed is the run's). ``out``: the run directory (it must
+    ``cfg``: the station config (its seed is the run's; its ``[plan]`` gives the required
+    accuracies, which set the collection times). ``out``: the run directory (it must
     hold no record unless ``resume``). ``only`` / ``positions``: measure only these charts /
     calibration positions (turn-on and survey always run). ``plan``: the day's required
     accuracies and operator choices. ``align``: run the three alignments of Part III after
@@ -157,6 +159,18 @@ def check_selection(only: tuple[str, ...] | None, positions: tuple[int, ...] | N
                          "calibration positions are 1 to 15")
 
 
+def day_plan(req: DayRequest) -> DayPlan:
+    """The request's operator choices with the config's required accuracies (``[plan]``)."""
+    return req.plan.model_copy(update={"requirements": req.cfg.plan})
+
+
+def check_plan(cfg: StationConfig, plan: DayPlan) -> None:
+    """ValueError (procedures.isu.accuracy.Unreachable) naming a required accuracy that no
+    admissible gate reaches, before anything is opened (the day's II-6 settings give the
+    same times from the measured clock period)."""
+    collection_times(plan, site_of(cfg), noise_spec(cfg), f0=cfg.isu.accels[0].f0_hz)
+
+
 def run_day(req: DayRequest, console: Console | None = None,
             rack_hook: Callable[[SimulatedRack], None] | None = None) -> dict:
     """Run the day ``req`` asks for into ``req.out``; returns the results (also
@@ -168,6 +182,8 @@ def run_day(req: DayRequest, console: Console | None = None,
     """
     console = console or Console()
     carried = carried_sheets(req.cfg, req.prior, req.survey)  # refused before anything
+    req = replace(req, plan=day_plan(req))
+    check_plan(req.cfg, req.plan)  # an unreachable requirement: refused before anything
     prepare(req.out, req.resume, req.links)
     wall0 = time.perf_counter()
     conn = connect(registry.get("isu"), req.cfg, req.links, rack_hook, req.start_s)
@@ -204,6 +220,7 @@ def _day(req: DayRequest, conn: Connection, journal: Journal, console: Console,
         run.note(event="start", run_uid=ident.run_uid, t_sim=st.clock.now(), seed=cfg.seed,
                  only=list(req.only or ()), resume=req.resume,
                  positions=list(req.positions or ()), session=sid,
+                 require=[f"{k}={v!r}" for k, v in cfg.plan.model_dump().items()],
                  links=None if links is None else str(links), **carried.note())
         data = measure_day(st, run, req.plan, site, cfg.isu.accels[0].f0_hz, req.only,
                            req.positions, noise=noise, survey=carried.survey)

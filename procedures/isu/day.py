@@ -95,16 +95,21 @@ def measure_day(st: IsuDrivers, run: Run, plan: DayPlan, site: Site, f0: float,
     settings = resolver_settings(survey)
     run.save_sheet("resolver_settings", settings)
     run.save_sheet("counter_connections", st_settings.counter_connections())
-    gyro_gate_s, acc_v_s, acc_h_s = 600.0, 600.0, 1800.0
+    times, gates = st_settings.collection_times(plan, site, noise or NoiseSpec(), s1, f0)
+    gyro_gate_s, acc_v_s, acc_h_s = times.gyro_s, times.accel_vertical_s, times.accel_horizontal_s
+    plan = plan.model_copy(update={"min_turns": times.turns})  # II-6.2: turns for the accuracy
+    g = gates
     basis = {
-        "gyro 1-6": f"{plan.min_turns} whole turns at {plan.table_rate_deg_s:g} deg/s "
-        f"(scale factor to {plan.gyro_scale_factor_rel:g} needs one turn, Chart II-18)",
-        "gyro 7-15": f"{gyro_gate_s / 60:g} min of S1^T ticks for "
-        f"{plan.gyro_drift_deg_hr:g} deg/hr (Chart II-19)",
-        "accelerometer 7-15": f"{acc_v_s / 60:g} min vertical, {acc_h_s / 60:g} min horizontal "
-        f"times the {f0:g} Hz basic frequency (Charts II-21..II-24)",
+        "gyro 1-6": f"{times.turns} whole turns at {plan.table_rate_deg_s:g} deg/s: "
+        f"{g['gyro 1-6'].why} (Chart II-18)",
+        "gyro 7-15": f"{gyro_gate_s / 60:g} min of S1^T ticks: {g['gyro 7-15'].why} "
+        "(Chart II-19)",
+        "accelerometer 7-15": f"{acc_v_s / 60:g} min vertical ({g['accel vertical'].why}), "
+        f"{acc_h_s / 60:g} min horizontal ({g['accel horizontal'].why}) times the {f0:g} Hz "
+        "basic frequency (Charts II-21..II-24)",
     }
     presets = st_settings.counter_settings(plan, s1, f0, gyro_gate_s, acc_v_s, acc_h_s, basis)
+    presets = presets.model_copy(update={"gates": gates})
     run.save_sheet("counter_settings", presets)
     outputs = CounterOutputs()
     data = DayData(survey=survey, s1=s1, f0=f0)

@@ -1,18 +1,29 @@
 """II-6: counter connections (Chart II-2) and counter settings from required accuracies.
 
 The report fixes each preset by (1) a required accuracy, (2) the data-collection time that
-reaches it (Charts II-18..II-24), (3) that time in counts. Here step (2) uses the lab's noise
-specification through procedures.isu.calibration's error model: the time is the laboratory's
-standard duration (10 turns; 10 min gyro; 10 min vertical / 30 min horizontal accelerometer,
-II-6.2) or longer if the prediction says the requirement needs more.
+reaches it (Charts II-18..II-24), (3) that time in counts. Step (2) here is
+``collection_times``: the predicted sigma against time of the lab's covariance model
+(procedures.isu.accuracy) gives, per gate, the smallest time meeting the plan's
+requirement, never below the manual's standard duration (10 turns; 10 min gyro; 10 min
+vertical / 30 min horizontal accelerometer, II-6.2), and refuses (naming the requirement)
+what no gate up to the plan's maximum reaches. The Counter Settings Sheet records, per
+gate, the requirement, the predicted sigma at the chosen time and why.
 """
 
 from __future__ import annotations
 
 import math
 
+from procedures.isu.accuracy import Lab, Times, choose_times
+from procedures.isu.calibration.noise_spec import NoiseSpec
 from procedures.isu.plan import DayPlan
-from procedures.isu.sheets import CounterConnection, CounterConnections, CounterSettings
+from procedures.isu.sheets import (
+    CounterConnection,
+    CounterConnections,
+    CounterSettings,
+    GateSetting,
+)
+from procedures.isu.site import Site
 
 GYRO_ROTATING = "gyro 1-6"
 GYRO_STATIC = "gyro 7-15"
@@ -89,3 +100,28 @@ def counter_settings(
             row[str(c)] = int(math.ceil(t * f0))  # the basic frequency converts time to counts
         presets[f"accel {m}"] = row
     return CounterSettings(presets=presets, basis=basis)
+
+
+def planning_lab(plan: DayPlan, site: Site, noise: NoiseSpec, s1: float = 1e-6,
+                 f0: float = 20000.0) -> Lab:
+    """What the accuracy prediction is told of this station and day."""
+    return Lab(site=site, noise=noise, s1=s1, f0=f0, table_rate_deg_s=plan.table_rate_deg_s,
+               pulses_per_rev=plan.rotation_pulses_per_rev)
+
+
+def manual_times(plan: DayPlan) -> Times:
+    """The manual's standard durations (II-6.2), the operator's whole turns among them."""
+    return Times(turns=plan.min_turns)
+
+
+def collection_times(plan: DayPlan, site: Site, noise: NoiseSpec, s1: float = 1e-6,
+                     f0: float = 20000.0) -> tuple[Times, dict[str, GateSetting]]:
+    """II-6.2 step (2): every gate's time from the plan's required accuracies
+    (procedures.isu.accuracy.Unreachable, naming the requirement, when none reaches it)."""
+    req = plan.requirements
+    times, choices = choose_times(req.requirements(), 60.0 * req.max_gate_minutes,
+                                  planning_lab(plan, site, noise, s1, f0), manual_times(plan))
+    gates = {c.gate: GateSetting(requirement=c.requirement, required=c.required,
+                                 predicted=c.predicted, units=c.units, default=c.default,
+                                 chosen=c.chosen, why=c.why) for c in choices}
+    return times, gates

@@ -54,11 +54,25 @@ class CounterConnections(Sheet):
     header: SheetHeader | None = None
 
 
+class GateSetting(Sheet):
+    """One collection time of II-6.2: the requirement it serves, the predicted sigma at the
+    chosen time (covariance model), the manual's default and why the time is what it is."""
+
+    requirement: str
+    required: float
+    predicted: float
+    units: str  # of the times: "turns" or "s"
+    default: float
+    chosen: float
+    why: str
+
+
 class CounterSettings(Sheet):
     """Counter Settings Sheet (Chart II-3 / II-20): position -> counter -> preset."""
 
     presets: dict[str, dict[str, int]]
     basis: dict[str, str]  # experiment -> how the preset follows from the required accuracy
+    gates: dict[str, GateSetting] = Field(default_factory=dict)  # gate -> II-6.2 choice
     header: SheetHeader | None = None
 
 

@@ -30,12 +30,12 @@ MAX_ERRORS = 4  # field errors spelt out in one message; the rest are counted
 # The top-level names of each laboratory's file, and the commands that read it.
 LABORATORIES: dict[str, tuple[str, ...]] = {
     "ISU": ("seed", "site", "environment", "table", "isu", "oscillator", "instruments",
-            "links", "identity", "faults", "limits", "alignment"),
+            "links", "identity", "faults", "limits", "alignment", "plan"),
     "CIGTF": ("identity", "cigtf"),  # [identity] is every laboratory's; its own one last
     "ESG": ("identity", "esg"),
 }
 COMMANDS = {
-    "ISU": "station day, align, check, serve --station isu",
+    "ISU": "station day, align, plan, check, serve --station isu",
     "CIGTF": "station gyrocompass-test, serve --station cigtf",
     "ESG": "station esg-calibration, serve --station esg",
 }

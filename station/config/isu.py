@@ -52,6 +52,7 @@ from station.config.file import (
 )
 from station.config.identity import IsuIdentity
 from station.config.limits import IsuLimits
+from station.config.plan import PlanSettings
 from station.drivers.isu import SERIAL_INSTRUMENTS
 
 __all__ = ["ConfigError", "StationConfig", "default_dict", "load_config", "read_section"]
@@ -217,6 +218,7 @@ class StationConfig(BaseModel):
     faults: dict[Annotated[str, AfterValidator(_fault_instrument)], FaultSpec] = {}
     limits: IsuLimits = IsuLimits()  # acceptance limits (station/config/limits.py)
     alignment: AlignmentSettings = AlignmentSettings()  # Part III plan, tape library
+    plan: PlanSettings = PlanSettings()  # required accuracies of the day (II-6.2)
     identity: IsuIdentity
 
     @field_validator("faults")

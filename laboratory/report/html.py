@@ -42,6 +42,8 @@ TABLE_TITLES = {
     "phases": "Phases (eqs. 20-25)",
     "tests": "Significance tests (section 5.4)",
     "schedules": "Calibration schedules (pattern fit and readout)",
+    "table4": "Calibration and readout errors (report 004, Table 4)",
+    "order_trials": "Polynomial order trials, 5th to 9th (report 004, Data Reduction Technique)",
     "amplification": "Amplification of the readout error by strategy",
     "amplification_curve": "Amplification against pattern range (Figure 2)",
 }

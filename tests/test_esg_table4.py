@@ -80,12 +80,23 @@ def test_order_trials_against_the_truth(run):
         seventh = next(t for t in mine if t["order"] == 7)
         summary = next(x for x in res["schedules"] if x["name"] == s)
         assert seventh["readout_rms_arcsec"] == pytest.approx(summary["readout_rms_arcsec"])
-    # nine coefficients on 24 points follow the noise: the 5-degree schedule's 9th order
-    # reads out worse against the truth, and its prediction residuals show it
+    # the fit's own residual falls with order while the prediction residual grows
     five = {t["order"]: t for t in trials if t["schedule"] == "5deg"}
-    assert five[9]["true_readout_rms_arcsec"] > 1.2 * five[5]["true_readout_rms_arcsec"]
     assert five[9]["prediction_rms_arcsec"] > 2.0 * five[5]["prediction_rms_arcsec"]
     assert five[9]["calibration_rms_arcsec"] < five[5]["calibration_rms_arcsec"]
+
+
+def test_ninth_order_follows_the_noise(tmp_path):
+    """Seed 3: nine coefficients on the 24 points of the 5-degree schedule read out far
+    worse against the truth between the points; the prediction residuals show it and the
+    choice by the residuals avoids it."""
+    res = run_esg_calibration(3, tmp_path, with_study=False, order="residuals")
+    five = {t["order"]: t for t in res["order_trials"] if t["schedule"] == "5deg"}
+    assert five[9]["true_readout_rms_arcsec"] > 2.0 * five[5]["true_readout_rms_arcsec"]
+    assert five[9]["prediction_rms_arcsec"] > 2.0 * five[5]["prediction_rms_arcsec"]
+    used = next(s["order"] for s in res["schedules"] if s["name"] == "5deg")
+    assert five[used]["chosen_by_residuals"] and used != 9
+    assert five[used]["true_readout_rms_arcsec"] < GOAL
 
 
 def test_order_option_used(run, tmp_path):

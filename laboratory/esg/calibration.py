@@ -249,6 +249,7 @@ def run_esg_calibration(seed: int, out: Path, params: EsgParams | None = None,
     st, served, world = conn.drivers, conn.served, conn.coefficient_world
     with journaled_run(out, conn, resume, renew=RENEW, seed=seed,
                        test="esg-calibration", order=order,
+                       extremity_setup=plan.extremity_setup,
                        identify=Identifying("esg", "esg-calibration", seed, "esg",
                                             EsgConfig, params)) as (
             run, extra, t_start):

@@ -62,6 +62,15 @@ class ReductionConfig(BaseModel):
     order: Literal[5, 6, 7, 8, 9, "residuals"] = 7
 
 
+class ProcedureConfig(BaseModel):
+    """The acquisition's choices (report 004, "Before data taking")."""
+
+    model_config = _STRICT
+    # sheet ESG-DPX: lamps, discriminator and delay set up at the pattern extremity after
+    # spin-up (false: the processor's preset 20 us and 241 us, lamps as delivered)
+    extremity_setup: bool = True
+
+
 class EsgConfig(BaseModel):
     model_config = _STRICT
     latitude_deg: float | None = Field(None, ge=-89.0, le=89.0)
@@ -73,6 +82,7 @@ class EsgConfig(BaseModel):
     pattern: PatternConfig = PatternConfig.model_validate({})
     signal: SignalConfig = SignalConfig.model_validate({})
     reduction: ReductionConfig = ReductionConfig.model_validate({})
+    procedure: ProcedureConfig = ProcedureConfig.model_validate({})
     limits: EsgLimits = EsgLimits()  # acceptance limits (station/config/limits.py)
 
 
@@ -103,6 +113,13 @@ def load_esg_reduction(path: str | Path | None) -> ReductionConfig:
     if path is None:
         return ReductionConfig.model_validate({})
     return read_section(path, "esg", EsgConfig, "ESG").reduction
+
+
+def load_esg_procedure(path: str | Path | None) -> ProcedureConfig:
+    """The ``[esg.procedure]`` of an ESG file (defaults without one)."""
+    if path is None:
+        return ProcedureConfig.model_validate({})
+    return read_section(path, "esg", EsgConfig, "ESG").procedure
 
 
 def load_esg_limits(path: str | Path | None) -> EsgLimits:

@@ -14,6 +14,8 @@ Data processor (two counters on two of the three pickoffs, 100 MHz counts):
   GO              OK, then data lines until HALT
   HALT            stop the stream (OK also when none runs)                     -> OK
   SET?            "<a> <b> <rev> <run> <thr> <disc> <delay>"
+  SCOPE? <k>      pickoff k's pulses on the scope: "<height V> <logic width> <line-1
+                  width> <line-2 width> <logic-to-line-1 time>" (us), or "OFF"
 The settings commands and TZERO are refused while a stream runs (ERR 16 busy); queries
 are answered between the lines. A data line (Appendix A) is six 7-digit fields:
 ``time C1(p1) C1(p2) C1(p3) run period_sum``, time in 1e-5 h of the processor clock.
@@ -21,7 +23,8 @@ Dividing head: SPIN <deg> | STEP <deg> | SPIN? | STAT? (HOLD | MOVING).
 Turntable and tilt: AZ <deg> | TILT <deg> | AZ? | TILT? | LOCK | UNLOCK | STAT?
 (HOLD | MOVING | LOCKED).
 Theodolite: READ? -> "<x> <y>" arcsec.
-Gyro control console: SPIN UP|OFF | DAMP ON|OFF | STAT? | SPEED?.
+Gyro control console: SPIN UP|OFF | DAMP ON|OFF | STAT? | SPEED? | LAMP <k> <percent>
+(50..150 of the nominal lamp current) | LAMP? <k>.
 """
 
 from __future__ import annotations
@@ -54,6 +57,10 @@ _NON_DIGITS = [bytes([c]) for c in b"?*#:;/=<>OlIZSB"] + [b"\xb3", b"\xff", b"\x
 
 def _busy(what: str) -> InstrumentError:
     return InstrumentError(BUSY, f"busy: {what}")
+
+
+def _pickoff(arg: str) -> int:
+    return as_int(arg, "pickoff", 1, 3)
 
 
 def _on_off(args: list[str], cmd: str, words: tuple[str, str]) -> bool:
@@ -98,6 +105,7 @@ class DataProcessor(ByteInstrument):
             ("GO [<k>]", self._go),
             ("HALT", self._halt),
             ("SET?", self._set_q),
+            ("SCOPE? <k>", self._scope),
         ):
             self.define(usage, action)
 
@@ -116,6 +124,15 @@ class DataProcessor(ByteInstrument):
     def clock_hours(self) -> float:
         """The processor clock, hours since TZERO."""
         return seconds(int(self.env.now) - self.t_zero) / 3600.0
+
+    def _scope(self, args: list[str]) -> str:
+        k = _pickoff(args[0])
+        sc = self.world.scope(k)
+        if sc is None:
+            return "OFF"
+        w = sc["widths_us"]
+        return (f"{sc['height_v']:.2f} {w[0]:.1f} {w[1]:.1f} {w[2]:.1f} "
+                f"{sc['logic_to_line_us']:.1f}")
 
     def _sel(self, args: list[str]) -> str:
         a = as_int(args[0], "pickoff a", 1, 3)
@@ -364,6 +381,14 @@ class GyroConsole(ByteInstrument):
         self.define("DAMP ON|OFF", self._damp)
         self.define("STAT?", self._stat)
         self.define("SPEED?", lambda _: f"{world.console_status()['spin_rps']:.2f}")
+        self.define("LAMP <k> <percent>", self._lamp)
+        self.define("LAMP? <k>", lambda a: f"{100.0 * world.lamp(_pickoff(a[0])):.1f}")
+
+    def _lamp(self, args: list[str]) -> str:
+        k = _pickoff(args[0])
+        pct = _in_range(args[1], "lamp current", 50.0, 150.0)
+        self.world.set_lamp(k, pct / 100.0)
+        return "OK"
 
     def _spin(self, args: list[str]) -> str:
         if _on_off(args, "SPIN", ("UP", "OFF")):

@@ -89,7 +89,7 @@ def _cigtf_fields() -> dict[str, Any]:
 def _esg_fields() -> dict[str, Any]:
     p = EsgParams()
     top = {k: getattr(p.rotor, k) for k in EsgConfig.model_fields
-           if k not in ("pattern", "signal", "limits")}
+           if k not in ("pattern", "signal", "limits", "reduction", "procedure")}
     top["pattern"] = {k: getattr(p.pattern, k) for k in PatternConfig.model_fields}
     top["signal"] = {k: getattr(p.signal, k) for k in SignalConfig.model_fields}
     return top

@@ -468,6 +468,8 @@ PROCESSOR = Grammar("processor", "ESG-LAB,DATA-PROCESSOR,0,1.0", [
     Cmd("GO", (Int(1, 1_000_000),), optional=1),
     Cmd("HALT"),
     Cmd("SET?", reply=r"[1-3] [1-3] (1|2|4|8|10) [0-9]+ \S+ \S+ \S+"),
+    Cmd("SCOPE?", (Int(1, 3),),
+        reply=r"OFF|[0-9]+\.[0-9]{2} [0-9]+\.[0-9] [0-9]+\.[0-9] [0-9]+\.[0-9] [0-9]+\.[0-9]"),
 ], state_codes=frozenset({16}))
 
 HEAD = Grammar("head", "ESG-LAB,DIVIDING-HEAD,0,1.0", [
@@ -496,6 +498,8 @@ CONSOLE = Grammar("console", "ESG-LAB,GYRO-CONSOLE,0,1.0", [
     Cmd("DAMP", (Word(("ON", "OFF")),)),
     Cmd("STAT?", reply=r"SUSP [01] SPIN [0-9]+\.[0-9]{2} DAMP [01] VAC [0-9]\.[0-9]E[-+][0-9]+"),
     Cmd("SPEED?", reply=r"[0-9]+\.[0-9]{2}"),
+    Cmd("LAMP", (Int(1, 3), Real(50.0, 150.0))),
+    Cmd("LAMP?", (Int(1, 3),), reply=r"[0-9]+\.[0-9]"),
 ])
 
 GRAMMARS = {g.name: g for g in (TABLE, PATCH_PANEL, COUNTER, AUTOCOLLIMATOR, BUBBLE_LEVELS,

@@ -714,6 +714,16 @@ SPECS: list[Spec] = [
                         "pressure_torr": v[3]})),
     Spec("ConsoleDriver.speed", _maker(ConsoleDriver),
          lambda rng, d: _one(lambda d: d.speed(), Reply("SPEED?", [[Fixed(2, 0.0, 500.0)]]))),
+    Spec("ConsoleDriver.lamp_reading", _maker(ConsoleDriver),
+         lambda rng, d: _one(lambda d: d.lamp_reading(2),
+                             Reply("LAMP? 2", [[Fixed(1, 50.0, 150.0)]]))),
+    Spec("ProcessorDriver.scope", _maker(ProcessorDriver),
+         lambda rng, d: _one(lambda d: d.scope(3), Reply("SCOPE? 3", [
+             [Lit("OFF")], [Fixed(2, 0.0, 20.0)] + [Fixed(1, 0.0, 10000.0)] * 4]),
+             lambda v: None if v[0] == 0 else {"height_v": v[1][0],
+                                               "widths_us": list(v[1][1:4]),
+                                               "logic_to_line_us": v[1][4]}),
+         background=data_shaped),
 ]
 
 

@@ -148,7 +148,7 @@ def test_corrupted_lines_are_rejected_with_a_reason(tmp_path):
 def test_head_that_stops_answering_stops_the_run_naming_it(tmp_path):
     def hook(rack):
         def silence():
-            yield rack.env.timeout(int(6200e9))
+            yield rack.env.timeout(int(7140e9))  # 6200 s before sheet ESG-DPX (940 s)
             rack.head.silent = True
 
         rack.env.process(silence())

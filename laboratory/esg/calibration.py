@@ -37,6 +37,7 @@ from laboratory.verdicts import judge_schedules, run_verdict
 from procedures.esg import strategy
 from procedures.esg.acquisition import RENEW, Acquisition, EsgPlan, acquire
 from procedures.esg.calibration import SCHEDULES, ScheduleResult, assign, calibrate, nominal
+from procedures.esg.table4 import REPORT_ORDER, order_trials, table4
 from sim.esg.world import EsgParams, EsgWorld
 from station.config.esg import EsgConfig
 from station.config.limits import EsgLimits
@@ -125,6 +126,15 @@ def study() -> tuple[list[dict], list[dict], dict]:
     return curve, points, edge
 
 
+def used_order(trials: list[dict], schedule: str, order: int | str) -> int:
+    """The order a schedule is reduced with: ``order``, or the trials' choice by the
+    residuals when ``order`` is "residuals"."""
+    if order == "residuals":
+        return next(int(t["order"]) for t in trials
+                    if t["schedule"] == schedule and t["chosen_by_residuals"])
+    return int(order)
+
+
 def render_tables(console: Console, res: dict) -> None:
     """Schedules (Table 4 of the report) and the strategy study's report points, with rich."""
     from rich import box
@@ -132,6 +142,9 @@ def render_tables(console: Console, res: dict) -> None:
 
     def f1(x: float | None) -> str:
         return "-" if x is None else f"{x:.1f}"
+
+    def f2(x: float | None) -> str:
+        return "-" if x is None else f"{x:.2f}"
 
     names = ("schedule", "n fit", "calibration", "true", "n readout", "readout", "true",
              "assignment", "predicted")
@@ -142,6 +155,28 @@ def render_tables(console: Console, res: dict) -> None:
              for s in res["schedules"]]
     print_fitted(console, "Pattern calibration and readout (arcsec rms; true = against the "
                  "simulator's colatitude)", [Column(c) for c in names], cells, keys=1)
+    if "table4" in res:
+        print_fitted(console, f"Table 4: calibration and readout errors (arcsec; largest / "
+                     f"{GOAL_ARCSEC:g} arcsec goal; true = against the simulator)",
+                     [Column(c) for c in ("schedule", "data", "order", "n", "rms",
+                                          "avg |e|", "largest", "/goal", "true rms",
+                                          "true avg", "true largest")],
+                     [[t["schedule"], t["data"], str(t["order"]), str(t["n"]),
+                       f1(t["rms_arcsec"]), f1(t["mean_abs_arcsec"]), f1(t["largest_arcsec"]),
+                       f2(t["largest_over_goal"]), f1(t["true_rms_arcsec"]),
+                       f1(t["true_mean_abs_arcsec"]), f1(t["true_largest_arcsec"])]
+                      for t in res["table4"]], keys=2)
+    if "order_trials" in res:
+        print_fitted(console, "Polynomial order trials, 5th to 9th (arcsec rms; * = the "
+                     "choice by the prediction residuals)",
+                     [Column(c) for c in ("schedule", "order", "fit sigma", "prediction",
+                                          "calibration", "readout", "true cal",
+                                          "true readout")],
+                     [[t["schedule"], f"{t['order']}{'*' if t['chosen_by_residuals'] else ''}",
+                       f1(t["residual_sigma_arcsec"]), f1(t["prediction_rms_arcsec"]),
+                       f1(t["calibration_rms_arcsec"]), f1(t["readout_rms_arcsec"]),
+                       f1(t["true_calibration_rms_arcsec"]), f1(t["true_readout_rms_arcsec"])]
+                      for t in res["order_trials"]], keys=2)
     if "amplification" in res:
         a = Table(title="Edge-error amplification (Figure 2 points)", box=box.SIMPLE_HEAD)
         for c in ("pattern", "range", "strategy", "factor", "report"):
@@ -192,7 +227,8 @@ def run_esg_calibration(seed: int, out: Path, params: EsgParams | None = None,
                         plan: EsgPlan | None = None,
                         rack_hook: Callable[[EsgRack], None] | None = None,
                         with_study: bool = True, links: Path | None = None,
-                        resume: bool = False, limits: EsgLimits | None = None) -> dict:
+                        resume: bool = False, limits: EsgLimits | None = None,
+                        order: int | str = REPORT_ORDER) -> dict:
     """The whole ESG calibration into ``out``; ``rack_hook`` may inject faults.
 
     ``links``: run against the ESG rack served there instead (see the module doc);
@@ -200,6 +236,9 @@ def run_esg_calibration(seed: int, out: Path, params: EsgParams | None = None,
     ``resume``: continue the interrupted calibration in ``out`` (replayed and checked
     against its journal in virtual time); ``out`` must hold no record otherwise.
     ``limits``: the acceptance limits (default: the readout goal, station/config/limits.py).
+    ``order``: the eq. 11 polynomial order used (5..9; the report's 7), or "residuals" for
+    each schedule's choice by the order trials' residuals; every order from 5 to 9 is
+    tried and tabulated whatever is used ("Data Reduction Technique").
     """
     out = Path(out)
     params = params or EsgParams()
@@ -210,29 +249,40 @@ def run_esg_calibration(seed: int, out: Path, params: EsgParams | None = None,
     conn = connect(registry.get("esg"), Seeded(params, seed), links, rack_hook)
     st, served, world = conn.drivers, conn.served, conn.coefficient_world
     with PlotWorker(__name__, STRATEGY) as plots, journaled_run(  # matplotlib meanwhile
-            out, conn, resume, renew=RENEW, seed=seed, test="esg-calibration",
+            out, conn, resume, renew=RENEW, seed=seed, test="esg-calibration", order=order,
+            extremity_setup=plan.extremity_setup,
             identify=Identifying("esg", "esg-calibration", seed, "esg", EsgConfig, params)) as (
             run, extra, t_start):
         acq = acquire(st, run, plan)
         points, bud = assign(acq, plan, plan.lines_per_setting)
         times = {(p.scan, p.offset_deg): p.times_s for p in points}
         nom = nominal(acq, plan)
-        results = [calibrate(points, nom, s) for s in SCHEDULES]
-        for res in results:
+        def truth(res: ScheduleResult) -> None:
             if served is None:
                 add_truth(res.calibration, world, acq, times)
                 add_truth(res.readout, world, acq, times)
             else:
                 no_truth(res.calibration)
                 no_truth(res.readout)
+
+        trials = order_trials(points, nom, SCHEDULES, truth, goal_arcsec=GOAL_ARCSEC)
+        run.save_sheet("esg_order_trials", trials)
+        results = [calibrate(points, nom, s, order=used_order(trials, s, order))
+                   for s in SCHEDULES]
+        for res in results:
+            truth(res)
             run.save_sheet(f"esg_calibration_{res.name}", res.calibration)
             run.save_sheet(f"esg_readout_{res.name}", res.readout)
         schedules = judge_schedules([schedule_summary(r) for r in results],
                                     limits or EsgLimits())
         run.save_sheet("esg_schedules", schedules)
+        tab4 = table4(results, GOAL_ARCSEC)
+        run.save_sheet("esg_table4", tab4)
         res_json = {
             "seed": seed,
             "schedules": schedules,
+            "table4": tab4,
+            "order_trials": trials,
             "nominal": {"b": nom.b, "c": nom.c, "dbar": nom.dbar,
                         "inclination_deg": nom.inclination_deg},
             "acquisition": {

@@ -13,12 +13,20 @@ from laboratory.app import (
     check_seed,
     command,
     console,
+    fail,
     finished,
     new_or_resumed,
     reported,
     station_run,
 )
 from laboratory.identity import OperatorOpt, invoked
+
+ORDER_CHOICES = ("5", "6", "7", "8", "9", "residuals")
+
+
+def order_value(order: str | None) -> int | str | None:
+    """--order as the reduction takes it: an int, "residuals", or None (not given)."""
+    return int(order) if order is not None and order.isdigit() else order
 
 
 def add_commands(app: typer.Typer) -> None:
@@ -34,25 +42,52 @@ def add_commands(app: typer.Typer) -> None:
                           "section (site, rotor, \\[esg.pattern], \\[esg.signal])")] = None,
         links: Annotated[Path | None, typer.Option("--links", help="run against the rack "
                          "`station serve --station esg --links DIR` serves (real time)")] = None,
+        order: Annotated[str | None, typer.Option("--order", help="eq. 11 polynomial order: "
+                         "5..9 (the report's trials; default 7, or the config's "
+                         "\\[esg.reduction] order) or 'residuals' (each schedule's choice by "
+                         "the order trials)")] = None,
+        extremity: Annotated[bool | None, typer.Option(
+            "--extremity-setup/--preset-processor",
+            help="set the lamps, discriminator and delay up at the pattern extremity after "
+                 "spin-up (sheet ESG-DPX; default, or the config's \\[esg.procedure] "
+                 "extremity_setup) or keep the processor's preset 20 us / 241 us")] = None,
         operator: OperatorOpt = None,
     ) -> None:
         """The strapdown ESG pattern calibration and readout study (report 004)."""
         from laboratory.esg.calibration import render_tables, run_esg_calibration
-        from station.config.esg import load_esg_limits, load_esg_params
+        from station.config.esg import (
+            load_esg_limits,
+            load_esg_params,
+            load_esg_procedure,
+            load_esg_reduction,
+        )
 
         check_seed(seed)
-        target, args = new_or_resumed("esg-calibration", out, resume, {"seed": seed})
+        if order is not None and order not in ORDER_CHOICES:
+            fail(f"--order {order}: give one of {', '.join(ORDER_CHOICES)}")
+        target, args = new_or_resumed("esg-calibration", out, resume,
+                                      {"seed": seed, "order": order_value(order),
+                                       "extremity_setup": extremity})
         run_seed = 1 if args["seed"] is None else args["seed"]
         from station.config.identity import load_identity
 
         with reported(lambda: None):
             limits = load_esg_limits(config)
             unit = load_identity(config, "ESG")
+            run_order = (args["order"] if args["order"] is not None
+                         else load_esg_reduction(config).order)
+            setup = (args["extremity_setup"] if args["extremity_setup"] is not None
+                     else load_esg_procedure(config).extremity_setup)
+        from procedures.esg.acquisition import EsgPlan
+
+        # the site's latitude comes from the params (run_esg_calibration sets it)
+        plan = EsgPlan(latitude_deg=0.0, extremity_setup=setup)
         with invoked(operator, identity=unit):
             res, target = station_run(
                 load_esg_params, config, "esg", run_seed, target, resume is not None,
                 lambda params, d: run_esg_calibration(run_seed, d, params=params, links=links,
-                                                      resume=resume is not None, limits=limits))
+                                                      resume=resume is not None, limits=limits,
+                                                      order=run_order, plan=plan))
         render_tables(console, res)
         if "served" in res:
             console.print(f"served rack (session {res['served']['session']}): "

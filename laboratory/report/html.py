@@ -45,6 +45,8 @@ TABLE_TITLES = {
     "budget": "Error budget of theta (report 001, eqs. 26-27), arcsec",
     "eq27 phases": "Phases corrected by eq. 27 (report 001, Appendix II)",
     "schedules": "Calibration schedules (pattern fit and readout)",
+    "table4": "Calibration and readout errors (report 004, Table 4)",
+    "order_trials": "Polynomial order trials, 5th to 9th (report 004, Data Reduction Technique)",
     "amplification": "Amplification of the readout error by strategy",
     "amplification_curve": "Amplification against pattern range (Figure 2)",
 }

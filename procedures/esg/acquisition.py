@@ -28,6 +28,7 @@ from procedures.esg import geometry as geo
 from procedures.esg.mechanization import NominalParams, nominal_colatitude, nominal_count_ratio
 from procedures.esg.readings import Setting, read_setting
 from procedures.esg.readout import pickoffs_from_mirrors
+from procedures.esg.setup import extremity_setup
 from procedures.runner import CheckSheetRun, Run
 from station.drivers.esg import EsgDrivers
 from station.errors import CheckFailed
@@ -64,6 +65,9 @@ class EsgPlan:
     scan_end_deg: int = 46  # last spindle offset from the equator inside the pattern
     move_timeout_s: float = 300.0
     electric_drift_spec_deg_hr: float = 0.2  # a priori bound used in the drift-error budget
+    # ESG-DPX after step 2: lamps, discriminator and delay set up at the pattern extremity
+    # (False: the processor's preset discriminator and delay, lamps as delivered)
+    extremity_setup: bool = True
 
 
 # ---------------------------------------------------------------- design mechanization
@@ -220,6 +224,11 @@ def _spin_axis_lab(st: EsgDrivers, plan: EsgPlan, cr: dict[int, float]) -> np.nd
                       for i in (1, 2, 3)])
     s_case = geo.unit(np.linalg.solve(pickoffs_from_mirrors(plan.mirror_angle_deg), alpha))
     return geo.r_lc(*_settings(st)) @ s_case
+
+
+def _move_all(st: EsgDrivers, plan: EsgPlan, az: float, tilt: float, gamma: float) -> None:
+    _move_table(st, plan, az=az, tilt=tilt)
+    _move_head(st, plan, gamma)
 
 
 def _damp(st: EsgDrivers, plan: EsgPlan) -> None:
@@ -565,6 +574,9 @@ def rotor_setup(st: EsgDrivers, run: Run, plan: EsgPlan, sh: CheckSheetRun,
                 acq: Acquisition) -> None:
     """Steps 2-8 and ESG-PA: spin-up, drift offset, equal ratios, equator, tilt, lock."""
     start_gyro(st, run, plan, sh)
+    if plan.extremity_setup:
+        extremity_setup(st, run, plan.latitude_deg, plan.mirror_angle_deg,
+                        lambda a, e, g: _move_all(st, plan, a, e, g), lambda: _damp(st, plan))
     cancel_drift(st, run, plan, sh, acq)
     s_lab = geo.drift_equilibrium(plan.latitude_deg, acq.unbalance_k_deg_hr)
     s_lab = equal_ratio_points(st, run, plan, sh, acq, s_lab)

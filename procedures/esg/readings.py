@@ -28,6 +28,9 @@ class Setting:
     times_s: list[float] = field(default_factory=list)
     line_cr: dict[int, list[float]] = field(default_factory=dict)
     rejected: list[str] = field(default_factory=list)
+    # every line the processor printed for the setting, as received (Appendix A, Table
+    # A-1), rejected ones included, in order; "" for a line that never came
+    lines: list[str] = field(default_factory=list)
 
     def reading(self) -> dict:
         """What the journal keeps of the setting (enough to reduce again)."""
@@ -35,7 +38,7 @@ class Setting:
                 "cr": {str(k): v for k, v in self.cr.items()},
                 "times_s": self.times_s,
                 "line_cr": {str(k): v for k, v in self.line_cr.items()},
-                "rejected": self.rejected}
+                "rejected": self.rejected, "lines": self.lines}
 
     def ratio(self, pickoff: int) -> float:
         """A pickoff's mean count ratio; a failed check when the pickoff is off the pattern."""
@@ -52,7 +55,7 @@ class Setting:
         return cls((first, second), d["t_s"],
                    {int(k): v for k, v in d["cr"].items()}, list(d["times_s"]),
                    {int(k): list(v) for k, v in d["line_cr"].items()},
-                   list(d["rejected"]))
+                   list(d["rejected"]), list(d.get("lines", [])))
 
 
 class TooFewLines(CheckFailed):
@@ -84,8 +87,10 @@ def read_setting(proc: ProcessorDriver, pickoffs: tuple[int, int], n_lines: int 
     """Select two pickoffs, take ``n_lines`` lines, reject bad ones, average the rest."""
     proc.select(*pickoffs)
     rejected: list[str] = []
+    printed: list[str] = []
     for _ in range(attempts):
         got = proc.lines(n_lines)
+        printed.extend(ln.raw for ln in got)
         good: list[DataLine] = []
         for ln in got:
             if isinstance(ln, BadLine):
@@ -107,6 +112,7 @@ def read_setting(proc: ProcessorDriver, pickoffs: tuple[int, int], n_lines: int 
             line_cr = {p: [ln.count_ratio(p) for ln in used] for p in pickoffs if p in on}
             cr = {p: (sum(v) / len(v) if p in line_cr else None)
                   for p, v in ((p, line_cr.get(p, [])) for p in pickoffs)}
-            return Setting(pickoffs, sum(times) / len(times), cr, times, line_cr, rejected)
+            return Setting(pickoffs, sum(times) / len(times), cr, times, line_cr, rejected,
+                           printed)
     raise TooFewLines(f"fewer than {min_lines} usable lines of {n_lines} in {attempts} "
                       f"attempts; rejected: {'; '.join(rejected[-3:])}")

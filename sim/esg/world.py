@@ -125,6 +125,10 @@ class EsgWorld:
             -sig.pulse_height_tol, sig.pulse_height_tol, 3))
         self._delays = 1e-9 * (sig.hit_delay_ns + rng.normal(0.0, sig.hit_delay_spread_ns, 3))
         self._phase0 = float(rng.uniform())
+        # lamps as delivered: the pulses come out up to 25 % above the trimmed height until
+        # the lamp currents are equalised ("Before data taking"); a stream of its own
+        self._lamp_gain = stream(self.seed, "esg", "lamps").uniform(1.0, 1.25, 3)
+        self._lamp_current = np.ones(3)  # fraction of the nominal lamp current
 
     @property
     def now(self) -> float:
@@ -204,10 +208,40 @@ class EsgWorld:
             th_end = math.acos(max(-1.0, min(1.0, float(p @ s_end))))
             th_start = math.acos(max(-1.0, min(1.0, float(p @ s_start))))
             view = (alpha + _azimuth_about(s_end, p)) % (2.0 * math.pi)
-            channels.append(Channel(i, th_end, th_start, view, float(self._heights[i - 1]),
+            channels.append(Channel(i, th_end, th_start, view, self.pulse_height_v(i),
                                     float(self._delays[i - 1])))
         return measure_line(self.pattern, self.p.signal, settings, self.seed, t, rps,
                             revolutions, channels, pickoff_a, self.clock)
+
+    # ----- lamps and the processor's scope -----
+    def set_lamp(self, pickoff: int, fraction: float) -> None:
+        """Lamp current of a pickoff as a fraction of nominal (the pulse height follows)."""
+        self._lamp_current[pickoff - 1] = float(fraction)
+
+    def lamp(self, pickoff: int) -> float:
+        return float(self._lamp_current[pickoff - 1])
+
+    def pulse_height_v(self, pickoff: int) -> float:
+        """Genuine pulse height of a pickoff at its present lamp current."""
+        i = pickoff - 1
+        return float(self._heights[i] * self._lamp_gain[i] * self._lamp_current[i])
+
+    def scope(self, pickoff: int) -> dict | None:
+        """What an oscilloscope on a pickoff's HIT output shows now: pulse height (V), the
+        widths of the logic line and lines 1 and 2 (us) and the time from the logic line's
+        trailing edge to line 1's (us); None when the pickoff sees no pattern."""
+        t = self.now
+        rps = self.rotor.spin_rps(t)
+        th = float(self.true_colatitudes(t)[pickoff - 1])
+        e = self.pattern.edges(np.array([th]))
+        if rps < MIN_RPS or not bool(e.visible[0]):
+            return None
+        us = 1e6 / (2.0 * math.pi * rps)
+        return {"height_v": self.pulse_height_v(pickoff),
+                "widths_us": [float((e.logic_trail - e.logic_lead)[0] * us),
+                              float((e.line1_trail - e.line1_lead)[0] * us),
+                              float((e.line2_trail - e.line2_lead)[0] * us)],
+                "logic_to_line_us": float((e.line1_trail - e.logic_trail)[0] * us)}
 
     # ----- truth -----
     def case_to_lab(self, t: float) -> np.ndarray:

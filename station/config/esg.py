@@ -53,6 +53,24 @@ class SignalConfig(BaseModel):
     arc_wide_fraction: float | None = Field(None, ge=0, le=1)
 
 
+class ReductionConfig(BaseModel):
+    """The data reduction's choices (report 004, "Data Reduction Technique")."""
+
+    model_config = _STRICT
+    # eq. 11's polynomial order: 5..9 (the report's trials; it used 7) or "residuals", each
+    # schedule's choice by the order trials' prediction residuals
+    order: Literal[5, 6, 7, 8, 9, "residuals"] = 7
+
+
+class ProcedureConfig(BaseModel):
+    """The acquisition's choices (report 004, "Before data taking")."""
+
+    model_config = _STRICT
+    # sheet ESG-DPX: lamps, discriminator and delay set up at the pattern extremity after
+    # spin-up (false: the processor's preset 20 us and 241 us, lamps as delivered)
+    extremity_setup: bool = True
+
+
 class EsgConfig(BaseModel):
     model_config = _STRICT
     latitude_deg: float | None = Field(None, ge=-89.0, le=89.0)
@@ -63,6 +81,8 @@ class EsgConfig(BaseModel):
     damping_tau_s: float | None = Field(None, ge=10.0, le=300.0)
     pattern: PatternConfig = PatternConfig.model_validate({})
     signal: SignalConfig = SignalConfig.model_validate({})
+    reduction: ReductionConfig = ReductionConfig.model_validate({})
+    procedure: ProcedureConfig = ProcedureConfig.model_validate({})
     limits: EsgLimits = EsgLimits()  # acceptance limits (station/config/limits.py)
 
 
@@ -86,6 +106,20 @@ def load_esg_params(path: str | Path | None) -> EsgParams:
         return EsgParams()
     cfg = read_section(path, "esg", EsgConfig, "ESG")
     return params_from(cfg)
+
+
+def load_esg_reduction(path: str | Path | None) -> ReductionConfig:
+    """The ``[esg.reduction]`` of an ESG file (defaults without one)."""
+    if path is None:
+        return ReductionConfig.model_validate({})
+    return read_section(path, "esg", EsgConfig, "ESG").reduction
+
+
+def load_esg_procedure(path: str | Path | None) -> ProcedureConfig:
+    """The ``[esg.procedure]`` of an ESG file (defaults without one)."""
+    if path is None:
+        return ProcedureConfig.model_validate({})
+    return read_section(path, "esg", EsgConfig, "ESG").procedure
 
 
 def load_esg_limits(path: str | Path | None) -> EsgLimits:

@@ -20,6 +20,7 @@ from station.clock import Clock
 from station.drivers.driver_set import DriverSet
 from station.drivers.replies import (
     Form,
+    OneOf,
     fixed,
     flag,
     general,
@@ -41,6 +42,13 @@ SETTINGS = Form([
     integer("run number", 0, WRAP - 1), general("threshold, V", 0.1, 5.0),
     general("discriminator, us", 2.0, 24.0), general("logic delay, us", 20.0, 2000.0),
 ])
+SCOPE = OneOf(Form([literal("OFF")]),
+              Form([fixed("pulse height, V", 2, 0.0, 20.0),
+                    fixed("logic line width, us", 1, 0.0, 10000.0),
+                    fixed("line 1 width, us", 1, 0.0, 10000.0),
+                    fixed("line 2 width, us", 1, 0.0, 10000.0),
+                    fixed("logic to line 1, us", 1, 0.0, 10000.0)]))
+LAMP = Form([fixed("lamp current, percent", 1, 50.0, 150.0)])
 FIELD_NAMES = ("time", "C1 of pickoff 1", "C1 of pickoff 2", "C1 of pickoff 3", "run number",
                "period sum")
 # anything shaped like a data line (six 7-character fields), garbled or not
@@ -145,6 +153,14 @@ class ProcessorDriver(SerialDriver):
         self._known = ((a, b), run)
         return {"pickoffs": (a, b), "revolutions": rev, "run": run, "threshold_v": thr,
                 "min_width_us": disc, "logic_delay_us": delay}
+
+    def scope(self, pickoff: int) -> dict | None:
+        """Pickoff ``pickoff``'s pulses on the processor's scope: ``{"height_v",
+        "widths_us": [logic, line 1, line 2], "logic_to_line_us"}``; None off the pattern."""
+        i, v = self.ask(f"SCOPE? {int(pickoff)}", SCOPE)
+        if i == 0:
+            return None
+        return {"height_v": v[0], "widths_us": [v[1], v[2], v[3]], "logic_to_line_us": v[4]}
 
     # ----- data -----
     def lines(self, k: int) -> list[DataLine | BadLine]:
@@ -378,6 +394,13 @@ class ConsoleDriver(SerialDriver):
 
     def speed(self) -> float:
         return self.ask("SPEED?", SPEED)[0]
+
+    def lamp(self, pickoff: int, percent: float) -> None:
+        """Lamp current of a pickoff, percent of nominal (50..150)."""
+        self.command(f"LAMP {int(pickoff)} {float(percent):.1f}")
+
+    def lamp_reading(self, pickoff: int) -> float:
+        return self.ask(f"LAMP? {int(pickoff)}", LAMP)[0]
 
 
 @dataclass

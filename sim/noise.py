@@ -215,7 +215,10 @@ class Multitone:
         """Integral from 0 to t."""
         ta = np.asarray(t, dtype=float)
         c = self.amp / self.w
-        v = np.sin(np.multiply.outer(ta, self.w) + self.psi) @ c - float(np.sin(self.psi) @ c)
+        # a row sum, not a matrix product: a time's integral has the same bits alone or in
+        # a block of times (BLAS sums a product's rows in an order that depends on its shape)
+        s = (np.sin(np.multiply.outer(ta, self.w) + self.psi) * c).sum(axis=-1)
+        v = s - float(np.sin(self.psi) @ c)
         return v if ta.ndim else float(v)
 
     def covariance(self, tau: float | np.ndarray) -> np.ndarray:

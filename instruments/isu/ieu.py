@@ -31,6 +31,7 @@ import simpy
 from crccheck.crc import Crc8Autosar, Crc32C
 
 import config
+from instruments.isu.ieu_block import SampleBlocks
 from instruments.isu.params import IeuParams
 from sim.isu.pulses import PulseLine
 from sim.isu.world import World
@@ -192,6 +193,7 @@ class Ieu:
         self.seq = 0
         self.error_code = 0
         self._proc: simpy.Process | None = None
+        self._blocks: SampleBlocks | None = None  # the current sampling's blocks of counts
         self.drop_every = 0  # fault injection: drop every n-th sample's gyro frame
         self.silent = False
         # real time only: count a sample this long (simulated s) before it is latched, so
@@ -261,11 +263,15 @@ class Ieu:
     def _sample_loop(self) -> Generator[simpy.Event, Any, None]:
         w = self.world
         s2 = w.line("OSC2")
+        period = self.period
+        self._blocks = SampleBlocks(w, [w.line(n) for n in (*GYRO_LINES, *ACCEL_LINES, "OSC2")],
+                                    lambda t: _latch_edge(s2, t, period),
+                                    period * w.oscillator.s2_nominal)
         try:
             t_prev = _latch_edge(s2, w.now, 1)
             yield self.env.timeout(max(0, ticks_ceil(t_prev) - self.env.now))
             while self.running:
-                t_next = _latch_edge(s2, t_prev, self.period)
+                t_next = self._blocks.next_latch(t_prev)
                 due = ticks_ceil(t_next)
                 early = due - ticks(self.lookahead_s)
                 counts = None
@@ -282,11 +288,11 @@ class Ieu:
             return
 
     def _counts(self, t0: float, t1: float) -> tuple[list[int], list[int], int, float]:
-        """Gyro, string and S2^T counts of the sample [t0, t1], and t1."""
-        w = self.world
-        g = [w.line(n).count(t0, t1) for n in GYRO_LINES]
-        a = [w.line(n).count(t0, t1) for n in ACCEL_LINES]
-        return g, a, w.line("OSC2").count(t0, t1), t1
+        """Gyro, string and S2^T counts of the sample [t0, t1], and t1 (from the block of
+        samples being counted: instruments.isu.ieu_block)."""
+        assert self._blocks is not None, "counts asked for outside a sampling"
+        c = self._blocks.counts(t0, t1)
+        return c[:3], c[3:9], c[9], t1
 
     def _emit_sample(self, g: list[int], a: list[int], timer: int, t1: float) -> None:
         seq = self.seq

@@ -102,3 +102,18 @@ def test_block_levels_are_the_scalar_levels_at_random_times() -> None:
             assert list(line.levels(t)) == [line.level(float(x)) for x in t], name
     finally:
         rack.close()
+
+
+def test_table_crc32c_is_crccheck_crc32c_on_both_sides_of_the_bus() -> None:
+    """The IEU's and the driver's table-driven CRC-32C give crccheck's value on any bytes."""
+    from crccheck.crc import Crc32C
+
+    from instruments.isu.ieu import crc32c as ieu_crc
+    from station.drivers.isu.ieu import crc32c as driver_crc
+
+    rng = random.Random(32)
+    for n in (0, 1, 7, 32, 33, 100):
+        for _ in range(50):
+            data = bytes(rng.getrandbits(8) for _ in range(n))
+            assert ieu_crc(data) == driver_crc(data) == int(Crc32C.calc(data))
+    assert ieu_crc(b"123456789") == 0xE3069283  # the CRC-32C check value

@@ -215,11 +215,15 @@ class Multitone:
         """Integral from 0 to t."""
         ta = np.asarray(t, dtype=float)
         c = self.amp / self.w
-        # a row sum, not a matrix product: a time's integral has the same bits alone or in
-        # a block of times (BLAS sums a product's rows in an order that depends on its shape)
-        s = (np.sin(np.multiply.outer(ta, self.w) + self.psi) * c).sum(axis=-1)
-        v = s - float(np.sin(self.psi) @ c)
+        v = np.sin(np.multiply.outer(ta, self.w) + self.psi) @ c - float(np.sin(self.psi) @ c)
         return v if ta.ndim else float(v)
+
+    def integral_each(self, t: np.ndarray) -> np.ndarray:
+        """:meth:`integral` at each of the times t, each with the bits it has asked for alone
+        (a stack of one-row products: BLAS sums the rows of one big product otherwise)."""
+        c = self.amp / self.w
+        s = np.sin(np.multiply.outer(np.asarray(t, dtype=float), self.w) + self.psi)
+        return np.matmul(s[:, None, :], c)[:, 0] - float(np.sin(self.psi) @ c)
 
     def covariance(self, tau: float | np.ndarray) -> np.ndarray:
         """Covariance at lag(s) tau."""

@@ -44,6 +44,7 @@ class World:
             self.environment.vibration_velocity,
             self.table.breakpoints,
             self.table.abs_rate,
+            self.environment.vibration_velocity_each,
         )
         self._change = self.env.event()
         self.revision = 0  # counts the changes of the world's future (table commands)
@@ -127,20 +128,27 @@ class World:
 
     # ----- pulse lines -----
     def gyro_phase(self, k: int, t: float) -> float:
-        return float(self.gyro_phases(k, np.array([t], dtype=float))[0])
+        g = self.isu.gyros[k]
+        w_o = self.integral.interpolated(t)[k]
+        ang = self.integral.value(t)[k] + g.J * w_o + float(g.noise_angle(t))
+        return ang / g.dphi + g.phase0
 
     def gyro_phases(self, k: int, t: np.ndarray) -> np.ndarray:
-        """Gyro k's phase at each of the times t (the scalar form is this with one time)."""
+        """Gyro k's phase at each of the times t, with the bits of :meth:`gyro_phase` at each."""
         g = self.isu.gyros[k]
         w_o = self.integral.interpolations(t)[:, k]
         ang = self.integral.values(t)[:, k] + g.J * w_o + g.noise_angle(t)
         return ang / g.dphi + g.phase0
 
     def string_phase(self, k: int, s: int, t: float) -> float:
-        return float(self.string_phases(k, s, np.array([t], dtype=float))[0])
+        acc = self.isu.accels[k]
+        v = self.integral.value(t)
+        diff = v[3 + 2 * k] + acc.D1 * float(acc.noise.value(t)) / units.G0
+        sign = -0.5 if s == 1 else 0.5
+        return acc.f0 * t + v[4 + 2 * k] + sign * diff + acc.phase0[s - 1]
 
     def string_phases(self, k: int, s: int, t: np.ndarray) -> np.ndarray:
-        """String s of accelerometer k: its phase at each of the times t."""
+        """String s of accelerometer k: :meth:`string_phase` at each of the times t."""
         acc = self.isu.accels[k]
         v = self.integral.values(t)
         diff = v[:, 3 + 2 * k] + acc.D1 * acc.noise.value(t) / units.G0

@@ -48,6 +48,7 @@ class World:
         )
         self._change = self.env.event()
         self.revision = 0  # counts the changes of the world's future (table commands)
+        self._held_values: tuple[np.ndarray, int, np.ndarray] | None = None
         self.lines: dict[str, PulseLine] = {}
         self._build_lines()
 
@@ -133,11 +134,21 @@ class World:
         ang = self.integral.value(t)[k] + g.J * w_o + float(g.noise_angle(t))
         return ang / g.dphi + g.phase0
 
+    def _values_at(self, t: np.ndarray) -> np.ndarray:
+        """``integral.values(t)``, kept for the next line asked at the same times (the six
+        strings of a block of IEU samples share one evaluation) until the world changes."""
+        held = self._held_values
+        if held is not None and held[1] == self.revision and np.array_equal(held[0], t):
+            return held[2]
+        v = self.integral.values(t)
+        self._held_values = (np.array(t, dtype=float), self.revision, v)
+        return v
+
     def gyro_phases(self, k: int, t: np.ndarray) -> np.ndarray:
         """Gyro k's phase at each of the times t, with the bits of :meth:`gyro_phase` at each."""
         g = self.isu.gyros[k]
         w_o = self.integral.interpolations(t)[:, k]
-        ang = self.integral.values(t)[:, k] + g.J * w_o + g.noise_angle(t)
+        ang = self._values_at(t)[:, k] + g.J * w_o + g.noise_angle(t)
         return ang / g.dphi + g.phase0
 
     def string_phase(self, k: int, s: int, t: float) -> float:
@@ -150,7 +161,7 @@ class World:
     def string_phases(self, k: int, s: int, t: np.ndarray) -> np.ndarray:
         """String s of accelerometer k: :meth:`string_phase` at each of the times t."""
         acc = self.isu.accels[k]
-        v = self.integral.values(t)
+        v = self._values_at(t)
         diff = v[:, 3 + 2 * k] + acc.D1 * acc.noise.value(t) / units.G0
         sign = -0.5 if s == 1 else 0.5
         return acc.f0 * t + v[:, 4 + 2 * k] + sign * diff + acc.phase0[s - 1]

@@ -117,3 +117,32 @@ def test_table_crc32c_is_crccheck_crc32c_on_both_sides_of_the_bus() -> None:
             data = bytes(rng.getrandbits(8) for _ in range(n))
             assert ieu_crc(data) == driver_crc(data) == int(Crc32C.calc(data))
     assert ieu_crc(b"123456789") == 0xE3069283  # the CRC-32C check value
+
+
+def test_sample_frames_are_the_strictly_encoded_frames() -> None:
+    """Frames encoded without cantools' range check are byte for byte the checked ones,
+    clipped counts and overflow flag included."""
+    from instruments.isu.ieu import COUNT_FRAMES, load_dbc, sample_crc, sample_frames
+
+    db = load_dbc()
+    rng = random.Random(7)
+    for _ in range(200):
+        seq = rng.randrange(65536)
+        g = [rng.randint(-40000, 40000) for _ in range(3)]
+        a = [rng.randint(-10, 70000) for _ in range(6)]
+        timer = rng.randint(15, 20000)
+        got = sample_frames(db, seq, g, a, timer)
+        gc = [max(-32768, min(32767, x)) for x in g]
+        ac = [max(0, min(65535, x)) for x in a]
+        flags = int(gc != g or ac != a)
+        sigs = ({"Seq": seq, "Gyro1": gc[0], "Gyro2": gc[1], "Gyro3": gc[2]},
+                {"Seq": seq, "A1S1": ac[0], "A1S2": ac[1], "A2S1": ac[2]},
+                {"Seq": seq, "A2S2": ac[3], "A3S1": ac[4], "A3S2": ac[5]},
+                {"Seq": seq, "Timer": timer, "Flags": flags})
+        want = [(db.get_message_by_name(n).frame_id,
+                 bytes(db.get_message_by_name(n).encode(s, strict=True)))
+                for n, s in zip(COUNT_FRAMES, sigs, strict=True)]
+        check = db.get_message_by_name("IEU_CHECK")
+        crc = sample_crc([d for _, d in want])
+        want.append((check.frame_id, bytes(check.encode({"Seq": seq, "Crc": crc}, strict=True))))
+        assert got == want

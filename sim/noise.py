@@ -226,6 +226,13 @@ class Multitone:
         v = np.sin(np.multiply.outer(ta, self.w) + self.psi) @ c - float(np.sin(self.psi) @ c)
         return v if ta.ndim else float(v)
 
+    def integral_each(self, t: np.ndarray) -> np.ndarray:
+        """:meth:`integral` at each of the times t, each with the bits it has asked for alone
+        (a stack of one-row products: BLAS sums the rows of one big product otherwise)."""
+        c = self.amp / self.w
+        s = np.sin(np.multiply.outer(np.asarray(t, dtype=float), self.w) + self.psi)
+        return np.matmul(s[:, None, :], c)[:, 0] - float(np.sin(self.psi) @ c)
+
     def covariance(self, tau: float | np.ndarray) -> np.ndarray:
         """Covariance at lag(s) tau."""
         ta = np.asarray(tau, dtype=float)

@@ -28,9 +28,10 @@ from typing import TYPE_CHECKING, Any, cast
 
 import cantools
 import simpy
-from crccheck.crc import Crc8Autosar, Crc32C
+from crccheck.crc import Crc8Autosar
 
 import config
+from instruments.isu.ieu_block import SampleBlocks
 from instruments.isu.params import IeuParams
 from sim.isu.pulses import PulseLine
 from sim.isu.world import World
@@ -109,9 +110,33 @@ def _latch_edge(s2: PulseLine, t: float, n: int) -> float:
 # ----- end-to-end checks -----
 
 
+def _crc32c_table() -> tuple[int, ...]:
+    """CRC-32C (Castagnoli, reflected polynomial 0x82F63B78): the byte-at-a-time table."""
+    out = []
+    for n in range(256):
+        c = n
+        for _ in range(8):
+            c = (c >> 1) ^ 0x82F63B78 if c & 1 else c >> 1
+        out.append(c)
+    return tuple(out)
+
+
+_CRC32C = _crc32c_table()
+
+
+def crc32c(data: bytes) -> int:
+    """CRC-32C of ``data``, the value crccheck's ``Crc32C`` gives, from a table: a byte
+    costs a lookup, not eight shifts (about 40 us less for each sample's 32 bytes)."""
+    crc = 0xFFFFFFFF
+    table = _CRC32C
+    for b in data:
+        crc = table[(crc ^ b) & 0xFF] ^ (crc >> 8)
+    return crc ^ 0xFFFFFFFF
+
+
 def sample_crc(count_frames: Sequence[bytes]) -> int:
     """CRC-32C of the data bytes of a sample's four count frames, in the order of COUNT_FRAMES."""
-    return int(Crc32C.calc(b"".join(bytes(d) for d in count_frames)))
+    return crc32c(b"".join(bytes(d) for d in count_frames))
 
 
 def frame_crc8(frame_id: int, protected: bytes) -> int:
@@ -192,6 +217,7 @@ class Ieu:
         self.seq = 0
         self.error_code = 0
         self._proc: simpy.Process | None = None
+        self._blocks: SampleBlocks | None = None  # the current sampling's blocks of counts
         self.drop_every = 0  # fault injection: drop every n-th sample's gyro frame
         self.silent = False
         # real time only: count a sample this long (simulated s) before it is latched, so
@@ -261,11 +287,15 @@ class Ieu:
     def _sample_loop(self) -> Generator[simpy.Event, Any, None]:
         w = self.world
         s2 = w.line("OSC2")
+        period = self.period
+        self._blocks = SampleBlocks(w, [w.line(n) for n in (*GYRO_LINES, *ACCEL_LINES, "OSC2")],
+                                    lambda t: _latch_edge(s2, t, period),
+                                    period * w.oscillator.s2_nominal)
         try:
             t_prev = _latch_edge(s2, w.now, 1)
             yield self.env.timeout(max(0, ticks_ceil(t_prev) - self.env.now))
             while self.running:
-                t_next = _latch_edge(s2, t_prev, self.period)
+                t_next = self._blocks.next_latch(t_prev)
                 due = ticks_ceil(t_next)
                 early = due - ticks(self.lookahead_s)
                 counts = None
@@ -282,11 +312,11 @@ class Ieu:
             return
 
     def _counts(self, t0: float, t1: float) -> tuple[list[int], list[int], int, float]:
-        """Gyro, string and S2^T counts of the sample [t0, t1], and t1."""
-        w = self.world
-        g = [w.line(n).count(t0, t1) for n in GYRO_LINES]
-        a = [w.line(n).count(t0, t1) for n in ACCEL_LINES]
-        return g, a, w.line("OSC2").count(t0, t1), t1
+        """Gyro, string and S2^T counts of the sample [t0, t1], and t1 (from the block of
+        samples being counted: instruments.isu.ieu_block)."""
+        assert self._blocks is not None, "counts asked for outside a sampling"
+        c = self._blocks.counts(t0, t1)
+        return c[:3], c[3:9], c[9], t1
 
     def _emit_sample(self, g: list[int], a: list[int], timer: int, t1: float) -> None:
         seq = self.seq
@@ -339,10 +369,12 @@ def sample_frames(db: cantools.database.can.Database, seq: int, g: Sequence[int]
     out = []
     for name, sig in zip(COUNT_FRAMES, sigs, strict=True):
         msg = db.get_message_by_name(name)
-        out.append((msg.frame_id, bytes(msg.encode(sig))))
+        # every value is in its signal's range here (clipped, or a count the period bounds):
+        # cantools' range check of each value is skipped (it was a third of a sample's cost)
+        out.append((msg.frame_id, bytes(msg.encode(sig, strict=False))))
     check = db.get_message_by_name("IEU_CHECK")
     crc = sample_crc([d for _, d in out])
-    out.append((check.frame_id, bytes(check.encode({"Seq": seq, "Crc": crc}))))
+    out.append((check.frame_id, bytes(check.encode({"Seq": seq, "Crc": crc}, strict=False))))
     return out
 
 

@@ -120,6 +120,11 @@ class Environment:
         t = np.atleast_1d(np.asarray(t, dtype=float))
         return np.stack([m.integral(t) for m in self.vibration], axis=-1)
 
+    def vibration_velocity_each(self, t: np.ndarray) -> np.ndarray:
+        """:meth:`vibration_velocity` at each of the times t with the bits of a single time."""
+        t = np.atleast_1d(np.asarray(t, dtype=float))
+        return np.stack([m.integral_each(t) for m in self.vibration], axis=-1)
+
     # --- covariance functions of Chart I-9 (per horizontal axis / per axis) ---
     def tilt_covariance(self, tau: float | np.ndarray) -> np.ndarray:
         """phi_theta(tau): covariance of one horizontal tilt component, rad^2."""

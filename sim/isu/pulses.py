@@ -12,6 +12,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 
+import numpy as np
 from scipy.optimize import brentq
 
 
@@ -24,9 +25,12 @@ class PulseLine:
         phase: Callable[[float], float],
         sample: tuple[float, float] | None = None,
         bipolar_sign: int = 0,
+        phases: Callable[[np.ndarray], np.ndarray] | None = None,
     ) -> None:
         self.name = name
         self._phase = phase
+        # the phase at many times in one evaluation, with the bits of ``phase`` at each
+        self._phases = phases
         self.sample = sample  # (tau, offset) of a sampled output, or None
         self.bipolar_sign = bipolar_sign  # +1 / -1 for a gyro's + / - line, 0 otherwise
         self.net: PulseLine | None = None  # for + / - lines: the gyro's net train
@@ -49,6 +53,18 @@ class PulseLine:
     def level(self, t: float) -> int:
         """floor(Phi) as seen at time t (edges at or before t)."""
         return math.floor(self.phase(self.last_sample(t)))
+
+    def levels(self, t: np.ndarray) -> np.ndarray:
+        """:meth:`level` at each of the times t, in one evaluation where the line has one."""
+        t = np.asarray(t, dtype=float)
+        if self.sample is not None:
+            tau, off = self.sample
+            t = off + np.floor((t - off) / tau) * tau
+        if self._phases is None:
+            ph = np.array([self._phase(float(x)) for x in t])
+        else:
+            ph = self._phases(t)
+        return np.floor(ph).astype(np.int64)
 
     def count(self, t0: float, t1: float) -> int:
         """Edges in (t0, t1]; signed for a net train."""

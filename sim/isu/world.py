@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from functools import partial
+from typing import Any
 
 import numpy as np
 import simpy
@@ -42,8 +44,11 @@ class World:
             self.environment.vibration_velocity,
             self.table.breakpoints,
             self.table.abs_rate,
+            self.environment.vibration_velocity_each,
         )
         self._change = self.env.event()
+        self.revision = 0  # counts the changes of the world's future (table commands)
+        self._held_values: tuple[np.ndarray, int, np.ndarray] | None = None
         self.lines: dict[str, PulseLine] = {}
         self._build_lines()
 
@@ -56,6 +61,7 @@ class World:
     def changed(self) -> None:
         """Tell the world its future changed at now (a table command): drop predictions."""
         self.integral.invalidate_after(self.now)
+        self.revision += 1
         self.notify()
 
     def notify(self) -> None:
@@ -128,6 +134,23 @@ class World:
         ang = self.integral.value(t)[k] + g.J * w_o + float(g.noise_angle(t))
         return ang / g.dphi + g.phase0
 
+    def _values_at(self, t: np.ndarray) -> np.ndarray:
+        """``integral.values(t)``, kept for the next line asked at the same times (the six
+        strings of a block of IEU samples share one evaluation) until the world changes."""
+        held = self._held_values
+        if held is not None and held[1] == self.revision and np.array_equal(held[0], t):
+            return held[2]
+        v = self.integral.values(t)
+        self._held_values = (np.array(t, dtype=float), self.revision, v)
+        return v
+
+    def gyro_phases(self, k: int, t: np.ndarray) -> np.ndarray:
+        """Gyro k's phase at each of the times t, with the bits of :meth:`gyro_phase` at each."""
+        g = self.isu.gyros[k]
+        w_o = self.integral.interpolations(t)[:, k]
+        ang = self._values_at(t)[:, k] + g.J * w_o + g.noise_angle(t)
+        return ang / g.dphi + g.phase0
+
     def string_phase(self, k: int, s: int, t: float) -> float:
         acc = self.isu.accels[k]
         v = self.integral.value(t)
@@ -135,11 +158,20 @@ class World:
         sign = -0.5 if s == 1 else 0.5
         return acc.f0 * t + v[4 + 2 * k] + sign * diff + acc.phase0[s - 1]
 
+    def string_phases(self, k: int, s: int, t: np.ndarray) -> np.ndarray:
+        """String s of accelerometer k: :meth:`string_phase` at each of the times t."""
+        acc = self.isu.accels[k]
+        v = self._values_at(t)
+        diff = v[:, 3 + 2 * k] + acc.D1 * acc.noise.value(t) / units.G0
+        sign = -0.5 if s == 1 else 0.5
+        return acc.f0 * t + v[:, 4 + 2 * k] + sign * diff + acc.phase0[s - 1]
+
     def _build_lines(self) -> None:
         osc = self.oscillator
         for k, g in enumerate(self.isu.gyros, start=1):
             net = PulseLine(
-                f"G{k}", partial(self.gyro_phase, k - 1), sample=(g.tau, g.sample_offset)
+                f"G{k}", partial(self.gyro_phase, k - 1), sample=(g.tau, g.sample_offset),
+                phases=partial(self.gyro_phases, k - 1),
             )
             self.lines[f"G{k}"] = net
             for sign, suffix in ((1, "+"), (-1, "-")):
@@ -149,10 +181,17 @@ class World:
         for k in range(1, 4):
             for s in (1, 2):
                 name = f"A{k}S{s}"
-                self.lines[name] = PulseLine(name, partial(self.string_phase, k - 1, s))
+                self.lines[name] = PulseLine(name, partial(self.string_phase, k - 1, s),
+                                             phases=partial(self.string_phases, k - 1, s))
         self.lines["TROT"] = PulseLine("TROT", lambda t: float(self.table.rotation_phase(t)))
-        self.lines["OSC1"] = PulseLine("OSC1", lambda t: osc.phase(t) / osc.p.s1_divider)
-        self.lines["OSC2"] = PulseLine("OSC2", lambda t: osc.phase(t) / osc.p.s2_divider)
+        for name, div in (("OSC1", osc.p.s1_divider), ("OSC2", osc.p.s2_divider)):
+            self.lines[name] = PulseLine(name, partial(_divided, osc.phase, div),
+                                         phases=partial(_divided, osc.phase, div))
 
     def line(self, name: str) -> PulseLine:
         return self.lines[name]
+
+
+def _divided(phase: Callable[[Any], Any], divider: int, t: Any) -> Any:
+    """An oscillator output's phase: the master phase over its countdown divider."""
+    return phase(t) / divider

@@ -166,6 +166,7 @@ class Predictor:
     def __init__(self, lab: Lab, default: Times | None = None) -> None:
         self.lab = lab
         self.default = default or Times()
+        self._cache: dict[tuple[Times, bool], np.ndarray] = {}
         data = nominal_data(self.default, lab)
         red = reduce(data)
         self.keys = list(red.values)
@@ -186,7 +187,14 @@ class Predictor:
         self.jac = jac
 
     def covariance(self, times: Times, level: bool = True) -> np.ndarray:
-        """J Sigma_z J^T of the constants for a day with these times."""
+        """J Sigma_z J^T of the constants for a day with these times (each evaluated once:
+        the search asks for the default times once per gate)."""
+        key = (times, level)
+        if key not in self._cache:
+            self._cache[key] = self._covariance(times, level)
+        return self._cache[key]
+
+    def _covariance(self, times: Times, level: bool) -> np.ndarray:
         data = nominal_data(times, self.lab, level)
         red = reduce(data)
         if list(red.values) != self.keys:

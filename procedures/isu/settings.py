@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import math
 
-from procedures.isu.accuracy import Lab, Times, choose_times
+from procedures.isu.accuracy import GateChoice, Lab, Times, choose_times
 from procedures.isu.calibration.noise_spec import NoiseSpec
 from procedures.isu.plan import DayPlan
 from procedures.isu.sheets import (
@@ -114,13 +114,23 @@ def manual_times(plan: DayPlan) -> Times:
     return Times(turns=plan.min_turns)
 
 
+_CHOSEN: dict[str, tuple[Times, list[GateChoice]]] = {}
+
+
 def collection_times(plan: DayPlan, site: Site, noise: NoiseSpec, s1: float = 1e-6,
                      f0: float = 20000.0) -> tuple[Times, dict[str, GateSetting]]:
     """II-6.2 step (2): every gate's time from the plan's required accuracies
     (procedures.isu.accuracy.Unreachable, naming the requirement, when none reaches it)."""
     req = plan.requirements
-    times, choices = choose_times(req.requirements(), 60.0 * req.max_gate_minutes,
-                                  planning_lab(plan, site, noise, s1, f0), manual_times(plan))
+    # a planning figure: the counter clock's period to 4 figures, so that the check before
+    # the run (nominal clock) and II-6 (the measured one) ask the same and share one answer
+    lab = planning_lab(plan, site, noise, float(f"{s1:.4g}"), f0)
+    key = repr((req, lab, manual_times(plan)))
+    if key not in _CHOSEN:
+        _CHOSEN.clear()  # one station at a time: keep the latest only
+        _CHOSEN[key] = choose_times(req.requirements(), 60.0 * req.max_gate_minutes, lab,
+                                    manual_times(plan))
+    times, choices = _CHOSEN[key]
     gates = {c.gate: GateSetting(requirement=c.requirement, required=c.required,
                                  predicted=c.predicted, units=c.units, default=c.default,
                                  chosen=c.chosen, why=c.why) for c in choices}

@@ -29,6 +29,7 @@ import simpy
 
 from sim.cigtf.fixture import FixtureSpec, GyrocompassFixture, Misalignments
 from sim.cigtf.sdf_gyro import DriftModel, Dynamics, SdfGyro
+from sim.cigtf.setup import SetupAids, SetupSpec
 from sim.rng import stream
 from sim.timebase import seconds, ticks
 from sim.units import ARCSEC, EARTH_RATE, deg_per_hr, to_arcsec
@@ -63,11 +64,19 @@ class CigtfParams:
     slew_deg_s: float = 6.0  # fixture slew rate
     current_noise_ma: float = 0.002  # 1-sigma white noise of one 10-s averaged current
     average_s: float = 10.0
+    # a, b, c as the section 4.1 set-up leaves them (levelled, aligned north from the
+    # installed ones of ``setup``); False: drawn at level_sd_arcsec, no set-up
+    pretest_setup: bool = True
+    setup: SetupSpec = field(default_factory=SetupSpec)
 
 
 def draw_misalignments(p: CigtfParams, seed: int) -> Misalignments:
+    """a..j from the seed; with the pre-test set-up, a, b, c as installed (the set-up
+    procedure then levels and aligns the fixture through the set-up aids)."""
     rng = stream(seed, "cigtf", "misalignments")
-    sd = [p.level_sd_arcsec] * 3 + [p.perpendicular_sd_arcsec] * 3 + [p.mount_sd_arcsec] * 3
+    abc = ([p.setup.installed_azimuth_sd_arcsec] + [p.setup.installed_tilt_sd_arcsec] * 2
+           if p.pretest_setup else [p.level_sd_arcsec] * 3)
+    sd = abc + [p.perpendicular_sd_arcsec] * 3 + [p.mount_sd_arcsec] * 3
     return Misalignments(*(float(rng.normal(0.0, s)) * ARCSEC for s in sd))
 
 
@@ -80,8 +89,9 @@ class CigtfWorld:
         self.p = params or CigtfParams()
         self.env = env if env is not None else simpy.Environment()
         self.latitude = math.radians(self.p.latitude_deg)
-        self.misalignments = draw_misalignments(self.p, self.seed)
-        self.fixture = GyrocompassFixture(self.misalignments, self.seed, self.p.fixture)
+        self.fixture = GyrocompassFixture(draw_misalignments(self.p, self.seed), self.seed,
+                                          self.p.fixture)
+        self.aids = SetupAids(self.fixture, self.p.setup, self.seed)
         self.gyro = SdfGyro(self.p.model, self.latitude, self.p.dynamics, self.seed)
         self.moving_until = 0.0
         self._readings = 0
@@ -89,6 +99,16 @@ class CigtfWorld:
     @property
     def now(self) -> float:
         return seconds(self.env.now)
+
+    @property
+    def misalignments(self) -> Misalignments:
+        """a..j now (the set-up's screws and base adjustment change a, b, c)."""
+        return self.fixture.misalignments
+
+    def adjusted(self) -> None:
+        """The fixture's base was tilted or turned: a running gyro settles to it."""
+        if self.gyro.on_since is not None:
+            self.gyro.moved(self.now, self.fixture.q_ge())
 
     # ----- fixture -----
     def start_move(self, vertical_deg: int, horizontal_deg: int, arrive: bool = True) -> float:

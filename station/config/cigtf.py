@@ -131,6 +131,9 @@ class CigtfConfig(BaseModel):
                 f"({GSF_REL_ERROR_MAX:.0%} of the turn's current change)")
         return v
 
+    # the section 4.1 set-up levels and aligns the fixture (a, b, c are what it leaves);
+    # false: a, b, c drawn at level_sd_arcsec and no set-up (the test before the set-up)
+    pretest_setup: bool | None = None
     limits: CigtfLimits = CigtfLimits()  # acceptance limits (station/config/limits.py)
     eq27: Eq27Config = Eq27Config()  # the eq. 27 correction's values (laboratory side)
 

@@ -30,6 +30,9 @@ class TestPlan:
     warmup_s: float = 7200.0
     move_timeout_s: float = 120.0
     pretest_setup: bool = True  # section 4.1's set-up first (procedures.cigtf.setup)
+    # orientation 1's vertical null, whole degrees: the input axis that far from west
+    # (section 1's input-axis azimuth variation; 0 in the standard test)
+    azimuth_deg: int = 0
 
 
 @dataclass
@@ -60,7 +63,7 @@ def scale_factor(st: CigtfDrivers, run: Run, plan: TestPlan) -> float:
     with run.sheet("4.1", "Gyrocompassing scale factor") as sh:
         with sh.step("4.1.1", "fixture to orientation 1 (O up, I west); settle; ten "
                      "10-s averages of torquer current") as s:
-            st.fixture.move("V", 0)
+            st.fixture.move("V", plan.azimuth_deg % 360)
             st.fixture.wait_hold(plan.move_timeout_s)
             st.fixture.move("H", 0)
             i1 = _settle_and_average(st, plan)
@@ -87,7 +90,7 @@ def north_determination(st: CigtfDrivers, run: Run, plan: TestPlan, chart: str, 
             preamble(sh)
         with sh.step("4.2.1", "fixture to orientation 1 (O up, I west); settle; ten "
                      "10-s averages") as s:
-            st.fixture.move("V", 0)
+            st.fixture.move("V", plan.azimuth_deg % 360)
             st.fixture.wait_hold(plan.move_timeout_s)
             st.fixture.move("H", 0)
             samples.append(_settle_and_average(st, plan))

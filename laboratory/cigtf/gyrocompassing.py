@@ -175,7 +175,8 @@ def setup_record(setup: dict | None, world: CigtfWorld | None) -> list[dict] | N
     rows = []
     for name, key in (("b", "b"), ("c", "c"), ("a + d", "north")):
         est, sd, truth = setup[f"{key}_arcsec"], setup[f"{key}_sigma_arcsec"], truths[name]
-        rows.append({"parameter": name, "units": "arcsec", "estimate": est, "sigma": sd,
+        rows.append({"instrument": "set-up", "parameter": name, "units": "arcsec",
+                     "estimate": est, "sigma": sd,
                      "truth": truth, "truth_check": truth_check(
                          [None if truth is None else est - truth], [sd])})
     return rows
@@ -316,6 +317,9 @@ def render_tables(console: Console, res: dict) -> None:
         b.add_row(r["term"], num(r["lab_arcsec"], "+.3f"), num(r["lab_sigma_arcsec"], ".3f"),
                   num(r["truth"], "+.3f"))
     console.print(b)
+    for r in res.get("setup") or []:
+        console.print(f"set-up left {r['parameter']:>5}: {r['estimate']:+.2f} +/- "
+                      f"{r['sigma']:.2f} arcsec (truth {num(r['truth'], '+.2f')})")
     for p in (res.get("eq27") or {}).get("phases", []):
         console.print(f"{p['phase']:>9}: theta (eq. 27) {p['theta_arcsec']:+.2f} +/- "
                       f"{p['sigma_arcsec']:.2f} arcsec (correction "

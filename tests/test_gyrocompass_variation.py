@@ -83,3 +83,18 @@ def test_azimuth_study_follows_the_input_axis(tmp_path):
     big = [s for s in res["settings"] if abs(s["value"]) == 2.0]
     assert all(s["sigma_arcsec"] > 5 * s["standard_error_arcsec"] for s in big)
     assert res["error_sensitivity"] == pytest.approx(res["sensitivity"] + 3600.0)
+
+
+def _words(text: str) -> str:
+    """The output's words (typer may box a refusal and wrap it)."""
+    return " ".join(w for w in text.replace("│", " ").split())
+
+
+def test_vary_refuses_resume_links_and_bad_values(tmp_path):
+    for extra in (["--resume", str(tmp_path)], ["--links", str(tmp_path)]):
+        r = CliRunner().invoke(app, ["gyrocompass-test", "--vary", "azimuth=0,1", *extra])
+        assert r.exit_code == 2 and "not with --resume or --links" in _words(r.output)
+    r = CliRunner().invoke(app, ["gyrocompass-test", "--vary", "azimuth=0.5,1", "--out",
+                                 str(tmp_path / "x")])
+    assert r.exit_code == 2 and "whole degrees" in _words(r.output)
+    assert not (tmp_path / "x").exists()

@@ -79,6 +79,10 @@ def add_commands(app: typer.Typer) -> None:
                        f"{analyse / 'gyrocompass_analysis.json'}")
             return
         if vary is not None:
+            if resume is not None or links is not None:
+                with reported(lambda: None):
+                    raise typer.BadParameter("--vary runs its own tests on the virtual "
+                                             "rack: not with --resume or --links")
             _vary(vary, seed, out, config, eq27)
             return
         target, args = new_or_resumed("gyrocompass-test", out, resume, {"seed": seed})

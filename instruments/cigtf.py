@@ -13,6 +13,14 @@ DVM / averager:
 Gyro power control:
   PWR ON | PWR OFF    -> OK
   PWR?                ON <seconds since turn-on> | OFF
+Set-up aids (section 4.1, sim/cigtf/setup.py; refused while an axis moves, error 16):
+  LEVEL?              the EW and NS bubble levels on the vertical axis, "<ew> <ns>" arcsec
+  TILT <EW|NS> <arcsec>  levelling screws: that level at vertical 0 to read so much more
+                      (-600..600)                                       -> OK
+  AZIM?               the autocollimator on the horizontal axis's mirror, arcsec from the
+                      north reference, positive west (error 13 outside its +-3600 field)
+  BASE <arcsec>       base azimuth adjustment: the autocollimator to read so much more
+                      (-3600..3600)                                     -> OK
 """
 
 from __future__ import annotations
@@ -22,7 +30,15 @@ from typing import Any
 
 import simpy
 
-from instruments.base import ByteInstrument, Deferred, InstrumentError, as_int
+from instruments.base import (
+    ByteInstrument,
+    Deferred,
+    InstrumentError,
+    as_choice,
+    as_int,
+    as_real_in,
+)
+from sim.cigtf.setup import SetupAids
 from sim.cigtf.world import CigtfWorld
 from sim.timebase import ticks
 
@@ -128,3 +144,43 @@ class GyroPower(ByteInstrument):
     def _pwr_q(self, _: list[str]) -> str:
         on = self.world.gyro.on_since
         return "OFF" if on is None else f"ON {self.world.now - on:.1f}"
+
+
+FIELD_ARCSEC = 3600.0  # the autocollimator's field: the mirror within 1 deg of its axis
+
+
+class SetupAidsInstrument(ByteInstrument):
+    ident = "CIGTF,SETUP-AIDS,0,1.0"
+
+    def __init__(self, name: str, world: CigtfWorld, latency_s: float) -> None:
+        super().__init__(name, world.env, latency_s)
+        self.world = world
+        self.define("LEVEL?", lambda _: "{:.1f} {:.1f}".format(*self._still().levels_arcsec()))
+        self.define("AZIM?", self._azim)
+        self.define("TILT <EW|NS> <arcsec>", self._tilt)
+        self.define("BASE <arcsec>", self._base)
+
+    def _still(self) -> SetupAids:
+        if self.world.now < self.world.moving_until:
+            raise InstrumentError(16, "busy: axis still moving")
+        return self.world.aids
+
+    def _azim(self, _: list[str]) -> str:
+        x = self._still().azimuth_arcsec()
+        if abs(x) > FIELD_ARCSEC:
+            raise InstrumentError(13, "no return: the mirror is outside the autocollimator's "
+                                  "field")
+        return f"{x:.1f}"
+
+    def _tilt(self, args: list[str]) -> str:
+        level = as_choice(args[0], "level", ("EW", "NS"))
+        x = as_real_in(args[1], "tilt, arcsec", -600.0, 600.0)
+        self._still().tilt(level, x)
+        self.world.adjusted()
+        return "OK"
+
+    def _base(self, args: list[str]) -> str:
+        x = as_real_in(args[0], "base turn, arcsec", -3600.0, 3600.0)
+        self._still().turn_base(x)
+        self.world.adjusted()
+        return "OK"

@@ -454,6 +454,13 @@ GYRO_POWER = Grammar("gyro_power", "CIGTF,GYRO-POWER,0,1.0", [
     Cmd("PWR?", reply=r"OFF|ON [0-9]+\.[0-9]"),
 ])
 
+SETUP_AIDS = Grammar("setup_aids", "CIGTF,SETUP-AIDS,0,1.0", [
+    Cmd("LEVEL?", reply=NUM + " " + NUM),
+    Cmd("AZIM?", reply=NUM),
+    Cmd("TILT", (Word(("EW", "NS")), Real(-600.0, 600.0))),
+    Cmd("BASE", (Real(-3600.0, 3600.0),)),
+], state_codes=frozenset({13, 16}))
+
 # ----------------------------------------------------------------------------- ESG lab
 
 REVOLUTIONS = (1, 2, 4, 8, 10)
@@ -503,5 +510,5 @@ CONSOLE = Grammar("console", "ESG-LAB,GYRO-CONSOLE,0,1.0", [
 ])
 
 GRAMMARS = {g.name: g for g in (TABLE, PATCH_PANEL, COUNTER, AUTOCOLLIMATOR, BUBBLE_LEVELS,
-                                OSCILLATOR, FIXTURE, DVM, GYRO_POWER, PROCESSOR, HEAD, TURNTABLE,
-                                THEODOLITE, CONSOLE)}
+                                OSCILLATOR, FIXTURE, DVM, GYRO_POWER, SETUP_AIDS, PROCESSOR, HEAD,
+                                TURNTABLE, THEODOLITE, CONSOLE)}

@@ -23,7 +23,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
-from station.drivers.cigtf import DvmDriver, FixtureDriver, GyroPowerDriver
+from station.drivers.cigtf import DvmDriver, FixtureDriver, GyroPowerDriver, SetupAidsDriver
 from station.drivers.esg import (
     ConsoleDriver,
     HeadDriver,
@@ -491,7 +491,8 @@ IDENT = {
     OscillatorDriver: f"{ISU},MO-5M,0,1.0", PatchPanelDriver: f"{ISU},PATCH-PANEL,0,1.0",
     AutocollimatorDriver: f"{ISU},AC-2,1,1.0", BubbleLevelDriver: f"{ISU},BL-2,0,1.0",
     FixtureDriver: "CIGTF,GOERZ-2AX-PROGRAMMER,0,1.0", DvmDriver: "CIGTF,DVM-AVERAGER,0,1.0",
-    GyroPowerDriver: "CIGTF,GYRO-POWER,0,1.0", ProcessorDriver: "ESG-LAB,DATA-PROCESSOR,0,1.0",
+    GyroPowerDriver: "CIGTF,GYRO-POWER,0,1.0", SetupAidsDriver: "CIGTF,SETUP-AIDS,0,1.0",
+    ProcessorDriver: "ESG-LAB,DATA-PROCESSOR,0,1.0",
     HeadDriver: "ESG-LAB,DIVIDING-HEAD,0,1.0", TurntableDriver: "ESG-LAB,TURNTABLE-TILT,0,1.0",
     TheodoliteDriver: "ESG-LAB,THEODOLITE,0,1.0", ConsoleDriver: "ESG-LAB,GYRO-CONSOLE,0,1.0",
     SerialDriver: "SOME MAKER,SOME MODEL,SN 1,2.05",
@@ -686,6 +687,12 @@ SPECS: list[Spec] = [
          lambda rng, d: _one(lambda d: d.status(),
                              Reply("PWR?", [[Lit("OFF")], [Lit("ON"), Fixed(1, 0.0, 1e9)]]),
                              lambda v: (False, 0.0) if v[0] == 0 else (True, v[1][0]))),
+    Spec("SetupAidsDriver.levels", _maker(SetupAidsDriver),
+         lambda rng, d: _one(lambda d: d.levels(),
+                             Reply("LEVEL?", [[Fixed(1, -3600.0, 3600.0)] * 2]), lambda v: v)),
+    Spec("SetupAidsDriver.azimuth", _maker(SetupAidsDriver),
+         lambda rng, d: _one(lambda d: d.azimuth(),
+                             Reply("AZIM?", [[Fixed(1, -3600.0, 3600.0)]]))),
     Spec("ProcessorDriver.settings", _maker(ProcessorDriver),
          lambda rng, d: _one(lambda d: d.settings(), Reply("SET?", [[
              Int(1, 3), Int(1, 3), Int(1, 10), Int(0, 9_999_999), G(0.1, 5.0), G(2.0, 24.0),

@@ -59,14 +59,14 @@ def test_budget_terms_explain_the_uncorrected_theta_and_eq27_removes_them(tmp_pa
     from station.config.cigtf import load_cigtf_eq27, load_cigtf_params
 
     seed = 3
-    base = _config(tmp_path, "latitude_deg = 60.0\nlevel_sd_arcsec = 20.0\n")
+    base = _config(tmp_path, "latitude_deg = 60.0\nlevel_sd_arcsec = 20.0\npretest_setup = false\n")
     terms, b, c, eps = _true_values(seed, base)
     assert abs(terms["b omega sin"]) > 10.0  # the test discriminates
     # the closed forms of procedures/cigtf/budget.py agree with the simulator's
     mine = budget_terms(b, c, 0.4, 0.25, eps, -eps, 60.0)
     for k, v in mine.items():
         assert v == pytest.approx(terms[k], rel=1e-4, abs=1e-6)
-    cfg = _config(tmp_path, "latitude_deg = 60.0\nlevel_sd_arcsec = 20.0\n"
+    cfg = _config(tmp_path, "latitude_deg = 60.0\nlevel_sd_arcsec = 20.0\npretest_setup = false\n"
                   "[cigtf.eq27]\napply = true\n"
                   f"b_arcsec = {b + 0.3}\nc_arcsec = {c - 0.3}\nlevel_sigma_arcsec = 0.5\n"
                   "d_i_deg_hr = 0.4\nd_os_deg_hr = 0.25\ndrift_sigma_deg_hr = 0.01\n"

@@ -36,7 +36,8 @@ def test_whole_test_recovers_truth_and_writes_record(tmp_path):
 
 
 def test_silent_dvm_stops_with_named_instrument_and_step(tmp_path):
-    stop_at = 2 * 3600 + 4 * 950.0  # during the fourth or fifth operating run
+    # during the fourth or fifth operating run, after the set-up's 487 s (seed 2)
+    stop_at = 487.0 + 2 * 3600 + 4 * 950.0
 
     def hook(rack: CigtfRack) -> None:
         def silence():

@@ -64,7 +64,8 @@ def cigtf_served(tmp_path_factory):
 def test_cigtf_link_map_and_session(cigtf_served):
     links, entries, proc = cigtf_served
     assert sorted((e.instrument, e.kind) for e in entries) == [
-        ("dvm", "serial"), ("fixture", "serial"), ("gyro_power", "serial")]
+        ("dvm", "serial"), ("fixture", "serial"), ("gyro_power", "serial"),
+        ("setup_aids", "serial")]
     for e in entries:
         assert Path(e.address) == links / e.instrument
     s = session.read(links)

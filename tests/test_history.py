@@ -160,7 +160,8 @@ def test_a_history_that_cannot_be_written_is_a_warning_not_the_runs_failure(
 
 
 def test_the_cigtf_theta_per_phase_is_indexed(tmp_path: Path) -> None:
-    """A CIGTF run is indexed at its end under its runs directory (no URL set)."""
+    """A CIGTF run is indexed at its end under its runs directory (no URL set): theta per
+    phase and what the pre-test set-up left (b, c, a + d)."""
     out = tmp_path / "runs" / "cigtf" / "one"
     p = station("gyrocompass-test", "--out", str(out))
     assert p.returncode == 0, p.stderr
@@ -170,8 +171,10 @@ def test_the_cigtf_theta_per_phase_is_indexed(tmp_path: Path) -> None:
         (run,) = s.query(RunRow).all()
         phases = json.loads((out / "gyrocompass.json").read_text())["phases"]
         assert run.laboratory == "cigtf" and run.status == "completed"
+        setup = json.loads((out / "gyrocompass.json").read_text())["setup"]
         assert [(r.instrument, r.parameter, r.estimate, r.sigma) for r in run.results] == [
-            (ph["phase"], "theta", ph["theta_arcsec"], ph["sigma_arcsec"]) for ph in phases]
+            (ph["phase"], "theta", ph["theta_arcsec"], ph["sigma_arcsec"]) for ph in phases] + [
+            ("set-up", r["parameter"], r["estimate"], r["sigma"]) for r in setup]
 
 
 # ------------------------------------------------------------------------- PostgreSQL

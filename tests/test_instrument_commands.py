@@ -34,7 +34,8 @@ INSTRUMENTS = {
     "counter": ("isu", "counter1"), "autocollimator": ("isu", "autocollimator1"),
     "bubble_levels": ("isu", "bubble_levels"), "oscillator": ("isu", "oscillator"),
     "fixture": ("cigtf", "fixture"), "dvm": ("cigtf", "dvm"),
-    "gyro_power": ("cigtf", "gyro_power"), "processor": ("esg", "processor"),
+    "gyro_power": ("cigtf", "gyro_power"), "setup_aids": ("cigtf", "setup_aids"),
+    "processor": ("esg", "processor"),
     "head": ("esg", "head"), "turntable": ("esg", "turntable"),
     "theodolite": ("esg", "theodolite"), "console": ("esg", "console"),
 }

@@ -40,6 +40,11 @@ def add_commands(app: typer.Typer) -> None:
             "--eq27", help="correct each phase's theta by eq. 27 (report 001, Appendix II) "
             "with the \\[cigtf.eq27] values: levels' b, c, gyro's D_I, D_OS, the 180 deg "
             "null's error")] = False,
+        vary: Annotated[str | None, typer.Option(
+            "--vary", help="section 1's variation study: rotor-voltage=V1,V2,... or "
+            "azimuth=DEG1,DEG2,... (orientation 1's vertical null); the test per setting "
+            "into DIR/<name>-<value>, theta fitted against the variable "
+            "(DIR/variation.json)")] = None,
         links: Annotated[Path | None, typer.Option("--links", help="run against the rack "
                          "`station serve --station cigtf --links DIR` serves (real time)")] = None,
         operator: OperatorOpt = None,
@@ -73,6 +78,13 @@ def add_commands(app: typer.Typer) -> None:
             typer.echo(f"{len(res['runs'])} completed runs; written "
                        f"{analyse / 'gyrocompass_analysis.json'}")
             return
+        if vary is not None:
+            if resume is not None or links is not None:
+                with reported(lambda: None):
+                    raise typer.BadParameter("--vary runs its own tests on the virtual "
+                                             "rack: not with --resume or --links")
+            _vary(vary, seed, out, config, eq27)
+            return
         target, args = new_or_resumed("gyrocompass-test", out, resume, {"seed": seed})
         run_seed = 1 if args["seed"] is None else args["seed"]
         from station.config.identity import load_identity
@@ -99,3 +111,37 @@ def add_commands(app: typer.Typer) -> None:
             console.print(f"served rack (session {res['served']['session']}): "
                           f"{res['served']['note']}", markup=False)
         finished(res, target, ".1f")
+
+
+def _vary(vary: str, seed: int | None, out: Path | None, config: Path | None,
+          eq27: bool) -> None:
+    """`--vary`: the variation study (laboratory/cigtf/variation.py) and its fit."""
+    from laboratory.app import target_dir
+    from laboratory.cigtf.variation import parse_vary, run_variation
+    from station.config.cigtf import load_cigtf_eq27, load_cigtf_limits, load_cigtf_params
+
+    run_seed = 1 if seed is None else seed
+    with reported(lambda: None):
+        try:
+            name, values = parse_vary(vary)
+        except ValueError as e:
+            raise typer.BadParameter(str(e)) from None
+        params = load_cigtf_params(config)
+        limits = load_cigtf_limits(config)
+        e27 = load_cigtf_eq27(config)
+        e27 = e27.model_copy(update={"apply": e27.apply or eq27})
+    target = target_dir(out, f"gyrocompass-vary-{name}", run_seed)
+    with reported(lambda: target):
+        res = run_variation(run_seed, target, name, values, params, limits, e27)
+    for s in res["settings"]:
+        console.print(f"{name} {s['value']:g}: theta {s['theta_arcsec']:+.2f} +/- "
+                      f"{s['sigma_arcsec']:.2f} arcsec (both phases; truth "
+                      f"{s['truth_arcsec']:+.2f})")
+    console.print(f"sensitivity d theta / d {name}: {res['sensitivity']:+.4f} +/- "
+                  f"{res['sigma']:.4f} {res['units']} (simulator "
+                  f"{res['truth']['sensitivity']:+.4f}, {res['z']:+.2f} sigma)")
+    if "error_sensitivity" in res:
+        console.print(f"gyrocompassing error sensitivity (slope + 3600): "
+                      f"{res['error_sensitivity']:+.4f} +/- {res['sigma']:.4f} "
+                      f"(simulator {res['truth']['error_sensitivity']:+.4f})")
+    console.print(f"written {target / 'variation.json'}")

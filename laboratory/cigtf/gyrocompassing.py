@@ -30,7 +30,8 @@ from procedures.cigtf.budget import Eq27Values, budget_rows, corrected_phases
 from procedures.cigtf.procedure import TestData, TestPlan, gyrocompass_test
 from procedures.cigtf.significance import TestOutcome, judge_phase, shutdown_f_test
 from procedures.journal import JournalError, scan
-from sim.cigtf.world import CigtfParams
+from sim.cigtf.world import CigtfParams, CigtfWorld
+from sim.units import to_arcsec
 from station.config.cigtf import CigtfConfig, Eq27Config
 from station.config.limits import CigtfLimits
 from station.hil.session import params_digest
@@ -40,7 +41,9 @@ if TYPE_CHECKING:
     from rich.console import Console
 
 PHASES = ("operating", "shutdown")
-RENEW = ("4.0",)  # a restarted served rack powered the gyro off: its warm-up again
+# a restarted served rack powered the gyro off and stands as installed: its set-up and
+# warm-up again
+RENEW = ("4.1-S", "4.0")
 
 
 def _test(name: str, t: TestOutcome) -> dict:
@@ -145,6 +148,40 @@ def budget_record(truth: dict[str, float] | None, lab: Eq27Values | None,
                   "values": asdict(lab), "phases": fixed}
 
 
+def set_up_twin(twin: CigtfRack) -> None:
+    """Level and align a twin rack as the run's own set-up did (the same seed, plan and
+    virtual time give the same adjustments): its truth is then the run's."""
+    import tempfile
+
+    from procedures.cigtf.setup import pretest_setup
+    from procedures.journal import Journal
+    from procedures.runner import Run
+    from station.racks.cigtf import open_cigtf_drivers
+
+    st = open_cigtf_drivers(twin)
+    with tempfile.TemporaryDirectory() as d:
+        pretest_setup(st, Run(st.clock, Journal(Path(d) / JOURNAL)))
+
+
+def setup_record(setup: dict | None, world: CigtfWorld | None) -> list[dict] | None:
+    """What the pre-test set-up left (b, c from the levels, a + d from the autocollimator),
+    each with its sigma and the simulator's truth after the set-up (None over links)."""
+    if setup is None:
+        return None
+    m = None if world is None else world.misalignments
+    truths = {"b": None if m is None else to_arcsec(m.b),
+              "c": None if m is None else to_arcsec(m.c),
+              "a + d": None if m is None else to_arcsec(m.a + m.d)}
+    rows = []
+    for name, key in (("b", "b"), ("c", "c"), ("a + d", "north")):
+        est, sd, truth = setup[f"{key}_arcsec"], setup[f"{key}_sigma_arcsec"], truths[name]
+        rows.append({"instrument": "set-up", "parameter": name, "units": "arcsec",
+                     "estimate": est, "sigma": sd,
+                     "truth": truth, "truth_check": truth_check(
+                         [None if truth is None else est - truth], [sd])})
+    return rows
+
+
 def data_from_records(records: list[dict]) -> tuple[TestData, dict | None]:
     """The test data of a journal's records: every completed run (its step 5.2 recorded
     after its four orientations); and the run's start note."""
@@ -214,7 +251,10 @@ def analyse_journal(d: Path, params: CigtfParams | None = None,
     runs, phases, tests, conclusions = analyse(data)
     truth = budget = None
     if truthful and isinstance(seed, int):
-        with CigtfRack(seed, params) as twin:
+        twin = CigtfRack(seed, params)
+        with twin:
+            if params.pretest_setup:
+                set_up_twin(twin)
             truth = twin.world.truth_theta_arcsec()
             budget = twin.world.truth_budget()
     judge_phases(phases, truth, limits or CigtfLimits())  # as the run judges them
@@ -277,6 +317,9 @@ def render_tables(console: Console, res: dict) -> None:
         b.add_row(r["term"], num(r["lab_arcsec"], "+.3f"), num(r["lab_sigma_arcsec"], ".3f"),
                   num(r["truth"], "+.3f"))
     console.print(b)
+    for r in res.get("setup") or []:
+        console.print(f"set-up left {r['parameter']:>5}: {r['estimate']:+.2f} +/- "
+                      f"{r['sigma']:.2f} arcsec (truth {num(r['truth'], '+.2f')})")
     for p in (res.get("eq27") or {}).get("phases", []):
         console.print(f"{p['phase']:>9}: theta (eq. 27) {p['theta_arcsec']:+.2f} +/- "
                       f"{p['sigma_arcsec']:.2f} arcsec (correction "
@@ -301,6 +344,7 @@ def run_gyrocompass_test(seed: int, out: Path, params: CigtfParams | None = None
     """
     out = Path(out)
     params = params or CigtfParams()
+    plan = plan or TestPlan(pretest_setup=params.pretest_setup)
     prepare(out, resume, links)
     wall0 = time.perf_counter()
     digest = params_digest("cigtf", params)
@@ -320,6 +364,9 @@ def run_gyrocompass_test(seed: int, out: Path, params: CigtfParams | None = None
         budget = world.truth_budget() if world is not None else None
         judge_phases(phases, truth, limits or CigtfLimits())
         budget_table, corrected = budget_record(budget, lab27, phases)
+        setup = setup_record(data.setup, world)
+        if setup is not None:
+            run.save_sheet("gyrocompass_setup", setup)
         run.save_sheet("gyrocompass_runs", runs)
         run.save_sheet("gyrocompass_phases", phases)
         run.save_sheet("gyrocompass_conclusions", conclusions)
@@ -336,6 +383,7 @@ def run_gyrocompass_test(seed: int, out: Path, params: CigtfParams | None = None
             "truth": {"theta_arcsec": truth,
                       "north_arcsec": None if budget is None else budget["north"]},
             "budget": budget_table,
+            "setup": setup,
             "eq27": corrected,
             "verdict": run_verdict(phases),
             "sim_seconds": st.clock.now() - t_start,

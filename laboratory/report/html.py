@@ -43,6 +43,7 @@ TABLE_TITLES = {
     "phases": "Phases (eqs. 20-25)",
     "tests": "Significance tests (section 5.4)",
     "budget": "Error budget of theta (report 001, eqs. 26-27), arcsec",
+    "setup": "What the pre-test set-up leaves (report 001, section 4.1)",
     "eq27 phases": "Phases corrected by eq. 27 (report 001, Appendix II)",
     "schedules": "Calibration schedules (pattern fit and readout)",
     "table4": "Calibration and readout errors (report 004, Table 4)",

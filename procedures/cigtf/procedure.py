@@ -13,6 +13,7 @@ from functools import partial
 
 from procedures.cigtf.analysis import OrientationValues, RunValues, run_values
 from procedures.cigtf.scale import gsf_from_turn
+from procedures.cigtf.setup import pretest_setup
 from procedures.runner import CheckSheetRun, Run
 from station.drivers.cigtf import CigtfDrivers
 from station.errors import CheckFailed
@@ -28,11 +29,16 @@ class TestPlan:
     shutdown_s: float = 7200.0
     warmup_s: float = 7200.0
     move_timeout_s: float = 120.0
+    pretest_setup: bool = True  # section 4.1's set-up first (procedures.cigtf.setup)
+    # orientation 1's vertical null, whole degrees: the input axis that far from west
+    # (section 1's input-axis azimuth variation; 0 in the standard test)
+    azimuth_deg: int = 0
 
 
 @dataclass
 class TestData:
     gsf: float = 0.0
+    setup: dict | None = None  # what the pre-test set-up left (b, c, a + d), arcsec
     runs: dict[str, list[RunValues]] = field(
         default_factory=lambda: {"operating": [], "shutdown": []})
 
@@ -57,7 +63,7 @@ def scale_factor(st: CigtfDrivers, run: Run, plan: TestPlan) -> float:
     with run.sheet("4.1", "Gyrocompassing scale factor") as sh:
         with sh.step("4.1.1", "fixture to orientation 1 (O up, I west); settle; ten "
                      "10-s averages of torquer current") as s:
-            st.fixture.move("V", 0)
+            st.fixture.move("V", plan.azimuth_deg % 360)
             st.fixture.wait_hold(plan.move_timeout_s)
             st.fixture.move("H", 0)
             i1 = _settle_and_average(st, plan)
@@ -84,7 +90,7 @@ def north_determination(st: CigtfDrivers, run: Run, plan: TestPlan, chart: str, 
             preamble(sh)
         with sh.step("4.2.1", "fixture to orientation 1 (O up, I west); settle; ten "
                      "10-s averages") as s:
-            st.fixture.move("V", 0)
+            st.fixture.move("V", plan.azimuth_deg % 360)
             st.fixture.wait_hold(plan.move_timeout_s)
             st.fixture.move("H", 0)
             samples.append(_settle_and_average(st, plan))
@@ -133,13 +139,16 @@ def _from_record(d: dict) -> RunValues:
 
 
 def gyrocompass_test(st: CigtfDrivers, run: Run, plan: TestPlan | None = None) -> TestData:
-    """Turn-on and warm-up, 4.1, the operating phase (4.3) and the shutdown phase (4.4).
+    """The pre-test set-up (4.1-S, with ``plan.pretest_setup``), turn-on and warm-up, 4.1,
+    the operating phase (4.3) and the shutdown phase (4.4).
 
     Each of them, and each run, is a journaled block (``Run.block``): a resume over links
     restores the completed ones and repeats only the interrupted run (the warm-up too,
     block "4.0", when the served rack was restarted)."""
     plan = plan or TestPlan()
     data = TestData()
+    if plan.pretest_setup:
+        data.setup = run.block("4.1-S", lambda: pretest_setup(st, run), dict)
     run.block("4.0", lambda: warm_up(st, run, plan), lambda _: None)
     data.gsf = run.block("4.1", lambda: scale_factor(st, run, plan), float)
     for i in range(1, plan.operating_runs + 1):

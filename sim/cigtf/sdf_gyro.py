@@ -29,6 +29,17 @@ class DriftModel:
     d_io: float = 0.0
     d_is: float = 0.0
     d_os: float = 0.0
+    # magnetic drift: rad/s per gauss of the Earth's field along I, at the rotor voltage the
+    # world runs (the spin motor's stray moment scales with its excitation; not Appendix I)
+    d_m: float = 0.0
+
+
+# The site's magnetic field in the Earth frame (X up, Y north, Z west), gauss: horizontal
+# 0.26 G at a declination of 12 deg east, 0.45 G downward (our figures, near Holloman AFB;
+# report 001 gives none). Its west component, along I in orientations 1 and 3, survives the
+# four-orientation sum as an azimuth error.
+EARTH_FIELD_GAUSS = np.array([-0.45, 0.26 * math.cos(math.radians(12.0)),
+                              -0.26 * math.sin(math.radians(12.0))])
 
 
 def earth_rate_vector(latitude: float) -> np.ndarray:
@@ -44,6 +55,8 @@ def steady_current(m: DriftModel, q_ge: np.ndarray, latitude: float, d_f_extra: 
     rate = (m.d_f + d_f_extra + m.d_i * a_i + m.d_o * a_o + m.d_s * a_s + m.d_ii * a_i**2
             + m.d_ss * a_s**2 + m.d_io * a_i * a_o + m.d_is * a_i * a_s + m.d_os * a_o * a_s
             + w_i)
+    if m.d_m:
+        rate += m.d_m * float((q_ge @ EARTH_FIELD_GAUSS)[2])
     return rate / m.s_t
 
 

@@ -21,19 +21,21 @@ from __future__ import annotations
 
 import math
 from collections.abc import Generator
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
 import simpy
 
-from sim.cigtf.fixture import FixtureSpec, GyrocompassFixture, Misalignments
-from sim.cigtf.sdf_gyro import DriftModel, Dynamics, SdfGyro
+from sim.cigtf.fixture import FixtureSpec, GyrocompassFixture, Misalignments, q_ge
+from sim.cigtf.sdf_gyro import DriftModel, Dynamics, SdfGyro, steady_current
+from sim.cigtf.setup import SetupAids, SetupSpec
 from sim.rng import stream
 from sim.timebase import seconds, ticks
 from sim.units import ARCSEC, EARTH_RATE, deg_per_hr, to_arcsec
 
 MA = 1e-3  # A
+NOMINAL_ROTOR_V = 26.0  # spin motor excitation, V (a 26 V, 400 Hz gyro motor)
 # the site latitude whose horizontal Earth rate is 12.59562 deg/sidereal hr (about 32.89 deg)
 REPORT_LATITUDE_DEG = math.degrees(math.acos(12.59562 / 15.0))
 
@@ -63,11 +65,31 @@ class CigtfParams:
     slew_deg_s: float = 6.0  # fixture slew rate
     current_noise_ma: float = 0.002  # 1-sigma white noise of one 10-s averaged current
     average_s: float = 10.0
+    # a, b, c as the section 4.1 set-up leaves them (levelled, aligned north from the
+    # installed ones of ``setup``); False: drawn at level_sd_arcsec, no set-up
+    pretest_setup: bool = True
+    setup: SetupSpec = field(default_factory=SetupSpec)
+    # the spin motor's excitation and the magnetic drift it causes (section 1's parameter
+    # variation; 0: the Appendix I gyro, whose theta the rotor voltage leaves alone)
+    rotor_voltage_v: float = NOMINAL_ROTOR_V
+    magnetic_drift_deg_hr_per_gauss: float = 0.0  # at the nominal rotor voltage
+
+
+def effective_model(p: CigtfParams) -> DriftModel:
+    """The gyro's model at its rotor voltage: the magnetic drift scales with the voltage."""
+    if not p.magnetic_drift_deg_hr_per_gauss:
+        return p.model
+    return replace(p.model, d_m=deg_per_hr(p.magnetic_drift_deg_hr_per_gauss)
+                   * p.rotor_voltage_v / NOMINAL_ROTOR_V)
 
 
 def draw_misalignments(p: CigtfParams, seed: int) -> Misalignments:
+    """a..j from the seed; with the pre-test set-up, a, b, c as installed (the set-up
+    procedure then levels and aligns the fixture through the set-up aids)."""
     rng = stream(seed, "cigtf", "misalignments")
-    sd = [p.level_sd_arcsec] * 3 + [p.perpendicular_sd_arcsec] * 3 + [p.mount_sd_arcsec] * 3
+    abc = ([p.setup.installed_azimuth_sd_arcsec] + [p.setup.installed_tilt_sd_arcsec] * 2
+           if p.pretest_setup else [p.level_sd_arcsec] * 3)
+    sd = abc + [p.perpendicular_sd_arcsec] * 3 + [p.mount_sd_arcsec] * 3
     return Misalignments(*(float(rng.normal(0.0, s)) * ARCSEC for s in sd))
 
 
@@ -80,15 +102,27 @@ class CigtfWorld:
         self.p = params or CigtfParams()
         self.env = env if env is not None else simpy.Environment()
         self.latitude = math.radians(self.p.latitude_deg)
-        self.misalignments = draw_misalignments(self.p, self.seed)
-        self.fixture = GyrocompassFixture(self.misalignments, self.seed, self.p.fixture)
-        self.gyro = SdfGyro(self.p.model, self.latitude, self.p.dynamics, self.seed)
+        self.fixture = GyrocompassFixture(draw_misalignments(self.p, self.seed), self.seed,
+                                          self.p.fixture)
+        self.aids = SetupAids(self.fixture, self.p.setup, self.seed)
+        self.model = effective_model(self.p)
+        self.gyro = SdfGyro(self.model, self.latitude, self.p.dynamics, self.seed)
         self.moving_until = 0.0
         self._readings = 0
 
     @property
     def now(self) -> float:
         return seconds(self.env.now)
+
+    @property
+    def misalignments(self) -> Misalignments:
+        """a..j now (the set-up's screws and base adjustment change a, b, c)."""
+        return self.fixture.misalignments
+
+    def adjusted(self) -> None:
+        """The fixture's base was tilted or turned: a running gyro settles to it."""
+        if self.gyro.on_since is not None:
+            self.gyro.moved(self.now, self.fixture.q_ge())
 
     # ----- fixture -----
     def start_move(self, vertical_deg: int, horizontal_deg: int, arrive: bool = True) -> float:
@@ -133,19 +167,40 @@ class CigtfWorld:
         """Eq. 26: what the four-orientation sum leaves, from the true misalignments, drift
         terms and the fixture's fixed detent errors (eps = error of the 180 deg vertical
         detent, eta = -eps since orientation 4 returns to the 0 deg null; beta cancels)."""
-        m, d = self.misalignments, self.p.model
+        m, d = self.misalignments, self.model
         eps = self.fixture._detent("v", 180)
         eta = -eps
         ws, wc = EARTH_RATE * math.sin(self.latitude), EARTH_RATE * math.cos(self.latitude)
         rhs = (-4 * m.b * d.d_i + 4 * m.c * d.d_os - 4 * m.b * ws + 4 * (m.a + m.d) * wc
                + (3 * eps + eta) * wc)
-        return to_arcsec(-rhs / (4 * wc))
+        return to_arcsec(-rhs / (4 * wc)) + self.magnetic_theta_arcsec()
+
+    def magnetic_theta_arcsec(self) -> float:
+        """What the magnetic drift adds to theta (exact four-orientation sum, arcsec)."""
+        if not self.model.d_m:
+            return 0.0
+        return self.exact_theta_arcsec(0) - self.exact_theta_arcsec(0, magnetic=False)
+
+    def exact_theta_arcsec(self, v0_deg: int = 0, magnetic: bool = True) -> float:
+        """theta of a noise-free run whose orientation 1 is at vertical ``v0_deg`` (the
+        input-axis azimuth variation): the steady currents at the fixture's detents, the
+        GSF of the +1 deg turn (eq. 14) and eq. 18, all exact (no small angles)."""
+        model = self.model if magnetic else replace(self.model, d_m=0.0)
+        fx, m = self.fixture, self.misalignments
+
+        def i_ma(v: int, h: int) -> float:
+            ang_v = math.radians(v) + fx._detent("v", v)
+            ang_h = math.radians(h) + fx._detent("h", h)
+            return steady_current(model, q_ge(m, ang_v, ang_h), self.latitude) / MA
+        gsf = 900.0 / (i_ma(v0_deg, 0) - i_ma(v0_deg + 1, 0))
+        return gsf * (i_ma(v0_deg, 0) + i_ma(v0_deg + 180, 180) - i_ma(v0_deg + 180, 0)
+                      - i_ma(v0_deg, 180))
 
     def truth_budget(self) -> dict[str, float]:
         """Eq. 26 term by term from the true values, arcsec: the part of theta each term
         makes (b D_I, c D_OS, b omega sin, (3 epsilon + eta)/4) and ``north`` = -(a + d),
         the fixture's azimuth error; their sum is ``truth_theta_arcsec``."""
-        m, d = self.misalignments, self.p.model
+        m, d = self.misalignments, self.model
         eps = self.fixture._detent("v", 180)
         eta = -eps
         wc = EARTH_RATE * math.cos(self.latitude)

@@ -131,6 +131,13 @@ class CigtfConfig(BaseModel):
                 f"({GSF_REL_ERROR_MAX:.0%} of the turn's current change)")
         return v
 
+    # the section 4.1 set-up levels and aligns the fixture (a, b, c are what it leaves);
+    # false: a, b, c drawn at level_sd_arcsec and no set-up (the test before the set-up)
+    pretest_setup: bool | None = None
+    # the spin motor's excitation (V) and the magnetic drift it drives (deg/hr per gauss
+    # along I at the nominal 26 V): section 1's rotor-voltage variation
+    rotor_voltage_v: float | None = Field(None, ge=10.0, le=40.0)
+    magnetic_drift_deg_hr_per_gauss: float | None = Field(None, ge=-1.0, le=1.0)
     limits: CigtfLimits = CigtfLimits()  # acceptance limits (station/config/limits.py)
     eq27: Eq27Config = Eq27Config()  # the eq. 27 correction's values (laboratory side)
 

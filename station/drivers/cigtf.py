@@ -17,6 +17,10 @@ FIXTURE_STATUS = Form([word("fixture state", "HOLD", "MOVING", "FAULT")])
 DVM_RANGE_MA = 100.0
 CURRENT = Form([fixed("torquer current, mA", 7, -DVM_RANGE_MA, DVM_RANGE_MA)])
 APERTURE = Form([general("averaging time, s", 0.001, 3600.0)])
+# the set-up aids (section 4.1): bubble levels and autocollimator, arcsec to 0.1
+LEVELS = Form([fixed("EW level, arcsec", 1, -3600.0, 3600.0),
+               fixed("NS level, arcsec", 1, -3600.0, 3600.0)])
+AZIMUTH = Form([fixed("horizontal axis azimuth, arcsec", 1, -3600.0, 3600.0)])
 POWER = OneOf(Form([literal("OFF")]),
               Form([literal("ON"), fixed("seconds since turn-on", 1, 0.0, 1e9)]))
 
@@ -78,12 +82,43 @@ class GyroPowerDriver(SerialDriver):
         return (False, 0.0) if which == 0 else (True, values[0])
 
 
+class SetupAidsDriver(SerialDriver):
+    """Bubble levels, levelling screws, autocollimator and base adjustment (section 4.1)."""
+
+    model = ("CIGTF", "SETUP-AIDS")
+
+    def levels(self) -> tuple[float, float]:
+        """(EW, NS) bubble-level readings, arcsec."""
+        ew, ns = self.ask("LEVEL?", LEVELS)
+        return ew, ns
+
+    def azimuth(self) -> float:
+        """The autocollimator's reading of the horizontal axis's mirror, arcsec."""
+        return self.ask("AZIM?", AZIMUTH)[0]
+
+    def tilt(self, level: str, arcsec: float) -> None:
+        """Levelling screws: the ``level`` (EW or NS) at vertical 0 to read more by this."""
+        if level not in ("EW", "NS") or not -600.0 <= arcsec <= 600.0:
+            raise DriverError(self.name, self.url, f"tilt {level} {arcsec!r}: level EW or NS, "
+                              "at most 600 arcsec")
+        self.command(f"TILT {level} {arcsec:.2f}")
+
+    def turn_base(self, arcsec: float) -> None:
+        """Base azimuth adjustment: the autocollimator to read more by this."""
+        if not -3600.0 <= arcsec <= 3600.0:
+            raise DriverError(self.name, self.url, f"base turn {arcsec!r} arcsec: at most "
+                              "3600")
+        self.command(f"BASE {arcsec:.2f}")
+
+
 @dataclass
 class CigtfDrivers(DriverSet):
-    """What a CIGTF procedure sees: fixture programmer, DVM, gyro power supply, clock."""
+    """What a CIGTF procedure sees: fixture programmer, DVM, gyro power supply, set-up
+    aids, clock."""
 
     fixture: FixtureDriver
     dvm: DvmDriver
     power: GyroPowerDriver
+    aids: SetupAidsDriver
 
-    instrument_of: ClassVar[dict[str, str]] = {"power": "gyro_power"}
+    instrument_of: ClassVar[dict[str, str]] = {"power": "gyro_power", "aids": "setup_aids"}

@@ -12,16 +12,23 @@ from typing import Any
 
 import simpy
 
-from instruments.cigtf import AveragingDvm, FixtureProgrammer, GyroPower
+from instruments.cigtf import AveragingDvm, FixtureProgrammer, GyroPower, SetupAidsInstrument
 from sim.cigtf.world import CigtfParams, CigtfWorld
 from station.clock import Clock
-from station.drivers.cigtf import CigtfDrivers, DvmDriver, FixtureDriver, GyroPowerDriver
+from station.drivers.cigtf import (
+    CigtfDrivers,
+    DvmDriver,
+    FixtureDriver,
+    GyroPowerDriver,
+    SetupAidsDriver,
+)
 from station.drivers.driver_set import DriverFactory
 from station.racks.base import SimRack, open_sim_drivers
 
 LATENCY_S = 0.01
 INSTRUMENTS: dict[str, DriverFactory] = {
-    "fixture": FixtureDriver, "dvm": DvmDriver, "gyro_power": GyroPowerDriver}
+    "fixture": FixtureDriver, "dvm": DvmDriver, "gyro_power": GyroPowerDriver,
+    "setup_aids": SetupAidsDriver}
 
 
 class CigtfRack(SimRack):
@@ -33,8 +40,9 @@ class CigtfRack(SimRack):
         self.fixture = FixtureProgrammer("fixture", w, LATENCY_S)
         self.dvm = AveragingDvm("dvm", w, LATENCY_S)
         self.power = GyroPower("gyro_power", w, LATENCY_S)
+        self.aids = SetupAidsInstrument("setup_aids", w, LATENCY_S)
         super().__init__(w, {"fixture": self.fixture, "dvm": self.dvm,
-                             "gyro_power": self.power})
+                             "gyro_power": self.power, "setup_aids": self.aids})
 
 
 def open_cigtf_drivers(rack: CigtfRack | None = None, timeout: float = 5.0,

@@ -109,22 +109,26 @@ class PlotWorker:
                  tb: TracebackType | None) -> None:
         self.close()
 
-    def draw(self, jobs: list[Job]) -> None:
-        """Send ``jobs`` to the child (the one batch of a run) to draw while this process
-        goes on."""
-        self._jobs = list(jobs)
-        paths = [Path(kw["path"]) for _, kw in self._jobs]
+    def draw(self, jobs: list[Job], more: bool = False) -> None:
+        """Send ``jobs`` to the child to draw while this process goes on, in the order
+        sent; ``more``: other batches follow (a run sends a plot as soon as its data
+        exist, and the rest later), else this is the last one."""
+        jobs = list(jobs)
+        paths = [Path(kw["path"]) for _, kw in jobs]
         for path in paths:
             _clear_stale(path)
-        self._temps = [temporary(path) for path in paths]
+        temps = [temporary(path) for path in paths]
+        self._jobs += jobs
+        self._temps += temps
         p = self._proc
         if p is None or p.stdin is None:
             return
-        sent = [(name, {**kw, "path": tmp})
-                for (name, kw), tmp in zip(self._jobs, self._temps, strict=True)]
+        sent = [(name, {**kw, "path": tmp}) for (name, kw), tmp in zip(jobs, temps, strict=True)]
         try:
             p.stdin.write(pickle.dumps(sent))
-            p.stdin.close()
+            p.stdin.flush()
+            if not more:
+                p.stdin.close()
         except OSError:  # the child is gone: wait() draws them here
             self._end_child()
 
@@ -134,6 +138,8 @@ class PlotWorker:
         p = self._proc
         if p is not None and p.stdout is not None:
             try:
+                if p.stdin is not None and not p.stdin.closed:
+                    p.stdin.close()  # no more batches: the child answers
                 got = pickle.loads(p.stdout.read())
                 if isinstance(got, list) and len(got) == len(self._jobs):
                     results = got
@@ -176,8 +182,8 @@ class PlotWorker:
 
 def main() -> None:
     """The child: import matplotlib and the modules named in argv now (while the run
-    runs), then draw the one batch of jobs read from stdin and write each job's outcome to
-    stdout."""
+    runs), then draw each batch of jobs read from stdin as it comes and, at its end, write
+    every job's outcome to stdout."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -186,16 +192,20 @@ def main() -> None:
     for module in sys.argv[1:]:
         importlib.import_module(module)
 
-    data = sys.stdin.buffer.read()
-    if not data:
-        return
     done: list[str | None] = []
-    for name, kw in pickle.loads(data):  # to the parent's temporaries: it renames them
+    while True:
         try:
-            _draw(name, kw)
-            done.append(None)
-        except Exception as e:  # noqa: BLE001  # reported; the parent draws it again
-            done.append(f"{name}: {type(e).__name__}: {e}".splitlines()[0])
+            batch = pickle.load(sys.stdin.buffer)
+        except EOFError:
+            break
+        for name, kw in batch:  # to the parent's temporaries: it renames them
+            try:
+                _draw(name, kw)
+                done.append(None)
+            except Exception as e:  # noqa: BLE001  # reported; the parent draws it again
+                done.append(f"{name}: {type(e).__name__}: {e}".splitlines()[0])
+    if not done:
+        return
     sys.stdout.buffer.write(pickle.dumps(done))
     sys.stdout.buffer.flush()
 

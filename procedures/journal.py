@@ -1,4 +1,11 @@
-"""The run journal: JSON Lines, only ever appended, each record synced before the next.
+"""The run journal: JSON Lines, only ever appended, each record written before the next.
+
+Every record is written to the file as it is appended (a killed process loses nothing
+appended); it is synced to the disk (group commit) at the records a resume builds on: a
+sheet, a block, a note or a failed step, and at close. A step record is synced with the
+next of those: a machine that crashes in between loses at most the steps of the chart in
+progress, which the resume repeats anyway (replay re-executes them; skip mode repeats the
+incomplete chart from its first step).
 
 A new journal is created exclusively; a resumed one is checked line by line first
 (``scan``) and then opened for appending, never rewritten. A killed process loses at most
@@ -22,6 +29,7 @@ from station.errors import UseError
 from station.files import fsync_dir
 
 KINDS = ("step", "sheet", "note", "block", "failed")
+SYNCED_KINDS = frozenset(("sheet", "note", "block", "failed"))  # group-commit points
 SAFE_NAME = re.compile(r"[A-Za-z0-9_][A-Za-z0-9_.+-]{0,127}")
 TORN_SUFFIX = ".torn-"
 
@@ -217,6 +225,7 @@ class Journal:
         self.records: list[dict] = []
         self.lines: list[int] = []
         self.torn_to: Path | None = None  # where a torn last line was set aside
+        self._unsynced = False  # records written since the last fsync
         if resume:
             if not self.path.is_file():
                 raise JournalError(f"{self.path}: no journal there")
@@ -244,11 +253,23 @@ class Journal:
             raise JournalError(f"{self.path}: cannot open the journal ({e.strerror})") from None
 
     def append(self, rec: dict) -> None:
-        """Write one record as one line and sync it."""
+        """Write one record as one line; sync the file at a group-commit point (a record
+        of ``SYNCED_KINDS``: everything written before it becomes durable with it)."""
         _write_all(self._fd, (dumps(rec) + "\n").encode("ascii"))
-        os.fsync(self._fd)
+        self._unsynced = True
+        if rec.get("kind") in SYNCED_KINDS:
+            self.sync()
+
+    def sync(self) -> None:
+        """Make every record written so far durable (nothing to do if it already is)."""
+        if self._fd >= 0 and self._unsynced:
+            os.fsync(self._fd)
+            self._unsynced = False
 
     def close(self) -> None:
         if self._fd >= 0:
-            os.close(self._fd)
-            self._fd = -1
+            try:
+                self.sync()
+            finally:
+                os.close(self._fd)
+                self._fd = -1

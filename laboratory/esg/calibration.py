@@ -213,6 +213,11 @@ def run_esg_calibration(seed: int, out: Path, params: EsgParams | None = None,
             out, conn, resume, renew=RENEW, seed=seed, test="esg-calibration",
             identify=Identifying("esg", "esg-calibration", seed, "esg", EsgConfig, params)) as (
             run, extra, t_start):
+        if with_study:  # the study needs no measurement: its plot is drawn during the run
+            curve, amp, edge = study()
+            plots.draw([(f"{STRATEGY}:figure2_plot", {"rows": curve,
+                                                      "path": out / "esg_strategy.png"})],
+                       more=True)
         acq = acquire(st, run, plan)
         points, bud = assign(acq, plan, plan.lines_per_setting)
         times = {(p.scan, p.offset_deg): p.times_s for p in points}
@@ -256,12 +261,9 @@ def run_esg_calibration(seed: int, out: Path, params: EsgParams | None = None,
         }
         jobs: list[Job] = []
         if with_study:
-            curve, amp, edge = study()
             res_json["amplification"] = amp
             res_json["amplification_curve"] = curve
             res_json["edge_resolution"] = edge
-            jobs.append((f"{STRATEGY}:figure2_plot", {"rows": curve,
-                                                      "path": out / "esg_strategy.png"}))
             run.save_sheet("esg_strategy", curve)
         jobs.append((f"{__name__}:calibration_plot", {"results": results,
                                                        "path": out / "esg_calibration.png"}))

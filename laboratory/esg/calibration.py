@@ -25,6 +25,7 @@ from typing import TYPE_CHECKING
 
 from laboratory import registry
 from laboratory.connect import connect, journaled_run
+from laboratory.esg.plots import schedule_plot
 from laboratory.esg.truth import true_pickoff1_coning_arcsec
 from laboratory.export import write_results_csv
 from laboratory.identity import Identifying
@@ -46,6 +47,7 @@ if TYPE_CHECKING:
     from rich.console import Console
 
 GOAL_ARCSEC = 15.0
+PLOTS = "laboratory.esg.plots"  # the schedules' plot, drawn beside the run
 STRATEGY = strategy.__name__  # Figure 2's plot, drawn beside the run (laboratory.plot_worker)
 STUDY_RANGES = tuple(range(35, 48))
 STUDY_POINTS = 6000
@@ -155,37 +157,14 @@ def render_tables(console: Console, res: dict) -> None:
 
 
 def calibration_plot(results: list[ScheduleResult], path: Path) -> None:
-    """Compensated minus assigned (or true) colatitude per schedule, with the report's
-    +/-15 arcsec goal lines labelled and the legend outside the data (right margin)."""
-    import matplotlib
+    """Compensated minus assigned (or true) colatitude per schedule (laboratory.esg.plots)."""
+    schedule_plot(plain_schedules(results), path)
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
 
-    fig, axes = plt.subplots(len(results), 1, figsize=(10, 3.2 * len(results)), sharex=True,
-                             squeeze=False)
-    for ax, res in zip(axes[:, 0], results, strict=True):
-        for rows, mark, what in ((res.calibration, "o", "fit"), (res.readout, "s", "readout")):
-            x = [r["colatitude_deg"] for r in rows]
-            ax.plot(x, [r["error_arcsec"] for r in rows], mark, ms=4, mfc="none",
-                    label=f"{what}: measured")
-            if all(r["true_error_arcsec"] is not None for r in rows):
-                ax.plot(x, [r["true_error_arcsec"] for r in rows], mark, ms=3,
-                        label=f"{what}: true")
-        ax.axhline(GOAL_ARCSEC, color="k", lw=0.6, ls="--",
-                   label=f"goal +/-{GOAL_ARCSEC:g} arcsec")
-        ax.axhline(-GOAL_ARCSEC, color="k", lw=0.6, ls="--")
-        for y in (GOAL_ARCSEC, -GOAL_ARCSEC):
-            ax.annotate(f"{y:+g} arcsec goal", (1.0, y), xycoords=("axes fraction", "data"),
-                        xytext=(-4, 2 if y > 0 else -9), textcoords="offset points",
-                        ha="right", fontsize=7)
-        ax.set_ylabel("error (arcsec)")
-        ax.set_title(f"schedule {res.name}: compensated minus assigned / true colatitude")
-        ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0)
-    axes[-1, 0].set_xlabel("colatitude of pickoff 2 (deg)")
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+def plain_schedules(results: list[ScheduleResult]) -> list[dict]:
+    """What the schedule plot draws of each schedule, as plain data for the plot child."""
+    return [{"name": r.name, "calibration": r.calibration, "readout": r.readout}
+            for r in results]
 
 
 def run_esg_calibration(seed: int, out: Path, params: EsgParams | None = None,
@@ -209,7 +188,7 @@ def run_esg_calibration(seed: int, out: Path, params: EsgParams | None = None,
     wall0 = time.perf_counter()
     conn = connect(registry.get("esg"), Seeded(params, seed), links, rack_hook)
     st, served, world = conn.drivers, conn.served, conn.coefficient_world
-    with PlotWorker(__name__, STRATEGY) as plots, journaled_run(  # matplotlib meanwhile
+    with PlotWorker(PLOTS, STRATEGY) as plots, journaled_run(  # matplotlib meanwhile
             out, conn, resume, renew=RENEW, seed=seed, test="esg-calibration",
             identify=Identifying("esg", "esg-calibration", seed, "esg", EsgConfig, params)) as (
             run, extra, t_start):
@@ -265,8 +244,8 @@ def run_esg_calibration(seed: int, out: Path, params: EsgParams | None = None,
             res_json["amplification_curve"] = curve
             res_json["edge_resolution"] = edge
             run.save_sheet("esg_strategy", curve)
-        jobs.append((f"{__name__}:calibration_plot", {"results": results,
-                                                       "path": out / "esg_calibration.png"}))
+        jobs.append((f"{PLOTS}:schedule_plot", {"schedules": plain_schedules(results),
+                                                 "path": out / "esg_calibration.png"}))
         plots.draw(jobs)  # drawn beside the rest of the record; waited for before the end
         write_sheets(out, run)
         res_json["sim_seconds"] = st.clock.now() - t_start

@@ -25,7 +25,13 @@ from typing import TYPE_CHECKING
 
 from laboratory import registry
 from laboratory.connect import connect, journaled_run
-from laboratory.esg.plots import schedule_plot
+from laboratory.esg.plots import GOAL_ARCSEC, schedule_plot
+from laboratory.esg.study import (  # noqa: F401 - re-exported
+    REPORT_POINTS,
+    STUDY_POINTS,
+    STUDY_RANGES,
+    study,
+)
 from laboratory.esg.truth import true_pickoff1_coning_arcsec
 from laboratory.export import write_results_csv
 from laboratory.identity import Identifying
@@ -35,7 +41,6 @@ from laboratory.rundir import prepare
 from laboratory.seeded import Seeded
 from laboratory.tables import Column, print_fitted
 from laboratory.verdicts import judge_schedules, run_verdict
-from procedures.esg import strategy
 from procedures.esg.acquisition import RENEW, Acquisition, EsgPlan, acquire
 from procedures.esg.calibration import SCHEDULES, ScheduleResult, assign, calibrate, nominal
 from sim.esg.world import EsgParams, EsgWorld
@@ -46,12 +51,9 @@ from station.racks.esg import EsgRack
 if TYPE_CHECKING:
     from rich.console import Console
 
-GOAL_ARCSEC = 15.0
 PLOTS = "laboratory.esg.plots"  # the schedules' plot, drawn beside the run
-STRATEGY = strategy.__name__  # Figure 2's plot, drawn beside the run (laboratory.plot_worker)
-STUDY_RANGES = tuple(range(35, 48))
-STUDY_POINTS = 6000
-REPORT_POINTS = (("great_circle", 43.0), ("cosine", 37.0))
+STUDY = "laboratory.esg.study"  # the strategy study and Figure 2, computed beside the run
+STRATEGY = "procedures.esg.strategy"  # imported by the plot child only (scipy.optimize)
 
 
 def _rms(values: Iterable[float | None]) -> float:
@@ -99,32 +101,6 @@ def schedule_summary(res: ScheduleResult) -> dict:
         "chebyshev": [float(c) for c in res.fit.coef],
         "power_p0_p7": [float(c) for c in res.fit.power],
     }
-
-
-def study() -> tuple[list[dict], list[dict], dict]:
-    """Figure 2 curves, the report's two points (both conventions) and edge resolutions."""
-    curve = strategy.figure2_table(STUDY_RANGES, points=STUDY_POINTS)
-    points: list[dict] = []
-    chart: list[dict] = []
-    mixed: dict[str, float] = {}  # the mixed strategy's factor by pattern
-    for pattern, rng in REPORT_POINTS:
-        for strat in ("two_pickoff", "mixed"):
-            f = strategy.amplification(pattern, strat, rng)
-            if strat == "mixed":
-                mixed[pattern] = f
-            points.append({"pattern": pattern, "range_deg": rng, "strategy": strat,
-                           "factor": f})
-            fc = strategy.amplification(pattern, strat, rng, convention="chart")
-            chart.append({"pattern": pattern, "range_deg": rng, "strategy": strat,
-                          "factor": fc})
-    edge = {"great_circle_43_microinch":
-            strategy.edge_resolution_microinch(GOAL_ARCSEC, mixed["great_circle"]),
-            "cosine_37_microinch": strategy.edge_resolution_microinch(GOAL_ARCSEC,
-                                                                      mixed["cosine"]),
-            "report_factors": {"great_circle_43": 1.55, "cosine_37": 1.20},
-            "chart_convention": chart,
-            "cosine_mixed_minimum_deg": strategy.cosine_mixed_minimum()}
-    return curve, points, edge
 
 
 def render_tables(console: Console, res: dict) -> None:
@@ -188,15 +164,13 @@ def run_esg_calibration(seed: int, out: Path, params: EsgParams | None = None,
     wall0 = time.perf_counter()
     conn = connect(registry.get("esg"), Seeded(params, seed), links, rack_hook)
     st, served, world = conn.drivers, conn.served, conn.coefficient_world
-    with PlotWorker(PLOTS, STRATEGY) as plots, journaled_run(  # matplotlib meanwhile
+    with PlotWorker(PLOTS, STUDY, STRATEGY) as plots, journaled_run(  # matplotlib meanwhile
             out, conn, resume, renew=RENEW, seed=seed, test="esg-calibration",
             identify=Identifying("esg", "esg-calibration", seed, "esg", EsgConfig, params)) as (
             run, extra, t_start):
-        if with_study:  # the study needs no measurement: its plot is drawn during the run
-            curve, amp, edge = study()
-            plots.draw([(f"{STRATEGY}:figure2_plot", {"rows": curve,
-                                                      "path": out / "esg_strategy.png"})],
-                       more=True)
+        if with_study:  # the study needs no measurement: computed and drawn during the run
+            studied = plots.draw([(f"{STUDY}:study_plot", {"path": out / "esg_strategy.png"})],
+                                 more=True)
         acq = acquire(st, run, plan)
         points, bud = assign(acq, plan, plan.lines_per_setting)
         times = {(p.scan, p.offset_deg): p.times_s for p in points}
@@ -240,6 +214,7 @@ def run_esg_calibration(seed: int, out: Path, params: EsgParams | None = None,
         }
         jobs: list[Job] = []
         if with_study:
+            curve, amp, edge = plots.values(studied)[0]
             res_json["amplification"] = amp
             res_json["amplification_curve"] = curve
             res_json["edge_resolution"] = edge

@@ -6,6 +6,8 @@ while this process goes on; the run waits for them before its end note (only the
 they renamed into place), so the run directory is the same. Where the child cannot be
 started, or fails, the same functions draw the same plots here, in this process. A job is
 ``("module:function", keywords)``; the keyword ``path`` is the file, written atomically.
+A job's function may also return a value the run needs (``values``: the ESG's strategy
+study, computed with its plot so that the run itself never imports scipy.optimize).
 """
 
 from __future__ import annotations
@@ -60,9 +62,13 @@ def written(path: Path) -> Iterator[Path]:
         tmp.unlink(missing_ok=True)
 
 
-def _draw(name: str, kw: dict[str, Any]) -> None:
+def _draw(name: str, kw: dict[str, Any]) -> Any:
     module, _, function = name.partition(":")
-    getattr(importlib.import_module(module), function)(**kw)
+    return getattr(importlib.import_module(module), function)(**kw)
+
+
+def _line(name: str, e: Exception) -> str:
+    return f"{name}: {type(e).__name__}: {e}".splitlines()[0]
 
 
 def draw_here(jobs: list[Job], raising: bool = False) -> list[str | None]:
@@ -77,8 +83,19 @@ def draw_here(jobs: list[Job], raising: bool = False) -> list[str | None]:
         except Exception as e:  # noqa: BLE001  # reported; the parent draws it again
             if raising:
                 raise
-            done.append(f"{name}: {type(e).__name__}: {e}".splitlines()[0])
+            done.append(_line(name, e))
     return done
+
+
+def _drawn_here(job: Job) -> Any:
+    """``job`` drawn in this process, atomically to its ``path``; its function's value (an
+    error is raised, as the run's own)."""
+    name, kw = job
+    with written(Path(kw["path"])) as tmp:
+        return _draw(name, {**kw, "path": tmp})
+
+
+Outcome = tuple[str, Any]  # ("ok", the function's value) or ("err", the error's line)
 
 
 class PlotWorker:
@@ -93,6 +110,10 @@ class PlotWorker:
     def __init__(self, *modules: str) -> None:
         self._jobs: list[Job] = []
         self._temps: list[Path] = []
+        self._batches: list[range] = []  # the jobs of each batch sent
+        self._outcomes: list[Outcome | None] = []  # per job, once the child answered
+        self._here: set[int] = set()  # jobs drawn in this process already (``values``)
+        self._answered = 0  # batches the child has answered
         env = dict(os.environ, PYTHONPATH=os.pathsep.join(p for p in sys.path if p))
         try:
             self._proc: subprocess.Popen[bytes] | None = subprocess.Popen(
@@ -109,47 +130,94 @@ class PlotWorker:
                  tb: TracebackType | None) -> None:
         self.close()
 
-    def draw(self, jobs: list[Job]) -> None:
-        """Send ``jobs`` to the child (the one batch of a run) to draw while this process
-        goes on."""
-        self._jobs = list(jobs)
-        paths = [Path(kw["path"]) for _, kw in self._jobs]
+    def draw(self, jobs: list[Job], more: bool = False) -> int:
+        """Send ``jobs`` to the child to draw while this process goes on, in the order
+        sent; ``more``: other batches follow (a run sends a plot as soon as its data
+        exist, and the rest later), else this is the last one. Returns the batch's number
+        (``values``)."""
+        jobs = list(jobs)
+        paths = [Path(kw["path"]) for _, kw in jobs]
         for path in paths:
             _clear_stale(path)
-        self._temps = [temporary(path) for path in paths]
+        temps = [temporary(path) for path in paths]
+        first = len(self._jobs)
+        self._jobs += jobs
+        self._temps += temps
+        self._outcomes += [None] * len(jobs)
+        self._batches.append(range(first, len(self._jobs)))
         p = self._proc
-        if p is None or p.stdin is None:
-            return
-        sent = [(name, {**kw, "path": tmp})
-                for (name, kw), tmp in zip(self._jobs, self._temps, strict=True)]
-        try:
-            p.stdin.write(pickle.dumps(sent))
-            p.stdin.close()
-        except OSError:  # the child is gone: wait() draws them here
-            self._end_child()
+        if p is not None and p.stdin is not None:
+            sent = [(name, {**kw, "path": tmp})
+                    for (name, kw), tmp in zip(jobs, temps, strict=True)]
+            try:
+                p.stdin.write(pickle.dumps(sent))
+                p.stdin.flush()
+                if not more:
+                    p.stdin.close()
+            except OSError:  # the child is gone: wait() draws them here
+                self._end_child()
+        return len(self._batches) - 1
+
+    def _read_answers(self, upto: int) -> None:
+        """The child's answers to every batch up to ``upto`` (the child gone: none)."""
+        while self._answered <= upto:
+            p = self._proc
+            if p is None or p.stdout is None:
+                return
+            batch = self._batches[self._answered]
+            try:
+                got = pickle.load(p.stdout)
+                if not (isinstance(got, list) and len(got) == len(batch)):
+                    raise EOFError
+            except (OSError, EOFError, pickle.UnpicklingError):
+                self._end_child()
+                return
+            for i, outcome in zip(batch, got, strict=True):
+                self._outcomes[i] = outcome
+            self._answered += 1
+
+    def values(self, batch: int) -> list[Any]:
+        """What the functions of batch ``batch`` returned (each drawn here if the child
+        could not: an error then is the run's); their plots are put in place at ``wait``."""
+        self._read_answers(batch)
+        out = []
+        for i in self._batches[batch]:
+            outcome = self._outcomes[i]
+            if outcome is not None and outcome[0] == "ok" and self._temps[i].exists():
+                out.append(outcome[1])
+            else:
+                self._temps[i].unlink(missing_ok=True)
+                out.append(_drawn_here(self._jobs[i]))
+                self._here.add(i)
+        return out
 
     def wait(self) -> None:
         """Every job's plot is in place once this returns."""
-        results: list[str | None] = [""] * len(self._jobs)
         p = self._proc
-        if p is not None and p.stdout is not None:
+        if p is not None and p.stdin is not None and not p.stdin.closed:
             try:
-                got = pickle.loads(p.stdout.read())
-                if isinstance(got, list) and len(got) == len(self._jobs):
-                    results = got
-            except (OSError, EOFError, pickle.UnpicklingError):
+                p.stdin.close()  # no more batches
+            except OSError:
                 pass
-            self._end_child()
+        self._read_answers(len(self._batches) - 1)
+        self._end_child()
         again = []
-        for job, tmp, r in zip(self._jobs, self._temps, results, strict=True):
-            if r is None and tmp.exists():
+        for i, (job, tmp) in enumerate(zip(self._jobs, self._temps, strict=True)):
+            outcome = self._outcomes[i]
+            if i in self._here:
+                continue
+            if outcome is not None and outcome[0] == "ok" and tmp.exists():
                 _installed(tmp, Path(job[1]["path"]))
             else:
                 tmp.unlink(missing_ok=True)
                 again.append(job)
-        self._jobs, self._temps = [], []
+        self._forget()
         if again:  # as the run drew them before: an error here is the run's
             draw_here(again, raising=True)
+
+    def _forget(self) -> None:
+        self._jobs, self._temps, self._batches, self._outcomes = [], [], [], []
+        self._here, self._answered = set(), 0
 
     def _end_child(self) -> None:
         p, self._proc = self._proc, None
@@ -171,13 +239,13 @@ class PlotWorker:
         self._end_child()
         for tmp in self._temps:
             tmp.unlink(missing_ok=True)
-        self._jobs, self._temps = [], []
+        self._forget()
 
 
 def main() -> None:
     """The child: import matplotlib and the modules named in argv now (while the run
-    runs), then draw the one batch of jobs read from stdin and write each job's outcome to
-    stdout."""
+    runs), then draw each batch of jobs read from stdin as it comes and answer it on stdout
+    (per job, the function's value or the line of its error)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -186,18 +254,20 @@ def main() -> None:
     for module in sys.argv[1:]:
         importlib.import_module(module)
 
-    data = sys.stdin.buffer.read()
-    if not data:
-        return
-    done: list[str | None] = []
-    for name, kw in pickle.loads(data):  # to the parent's temporaries: it renames them
+    out = sys.stdout.buffer
+    while True:
         try:
-            _draw(name, kw)
-            done.append(None)
-        except Exception as e:  # noqa: BLE001  # reported; the parent draws it again
-            done.append(f"{name}: {type(e).__name__}: {e}".splitlines()[0])
-    sys.stdout.buffer.write(pickle.dumps(done))
-    sys.stdout.buffer.flush()
+            batch = pickle.load(sys.stdin.buffer)
+        except EOFError:
+            break
+        done: list[Outcome] = []
+        for name, kw in batch:  # to the parent's temporaries: it renames them
+            try:
+                done.append(("ok", _draw(name, kw)))
+            except Exception as e:  # noqa: BLE001  # reported; the parent draws it again
+                done.append(("err", _line(name, e)))
+        out.write(pickle.dumps(done))  # each batch answered as soon as it is drawn
+        out.flush()
 
 
 if __name__ == "__main__":

@@ -1,4 +1,12 @@
-"""The run journal: JSON Lines, only ever appended, each record synced before the next.
+"""The run journal: JSON Lines, only ever appended, each record written before the next.
+
+Every record is written to the file as it is appended (a killed process loses nothing
+appended); it is synced to the disk (group commit) at the records a resume builds on: a
+block, a note, a failed step, a sheet saved outside a block (``held``: a block's sheets
+go with its record), and at close. A step record is synced with the next of those: a
+machine that crashes in between loses at most the steps of the chart in progress, which
+the resume repeats anyway (replay re-executes them; skip mode repeats the incomplete
+chart from its first step).
 
 A new journal is created exclusively; a resumed one is checked line by line first
 (``scan``) and then opened for appending, never rewritten. A killed process loses at most
@@ -14,6 +22,8 @@ import json
 import math
 import os
 import re
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -22,6 +32,8 @@ from station.errors import UseError
 from station.files import fsync_dir
 
 KINDS = ("step", "sheet", "note", "block", "failed")
+SYNCED_KINDS = frozenset(("sheet", "note", "block", "failed"))  # group-commit points
+HELD_KINDS = frozenset(("sheet",))  # not synced on their own inside a block (``held``)
 SAFE_NAME = re.compile(r"[A-Za-z0-9_][A-Za-z0-9_.+-]{0,127}")
 TORN_SUFFIX = ".torn-"
 
@@ -217,6 +229,8 @@ class Journal:
         self.records: list[dict] = []
         self.lines: list[int] = []
         self.torn_to: Path | None = None  # where a torn last line was set aside
+        self._unsynced = False  # records written since the last fsync
+        self._held = 0  # blocks open (``held``)
         if resume:
             if not self.path.is_file():
                 raise JournalError(f"{self.path}: no journal there")
@@ -244,11 +258,34 @@ class Journal:
             raise JournalError(f"{self.path}: cannot open the journal ({e.strerror})") from None
 
     def append(self, rec: dict) -> None:
-        """Write one record as one line and sync it."""
+        """Write one record as one line; sync the file at a group-commit point (a record
+        of ``SYNCED_KINDS``: everything written before it becomes durable with it)."""
         _write_all(self._fd, (dumps(rec) + "\n").encode("ascii"))
-        os.fsync(self._fd)
+        self._unsynced = True
+        kind = rec.get("kind")
+        if kind in SYNCED_KINDS and not (self._held and kind in HELD_KINDS):
+            self.sync()
+
+    @contextmanager
+    def held(self) -> Iterator[None]:
+        """Inside a block: its sheets are synced with the block's own record, which follows
+        them (a resume restores a block's sheets only through that record)."""
+        self._held += 1
+        try:
+            yield
+        finally:
+            self._held -= 1
+
+    def sync(self) -> None:
+        """Make every record written so far durable (nothing to do if it already is)."""
+        if self._fd >= 0 and self._unsynced:
+            os.fsync(self._fd)
+            self._unsynced = False
 
     def close(self) -> None:
         if self._fd >= 0:
-            os.close(self._fd)
-            self._fd = -1
+            try:
+                self.sync()
+            finally:
+                os.close(self._fd)
+                self._fd = -1

@@ -210,7 +210,8 @@ class Run:
             return load(done["data"])
         first = len(self._saved)
         first_step = len(open_sheet.steps) if open_sheet is not None else 0
-        value = json.loads(dumps({"x": fn()}))["x"]
+        with self.journal.held():  # its sheets are synced with the block's record
+            value = json.loads(dumps({"x": fn()}))["x"]
         if self.resume == "skip" or done is None:
             rec = {"kind": "block", "key": key, "data": value,
                    "sheets": list(dict.fromkeys(self._saved[first:]))}

@@ -17,6 +17,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from laboratory import registry
+from laboratory.cigtf.plots import theta_plot  # noqa: F401 - re-exported
 from laboratory.connect import connect, journaled_run
 from laboratory.export import write_results_csv
 from laboratory.identity import Identifying
@@ -41,6 +42,7 @@ if TYPE_CHECKING:
     from rich.console import Console
 
 PHASES = ("operating", "shutdown")
+PLOTS = "laboratory.cigtf.plots"  # the test's plot, drawn beside it (laboratory.plot_worker)
 # a restarted served rack powered the gyro off and stands as installed: its set-up and
 # warm-up again
 RENEW = ("4.1-S", "4.0")
@@ -49,43 +51,6 @@ RENEW = ("4.1-S", "4.0")
 def _test(name: str, t: TestOutcome) -> dict:
     return {"name": name, "statistic": t.statistic, "threshold": t.threshold,
             "dof": list(t.dof), "significant": t.significant}
-
-
-def theta_plot(res: dict, path: Path) -> None:
-    """theta of every run with its standard error, one panel per phase, runs numbered as
-    the run table numbers them (operating 1-25, shutdown 1-10); phase means dashed."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    from matplotlib.ticker import MaxNLocator
-
-    phases = [ph for ph in PHASES if any(r["phase"] == ph for r in res["runs"])] or [PHASES[0]]
-    sizes = [max(1, sum(r["phase"] == ph for r in res["runs"])) for ph in phases]
-    fig, axes = plt.subplots(1, len(phases), figsize=(9, 4), sharey=True, squeeze=False,
-                             gridspec_kw={"width_ratios": sizes})
-    truth = res["truth"]["theta_arcsec"]
-    for ax, ph, colour in zip(axes[0], phases, ("tab:blue", "tab:orange"), strict=False):
-        rows = [r for r in res["runs"] if r["phase"] == ph]
-        x = [r["run"] for r in rows]
-        ax.errorbar(x, [r["theta_arcsec"] for r in rows], [r["sigma_arcsec"] for r in rows],
-                    fmt="o", color=colour, capsize=2, label=f"{ph} runs (+/- 1 sigma)")
-        p = next((q for q in res["phases"] if q["phase"] == ph), None)
-        if p is not None and x:
-            ax.hlines(p["theta_arcsec"], min(x) - 0.5, max(x) + 0.5, colors=colour,
-                      linestyles="--", label=f"{ph} mean {p['theta_arcsec']:+.2f} arcsec")
-        if truth is not None:
-            ax.axhline(truth, color="k", lw=0.8, label=f"truth (eq. 26) {truth:+.2f} arcsec")
-        ax.set_xlabel("run")
-        ax.xaxis.set_major_locator(MaxNLocator(integer=True))
-        ax.set_title(f"{ph} phase (runs as the run table numbers them)" if ph == PHASES[0]
-                     else f"{ph} phase", fontsize=10)
-        ax.legend(fontsize=7, loc="best")
-    axes[0][0].set_ylabel("gyrocompassing error theta (arcsec)")
-    fig.suptitle("CIGTF gyrocompassing accuracy test")
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
 
 
 TEST_NAMES = {
@@ -353,7 +318,7 @@ def run_gyrocompass_test(seed: int, out: Path, params: CigtfParams | None = None
         "eq27": eq27.model_dump(exclude={"apply"})}
     conn = connect(registry.get("cigtf"), Seeded(params, seed), links, rack_hook)
     st, world = conn.drivers, conn.coefficient_world
-    with PlotWorker(__name__) as plots, journaled_run(  # plots: matplotlib imported meanwhile
+    with PlotWorker(PLOTS) as plots, journaled_run(  # plots: matplotlib imported meanwhile
             out, conn, resume, renew=RENEW, seed=seed, test="gyrocompass", params_digest=digest,
             **extra_start,
             identify=Identifying("cigtf", "gyrocompass-test", seed, "cigtf", CigtfConfig,
@@ -390,7 +355,7 @@ def run_gyrocompass_test(seed: int, out: Path, params: CigtfParams | None = None
             "wall_seconds": time.perf_counter() - wall0,
             **extra,
         }
-        plots.draw([(f"{__name__}:theta_plot", {"res": res, "path": out / "gyrocompass.png"})])
+        plots.draw([(f"{PLOTS}:theta_plot", {"res": res, "path": out / "gyrocompass.png"})])
         write_json(out / "gyrocompass.json", res)
         write_results_csv(out, res["runs"], "gyrocompass.csv")
         plots.wait()

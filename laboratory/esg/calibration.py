@@ -25,6 +25,13 @@ from typing import TYPE_CHECKING
 
 from laboratory import registry
 from laboratory.connect import connect, journaled_run
+from laboratory.esg.plots import GOAL_ARCSEC, schedule_plot
+from laboratory.esg.study import (  # noqa: F401 - re-exported
+    REPORT_POINTS,
+    STUDY_POINTS,
+    STUDY_RANGES,
+    study,
+)
 from laboratory.esg.truth import true_pickoff1_coning_arcsec
 from laboratory.export import write_results_csv
 from laboratory.identity import Identifying
@@ -34,7 +41,6 @@ from laboratory.rundir import prepare
 from laboratory.seeded import Seeded
 from laboratory.tables import Column, print_fitted
 from laboratory.verdicts import judge_schedules, run_verdict
-from procedures.esg import strategy
 from procedures.esg.acquisition import RENEW, Acquisition, EsgPlan, acquire
 from procedures.esg.calibration import SCHEDULES, ScheduleResult, assign, calibrate, nominal
 from procedures.esg.table4 import REPORT_ORDER, order_trials, table4
@@ -46,11 +52,9 @@ from station.racks.esg import EsgRack
 if TYPE_CHECKING:
     from rich.console import Console
 
-GOAL_ARCSEC = 15.0
-STRATEGY = strategy.__name__  # Figure 2's plot, drawn beside the run (laboratory.plot_worker)
-STUDY_RANGES = tuple(range(35, 48))
-STUDY_POINTS = 6000
-REPORT_POINTS = (("great_circle", 43.0), ("cosine", 37.0))
+PLOTS = "laboratory.esg.plots"  # the schedules' plot, drawn beside the run
+STUDY = "laboratory.esg.study"  # the strategy study and Figure 2, computed beside the run
+STRATEGY = "procedures.esg.strategy"  # imported by the plot child only (scipy.optimize)
 
 
 def _rms(values: Iterable[float | None]) -> float:
@@ -98,32 +102,6 @@ def schedule_summary(res: ScheduleResult) -> dict:
         "chebyshev": [float(c) for c in res.fit.coef],
         "power_p0_p7": [float(c) for c in res.fit.power],
     }
-
-
-def study() -> tuple[list[dict], list[dict], dict]:
-    """Figure 2 curves, the report's two points (both conventions) and edge resolutions."""
-    curve = strategy.figure2_table(STUDY_RANGES, points=STUDY_POINTS)
-    points: list[dict] = []
-    chart: list[dict] = []
-    mixed: dict[str, float] = {}  # the mixed strategy's factor by pattern
-    for pattern, rng in REPORT_POINTS:
-        for strat in ("two_pickoff", "mixed"):
-            f = strategy.amplification(pattern, strat, rng)
-            if strat == "mixed":
-                mixed[pattern] = f
-            points.append({"pattern": pattern, "range_deg": rng, "strategy": strat,
-                           "factor": f})
-            fc = strategy.amplification(pattern, strat, rng, convention="chart")
-            chart.append({"pattern": pattern, "range_deg": rng, "strategy": strat,
-                          "factor": fc})
-    edge = {"great_circle_43_microinch":
-            strategy.edge_resolution_microinch(GOAL_ARCSEC, mixed["great_circle"]),
-            "cosine_37_microinch": strategy.edge_resolution_microinch(GOAL_ARCSEC,
-                                                                      mixed["cosine"]),
-            "report_factors": {"great_circle_43": 1.55, "cosine_37": 1.20},
-            "chart_convention": chart,
-            "cosine_mixed_minimum_deg": strategy.cosine_mixed_minimum()}
-    return curve, points, edge
 
 
 def used_order(trials: list[dict], schedule: str, order: int | str) -> int:
@@ -190,37 +168,14 @@ def render_tables(console: Console, res: dict) -> None:
 
 
 def calibration_plot(results: list[ScheduleResult], path: Path) -> None:
-    """Compensated minus assigned (or true) colatitude per schedule, with the report's
-    +/-15 arcsec goal lines labelled and the legend outside the data (right margin)."""
-    import matplotlib
+    """Compensated minus assigned (or true) colatitude per schedule (laboratory.esg.plots)."""
+    schedule_plot(plain_schedules(results), path)
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
 
-    fig, axes = plt.subplots(len(results), 1, figsize=(10, 3.2 * len(results)), sharex=True,
-                             squeeze=False)
-    for ax, res in zip(axes[:, 0], results, strict=True):
-        for rows, mark, what in ((res.calibration, "o", "fit"), (res.readout, "s", "readout")):
-            x = [r["colatitude_deg"] for r in rows]
-            ax.plot(x, [r["error_arcsec"] for r in rows], mark, ms=4, mfc="none",
-                    label=f"{what}: measured")
-            if all(r["true_error_arcsec"] is not None for r in rows):
-                ax.plot(x, [r["true_error_arcsec"] for r in rows], mark, ms=3,
-                        label=f"{what}: true")
-        ax.axhline(GOAL_ARCSEC, color="k", lw=0.6, ls="--",
-                   label=f"goal +/-{GOAL_ARCSEC:g} arcsec")
-        ax.axhline(-GOAL_ARCSEC, color="k", lw=0.6, ls="--")
-        for y in (GOAL_ARCSEC, -GOAL_ARCSEC):
-            ax.annotate(f"{y:+g} arcsec goal", (1.0, y), xycoords=("axes fraction", "data"),
-                        xytext=(-4, 2 if y > 0 else -9), textcoords="offset points",
-                        ha="right", fontsize=7)
-        ax.set_ylabel("error (arcsec)")
-        ax.set_title(f"schedule {res.name}: compensated minus assigned / true colatitude")
-        ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0)
-    axes[-1, 0].set_xlabel("colatitude of pickoff 2 (deg)")
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+def plain_schedules(results: list[ScheduleResult]) -> list[dict]:
+    """What the schedule plot draws of each schedule, as plain data for the plot child."""
+    return [{"name": r.name, "calibration": r.calibration, "readout": r.readout}
+            for r in results]
 
 
 def run_esg_calibration(seed: int, out: Path, params: EsgParams | None = None,
@@ -248,11 +203,14 @@ def run_esg_calibration(seed: int, out: Path, params: EsgParams | None = None,
     wall0 = time.perf_counter()
     conn = connect(registry.get("esg"), Seeded(params, seed), links, rack_hook)
     st, served, world = conn.drivers, conn.served, conn.coefficient_world
-    with PlotWorker(__name__, STRATEGY) as plots, journaled_run(  # matplotlib meanwhile
+    with PlotWorker(PLOTS, STUDY, STRATEGY) as plots, journaled_run(  # matplotlib meanwhile
             out, conn, resume, renew=RENEW, seed=seed, test="esg-calibration", order=order,
             extremity_setup=plan.extremity_setup,
             identify=Identifying("esg", "esg-calibration", seed, "esg", EsgConfig, params)) as (
             run, extra, t_start):
+        if with_study:  # the study needs no measurement: computed and drawn during the run
+            studied = plots.draw([(f"{STUDY}:study_plot", {"path": out / "esg_strategy.png"})],
+                                 more=True)
         acq = acquire(st, run, plan)
         points, bud = assign(acq, plan, plan.lines_per_setting)
         times = {(p.scan, p.offset_deg): p.times_s for p in points}
@@ -306,15 +264,13 @@ def run_esg_calibration(seed: int, out: Path, params: EsgParams | None = None,
         }
         jobs: list[Job] = []
         if with_study:
-            curve, amp, edge = study()
+            curve, amp, edge = plots.values(studied)[0]
             res_json["amplification"] = amp
             res_json["amplification_curve"] = curve
             res_json["edge_resolution"] = edge
-            jobs.append((f"{STRATEGY}:figure2_plot", {"rows": curve,
-                                                      "path": out / "esg_strategy.png"}))
             run.save_sheet("esg_strategy", curve)
-        jobs.append((f"{__name__}:calibration_plot", {"results": results,
-                                                       "path": out / "esg_calibration.png"}))
+        jobs.append((f"{PLOTS}:schedule_plot", {"schedules": plain_schedules(results),
+                                                 "path": out / "esg_calibration.png"}))
         plots.draw(jobs)  # drawn beside the rest of the record; waited for before the end
         write_sheets(out, run)
         res_json["sim_seconds"] = st.clock.now() - t_start

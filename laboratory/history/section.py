@@ -10,7 +10,6 @@ from pathlib import Path
 from typing import Any
 
 from laboratory.history.sparkline import sparkline
-from laboratory.history.store import history_url_for, runs_of, session
 from laboratory.history.trend import (
     COLUMNS,
     DEFAULT_LEVEL,
@@ -20,6 +19,7 @@ from laboratory.history.trend import (
     trends,
     z_limit,
 )
+from laboratory.history.where import history_url_for
 
 
 def _unit_of(ident: dict) -> str | None:
@@ -52,6 +52,8 @@ def history_section(run_dir: Path, url: str | None = None,
         return _none("No history: the calibration history is off for this run (it lies "
                      "under no runs directory and $STATION_HISTORY_URL is unset).")
     lab = ident.get("laboratory")
+    from laboratory.history.store import runs_of, session  # SQLAlchemy: only to read
+
     with session(url) as s:
         runs = [r for r in runs_of(s, unit) if r.laboratory == lab]
         uids = [r.run_uid for r in runs]

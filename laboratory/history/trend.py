@@ -13,11 +13,10 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import BinaryIO
+from typing import TYPE_CHECKING, BinaryIO
 
-from scipy import stats
-
-from laboratory.history.store import RunRow
+if TYPE_CHECKING:  # the store (SQLAlchemy) and scipy.stats are imported where they are used
+    from laboratory.history.store import RunRow
 
 DEFAULT_LEVEL = 0.999  # the two-sided level beyond which `station trend` flags
 COLUMNS = ("inst", "param", "units", "n", "last change", "z", "max |z|", "chi2/dof", "p",
@@ -92,6 +91,8 @@ def z_limit(level: float) -> float:
     """|z| beyond which a change is significant at the two-sided ``level``."""
     if not 0.0 < level < 1.0:
         raise ValueError(f"--level must lie between 0 and 1, got {level:g}")
+    from scipy import stats
+
     return float(stats.norm.ppf(0.5 + level / 2.0))
 
 
@@ -124,6 +125,8 @@ def _analyse(t: Trend, zl: float, level: float) -> None:
     mean = sum(wi * p.estimate for wi, p in zip(w, t.points, strict=True)) / sum(w)
     t.chi2 = sum(wi * (p.estimate - mean) ** 2 for wi, p in zip(w, t.points, strict=True))
     t.dof = len(t.points) - 1
+    from scipy import stats
+
     t.p_value = float(stats.chi2.sf(t.chi2, t.dof))
     t.scatter_flagged = t.p_value < 1.0 - level
     n = len(t.points)

@@ -81,6 +81,7 @@ class SdfGyro:
         self.on_since: float | None = None
         self._shift = 0.0
         self._knots = np.zeros(1)
+        self._knot_x = np.arange(1)
         self._attitude: tuple[float, float, float] = (0.0, 0.0, 0.0)  # t, from, to
 
     def power_on(self, t: float, q_ge: np.ndarray) -> None:
@@ -90,6 +91,7 @@ class SdfGyro:
         rng = stream(self.seed, "sdf_gyro", "turn_on", self.turn_ons)
         self._shift = float(rng.normal(0.0, self.dyn.turn_on_sd))
         self._knots = np.zeros(1)
+        self._knot_x = np.arange(1)
         i = self._steady(q_ge)
         self._attitude = (t, i, i)
 
@@ -118,7 +120,9 @@ class SdfGyro:
             steps = [stream(self.seed, "sdf_gyro", "walk", self.turn_ons, n).normal(0.0, sd)
                      for n in range(self._knots.size, need)]
             self._knots = np.concatenate([self._knots, self._knots[-1] + np.cumsum(steps)])
-        return float(np.interp(k, np.arange(self._knots.size), self._knots))
+        if self._knot_x.size != self._knots.size:  # the knots' abscissae, made once per growth
+            self._knot_x = np.arange(self._knots.size)
+        return float(np.interp(k, self._knot_x, self._knots))
 
     def extra_drift(self, t: float) -> float:
         """D_F change now: turn-on shift, warm-up transient and walk, rad/s."""

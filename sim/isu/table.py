@@ -187,8 +187,9 @@ class FourAxisTable:
 
     def rotation_phase(self, t: float | np.ndarray) -> np.ndarray:
         """Phase (cycles) of the rotary-axis pulse output: one pulse per 1/n turn of resolver 2."""
-        p, _ = self.axes[2].evaluate(np.asarray(t, dtype=float))
-        if not self.rotation_output:
-            return np.zeros_like(p)
+        t = np.asarray(t, dtype=float)
+        if not self.rotation_output:  # no pulse output: no trajectory to evaluate
+            return np.zeros(t.shape)
+        p, _ = self.axes[2].evaluate(t)
         r = p + self.resolver_error(2, p)
         return r * self.pulses_per_rev / (2 * math.pi)

@@ -27,7 +27,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationInfo, field_validat
 
 from sim.cigtf.world import MA, CigtfParams
 from sim.units import ARCSEC, EARTH_RATE
-from station.config.isu import read_section
+from station.config.file import read_section
 from station.config.limits import CigtfLimits
 
 # The test plan's figures (procedures.cigtf.procedure.TestPlan; a test checks

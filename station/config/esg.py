@@ -23,7 +23,7 @@ from typing import TYPE_CHECKING, Literal, TypeVar
 from pydantic import BaseModel, ConfigDict, Field
 
 from sim.esg.world import EsgParams
-from station.config.isu import read_section
+from station.config.file import read_section
 from station.config.limits import EsgLimits
 
 if TYPE_CHECKING:

@@ -1,0 +1,102 @@
+"""Indexing a finished run into an SQLite history with the stdlib ``sqlite3`` (issue 17).
+
+The end of every run indexes it; on the default SQLite database this writes exactly the
+rows and schema the SQLAlchemy store (``laboratory/history/store.py``) writes, without
+importing SQLAlchemy (0.35-0.45 s). Other URLs, and every reading, go through the store;
+tests/test_history.py checks that the two write the same database.
+"""
+
+from __future__ import annotations
+
+import sqlite3
+from pathlib import Path
+
+from laboratory.history.where import HistoryError, run_fields
+
+SQLITE_PREFIX = "sqlite:///"
+# the schema as SQLAlchemy's create_all emits it for the store's models on SQLite
+TABLES: dict[str, tuple[str, ...]] = {
+    "runs": (
+        "CREATE TABLE runs (\n\tid INTEGER NOT NULL, \n\trun_uid VARCHAR(64) NOT NULL, \n\t"
+        "path VARCHAR(1024) NOT NULL, \n\tlaboratory VARCHAR(32) NOT NULL, \n\t"
+        "command VARCHAR(64), \n\tstarted_utc DATETIME NOT NULL, \n\t"
+        "date VARCHAR(10) NOT NULL, \n\tstatus VARCHAR(16) NOT NULL, \n\t"
+        "verdict VARCHAR(16), \n\tseed INTEGER, \n\tconfig_digest VARCHAR(64), \n\t"
+        "PRIMARY KEY (id)\n)",
+        "CREATE INDEX ix_runs_started_utc ON runs (started_utc)",
+        "CREATE UNIQUE INDEX ix_runs_run_uid ON runs (run_uid)",
+    ),
+    "run_units": (
+        "CREATE TABLE run_units (\n\tid INTEGER NOT NULL, \n\trun_id INTEGER NOT NULL, \n\t"
+        "role VARCHAR(64) NOT NULL, \n\tserial VARCHAR(128) NOT NULL, \n\t"
+        "PRIMARY KEY (id), \n\t"
+        "FOREIGN KEY(run_id) REFERENCES runs (id) ON DELETE CASCADE\n)",
+        "CREATE INDEX ix_run_units_run_id ON run_units (run_id)",
+        "CREATE INDEX ix_run_units_serial ON run_units (serial)",
+    ),
+    "results": (
+        "CREATE TABLE results (\n\tid INTEGER NOT NULL, \n\trun_id INTEGER NOT NULL, \n\t"
+        "\"table\" VARCHAR(64) NOT NULL, \n\tinstrument VARCHAR(64) NOT NULL, \n\t"
+        "parameter VARCHAR(64) NOT NULL, \n\tunits VARCHAR(64), \n\testimate FLOAT, \n\t"
+        "sigma FLOAT, \n\ttruth FLOAT, \n\tverdict VARCHAR(16), \n\tPRIMARY KEY (id), \n\t"
+        "FOREIGN KEY(run_id) REFERENCES runs (id) ON DELETE CASCADE\n)",
+        "CREATE INDEX ix_results_run_id ON results (run_id)",
+    ),
+}
+DATETIME_FORMAT = "%Y-%m-%d %H:%M:%S.%f"  # SQLAlchemy's SQLite DATETIME storage
+
+
+def sqlite_file(url: str) -> Path | None:
+    """The file of a plain SQLite URL (``sqlite:///PATH``, no query, not in memory); None
+    for any other URL (those go through SQLAlchemy)."""
+    if not url.startswith(SQLITE_PREFIX) or "?" in url:
+        return None
+    path = url.removeprefix(SQLITE_PREFIX)
+    return None if path in ("", ":memory:") else Path(path)
+
+
+def _create_missing(db: sqlite3.Connection) -> None:
+    """Each table of the schema that the database lacks, with its indexes (create_all)."""
+    have = {r[0] for r in db.execute("SELECT name FROM sqlite_master WHERE type='table'")}
+    for name, ddl in TABLES.items():
+        if name not in have:
+            for statement in ddl:
+                db.execute(statement)
+
+
+def index_run_sqlite(path: Path, run_dir: Path) -> None:
+    """Index the finished run in ``run_dir`` into the SQLite file ``path`` (made, with its
+    directory and schema, if new), replacing an earlier index of the same run_uid, in one
+    transaction; HistoryError naming the database when it cannot be written."""
+    f = run_fields(run_dir)
+    shown = f"{SQLITE_PREFIX}{path}"
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        db = sqlite3.connect(path)
+    except (OSError, sqlite3.Error) as e:
+        raise HistoryError(f"history database {shown}: {e}") from None
+    try:
+        with db:
+            _create_missing(db)
+            for (old,) in db.execute("SELECT id FROM runs WHERE run_uid = ?",
+                                     (f.run["run_uid"],)).fetchall():
+                db.execute("DELETE FROM run_units WHERE run_id = ?", (old,))
+                db.execute("DELETE FROM results WHERE run_id = ?", (old,))
+                db.execute("DELETE FROM runs WHERE id = ?", (old,))
+            run = {**f.run, "started_utc": f.run["started_utc"].strftime(DATETIME_FORMAT)}
+            cols = ", ".join(run)
+            marks = ", ".join("?" for _ in run)
+            cur = db.execute(f"INSERT INTO runs ({cols}) VALUES ({marks})",
+                             tuple(run.values()))
+            run_id = cur.lastrowid
+            db.executemany("INSERT INTO run_units (run_id, role, serial) VALUES (?, ?, ?)",
+                           [(run_id, u["role"], u["serial"]) for u in f.units])
+            db.executemany(
+                'INSERT INTO results (run_id, "table", instrument, parameter, units, estimate, '
+                "sigma, truth, verdict) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?)",
+                [(run_id, r["table"], r["instrument"], r["parameter"], r["units"],
+                  r["estimate"], r["sigma"], r["truth"], r["verdict"]) for r in f.results])
+    except sqlite3.Error as e:
+        raise HistoryError(f"history database {shown}: {e}") from None
+    finally:
+        db.close()

@@ -1,0 +1,89 @@
+"""The stdlib SQLite writer of the history (laboratory/history/lite.py, issue 17) writes the
+database the SQLAlchemy store writes, and a run's end indexes without importing SQLAlchemy."""
+
+from __future__ import annotations
+
+import json
+import os
+import sqlite3
+import subprocess
+import sys
+from pathlib import Path
+
+from laboratory.history.lite import index_run_sqlite, sqlite_file
+from laboratory.history.store import RunRow, index_run, session, sqlite_url
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def record(d: Path, uid: str, started: str, estimate: float) -> Path:
+    """A finished run's record as the history reads it: run.json and results.json."""
+    d.mkdir(parents=True)
+    (d / "run.json").write_text(json.dumps({
+        "run_uid": uid, "laboratory": "isu", "command": "day", "started_utc": started,
+        "status": "completed", "verdict": "PASS", "seed": 7, "config_digest": "ab" * 32,
+        "unit": {"isu": "ISU-1", "gyro1": "G-1", "gyro2": ""}}))
+    (d / "results.json").write_text(json.dumps({"calibration": [
+        {"instrument": "gyro1", "parameter": "R", "units": "deg/hr", "estimate": estimate,
+         "sigma": 0.01, "truth": 1.12, "verdict": "PASS"},
+        {"instrument": "gyro1", "parameter": "B_I", "units": None, "estimate": float("nan"),
+         "sigma": None, "truth": True, "verdict": None}], "notes": "x"}))
+    return d
+
+
+def dump(path: Path) -> list[str]:
+    """The database's schema and rows (sorted: SQLAlchemy creates indexes in set order)."""
+    db = sqlite3.connect(path)
+    try:
+        return sorted(db.iterdump())
+    finally:
+        db.close()
+
+
+def test_both_writers_make_the_same_database(tmp_path: Path) -> None:
+    runs = [record(tmp_path / "a", "u1", "2026-01-02T03:04:05.678+00:00", 1.1),
+            record(tmp_path / "b", "u2", "2026-01-03T03:04:05", 1.2),
+            record(tmp_path / "c", "u3", "2026-01-04T01:00:00+02:00", 1.3)]
+    order = [runs[0], runs[1], runs[0], runs[2]]  # u1 indexed again: replaced
+    for d in order:
+        with session(sqlite_url(tmp_path / "orm.sqlite")) as s:
+            index_run(s, d)
+        index_run_sqlite(tmp_path / "std.sqlite", d)
+    assert dump(tmp_path / "std.sqlite") == dump(tmp_path / "orm.sqlite")
+    with session(sqlite_url(tmp_path / "std.sqlite")) as s:  # read back through the store
+        got = [(r.run_uid, r.date, len(r.units), [x.estimate for x in r.results])
+               for r in s.query(RunRow).order_by(RunRow.id)]
+    assert got == [("u2", "2026-01-03", 2, [1.2, None]), ("u1", "2026-01-02", 2, [1.1, None]),
+                   ("u3", "2026-01-03", 2, [1.3, None])]
+
+
+def test_each_writes_into_the_others_database(tmp_path: Path) -> None:
+    a = record(tmp_path / "a", "u1", "2026-01-02T03:04:05+00:00", 1.1)
+    b = record(tmp_path / "b", "u2", "2026-01-03T03:04:05+00:00", 1.2)
+    with session(sqlite_url(tmp_path / "x.sqlite")) as s:
+        index_run(s, a)
+    index_run_sqlite(tmp_path / "x.sqlite", b)
+    index_run_sqlite(tmp_path / "y.sqlite", a)
+    with session(sqlite_url(tmp_path / "y.sqlite")) as s:
+        index_run(s, b)
+    assert dump(tmp_path / "x.sqlite") == dump(tmp_path / "y.sqlite")
+
+
+def test_only_plain_sqlite_files_go_to_the_stdlib() -> None:
+    assert sqlite_file("sqlite:////tmp/h.sqlite") == Path("/tmp/h.sqlite")
+    assert sqlite_file("sqlite:///:memory:") is None
+    assert sqlite_file("sqlite:////tmp/h.sqlite?mode=ro") is None
+    assert sqlite_file("postgresql+psycopg://h/db") is None
+
+
+def test_a_runs_end_indexes_without_sqlalchemy(tmp_path: Path) -> None:
+    d = record(tmp_path / "runs" / "day" / "one", "u1", "2026-01-02T03:04:05+00:00", 1.1)
+    code = ("import sys; from pathlib import Path; from laboratory.history import index_after; "
+            f"index_after(Path({str(d)!r})); "
+            "print([m for m in sys.modules if m.split('.')[0] in ('sqlalchemy', 'scipy')])")
+    env = {k: v for k, v in os.environ.items() if k != "STATION_HISTORY_URL"}
+    p = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True,
+                       env={**env, "PYTHONPATH": str(ROOT)}, check=True)
+    assert p.stdout.strip() == "[]" and p.stderr == ""
+    with session(sqlite_url(tmp_path / "runs" / "history.sqlite")) as s:
+        assert [r.run_uid for r in s.query(RunRow)] == ["u1"]

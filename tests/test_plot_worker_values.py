@@ -1,0 +1,40 @@
+"""A plot job that also returns what the run records (laboratory/plot_worker.py, issue 17):
+the ESG strategy study computed and drawn by the child equals the study computed here, its
+plot the same bytes; without a child it is computed and drawn here."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from laboratory import plot_worker
+from laboratory.esg.study import study, study_plot
+from laboratory.plot_worker import PlotWorker
+
+JOB = "laboratory.esg.study:study_plot"
+
+
+def test_the_child_returns_the_study_and_draws_its_plot(tmp_path: Path) -> None:
+    with PlotWorker("laboratory.esg.study") as w:
+        first = w.draw([(JOB, {"path": tmp_path / "child.png"})], more=True)
+        (value,) = w.values(first)
+        assert not (tmp_path / "child.png").exists()  # put in place only by wait()
+        w.wait()
+    assert value == study()
+    assert study_plot(tmp_path / "here.png") == value
+    assert (tmp_path / "child.png").read_bytes() == (tmp_path / "here.png").read_bytes()
+
+
+def test_without_a_child_the_study_is_computed_here(tmp_path: Path,
+                                                   monkeypatch: pytest.MonkeyPatch) -> None:
+    def refuse(*a: Any, **k: Any) -> None:
+        raise OSError("no processes left")
+
+    monkeypatch.setattr(plot_worker.subprocess, "Popen", refuse)
+    with PlotWorker() as w:
+        first = w.draw([(JOB, {"path": tmp_path / "s.png"})], more=True)
+        (value,) = w.values(first)
+        w.wait()
+    assert value == study() and (tmp_path / "s.png").stat().st_size > 1000

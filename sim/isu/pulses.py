@@ -13,7 +13,6 @@ import math
 from collections.abc import Callable
 
 import numpy as np
-from scipy.optimize import brentq
 
 
 class PulseLine:
@@ -139,6 +138,8 @@ def solve_crossing(phase: Callable[[float], float], c: float, t0: float, d: int)
             a, fa, b, fb = lo, flo, hi, fhi
         else:
             break
+    from scipy.optimize import brentq  # here: 0.3 s of import that --help and CIGTF/ESG skip
+
     t = brentq(lambda t: phase(t) - c, a, b, xtol=1e-12, rtol=1e-15, maxiter=200)
     # The edge belongs to the instant the floor of the phase has changed: never return a
     # time a rounding error short of it, or the count at that time would miss the edge

@@ -120,7 +120,8 @@ def collection_times(plan: DayPlan, site: Site, noise: NoiseSpec, s1: float = 1e
     (procedures.isu.accuracy.Unreachable, naming the requirement, when none reaches it)."""
     req = plan.requirements
     times, choices = choose_times(req.requirements(), 60.0 * req.max_gate_minutes,
-                                  planning_lab(plan, site, noise, s1, f0), manual_times(plan))
+                                  planning_lab(plan, site, noise, s1, f0), manual_times(plan),
+                                  fixed=plan.study_times())
     gates = {c.gate: GateSetting(requirement=c.requirement, required=c.required,
                                  predicted=c.predicted, units=c.units, default=c.default,
                                  chosen=c.chosen, why=c.why) for c in choices}

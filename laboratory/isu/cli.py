@@ -135,17 +135,44 @@ def add_commands(app: typer.Typer) -> None:
         require: Annotated[list[str] | None, typer.Option("--require", help="a required "
                            "accuracy over the config's \\[plan], NAME=VALUE; repeatable")
                            ] = None,
+        verify: Annotated[bool, typer.Option("--verify", help="measure the curves too: a "
+                          "campaign of partial days per chart (II-18, II-19, II-24) beside "
+                          "the prediction (verify.csv, verify_*.png)")] = False,
+        seeds: Annotated[int, typer.Option("--seeds", help="--verify: days per collection "
+                         "time")] = 100,
+        times: Annotated[list[str] | None, typer.Option("--times", help="--verify: "
+                         "CHART=T1,T2,... collection times of a chart (s; turns for II-18); "
+                         "repeatable")] = None,
+        scheduler: Annotated[str | None, typer.Option("--scheduler", help="--verify: an "
+                             "existing Dask scheduler (default an embedded LocalCluster)")
+                             ] = None,
+        workers: Annotated[int | None, typer.Option("--workers", help="--verify: LocalCluster "
+                           "workers (0: in this process)")] = None,
     ) -> None:
         """Accuracy against collection time (Charts II-18..II-24) for this station, predicted
-        by the covariance model, and the collection times the requirements imply (II-6.2)."""
+        by the covariance model, and the collection times the requirements imply (II-6.2);
+        with --verify, beside the rms errors a campaign of simulated days measures."""
         from laboratory.isu.planning import run_plan
 
         cfg = load_isu_config(config, None)
         with reported(lambda: None):
             cfg = required(cfg, require)
+            if verify:
+                from laboratory.isu.verify import check_options, parse_times
+
+                check_options(seeds, workers, scheduler)
+                study_times = parse_times(times)
+            elif times or scheduler or workers is not None:
+                raise ValueError("--times, --scheduler and --workers go with --verify")
         target = target_dir(out, "plan", cfg.seed)
         with reported(lambda: target):
             run_plan(cfg, target, console)
+            if verify:
+                from laboratory.isu.verify import run_verify
+
+                run_verify(cfg, target, console, seeds=seeds, seed=cfg.seed,
+                           times=study_times, scheduler=scheduler, workers=workers,
+                           config=config.resolve() if config else None, quiet=False)
         typer.echo(f"written {target}")
 
 

@@ -267,20 +267,33 @@ def _longest(gate: str, lab: Lab, max_gate_s: float) -> float:
 
 
 def choose_times(required: dict[str, float], max_gate_s: float, lab: Lab,
-                 default: Times | None = None, predictor: Predictor | None = None
-                 ) -> tuple[Times, list[GateChoice]]:
+                 default: Times | None = None, predictor: Predictor | None = None,
+                 fixed: dict[str, float] | None = None) -> tuple[Times, list[GateChoice]]:
     """Each gate's time: the manual's default when the prediction meets its requirement
     there, else the smallest whole second (turn) that meets it; Unreachable (naming the
-    requirement) when even the longest admissible gate does not."""
+    requirement) when even the longest admissible gate does not. A gate in ``fixed`` (a
+    study's sweep) takes that time, its requirement not applied."""
     default = default or Times()
     pred = predictor or Predictor(lab, default)
     times = default
+    for gate, v in (fixed or {}).items():
+        times = times.set(gate, v)
     choices = []
     for name, gate in GATE_OF.items():
         req = required[name]
         units = GATE_UNITS[gate]
         d = default.get(gate)
         hi = _longest(gate, lab, max_gate_s)
+        if fixed and gate in fixed:
+            v = fixed[gate]
+            if not 0 < v <= hi:
+                raise Unreachable(f"{gate} fixed at {v:g} {units}: outside the admissible "
+                                  f"0..{hi:g} {units} (max_gate_minutes {max_gate_s / 60:g})")
+            got = pred.quantities(pred.covariance(times))[name]
+            choices.append(GateChoice(gate, units, d, v, name, req, got,
+                                      f"fixed at {v:g} {units} for a study ({name} not "
+                                      "applied)"))
+            continue
         if d > hi:
             raise Unreachable(f"max_gate_minutes {max_gate_s / 60:g}: shorter than the "
                               f"manual's {d:g} {units} for {gate} ({name})")

@@ -125,11 +125,12 @@ def collection_times(plan: DayPlan, site: Site, noise: NoiseSpec, s1: float = 1e
     # a planning figure: the counter clock's period to 4 figures, so that the check before
     # the run (nominal clock) and II-6 (the measured one) ask the same and share one answer
     lab = planning_lab(plan, site, noise, float(f"{s1:.4g}"), f0)
-    key = repr((req, lab, manual_times(plan)))
+    fixed = plan.study_times()
+    key = repr((req, lab, manual_times(plan), fixed))
     if key not in _CHOSEN:
         _CHOSEN.clear()  # one station at a time: keep the latest only
         _CHOSEN[key] = choose_times(req.requirements(), 60.0 * req.max_gate_minutes, lab,
-                                    manual_times(plan))
+                                    manual_times(plan), fixed=fixed)
     times, choices = _CHOSEN[key]
     gates = {c.gate: GateSetting(requirement=c.requirement, required=c.required,
                                  predicted=c.predicted, units=c.units, default=c.default,

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from pydantic import BaseModel, ConfigDict, Field
 
+from station.config.calibration import CalibrationOptions
 from station.config.plan import PlanSettings
 
 
@@ -26,3 +27,5 @@ class DayPlan(BaseModel):
     j_accel_deg_s2: float = Field(5.0, gt=0)
     j_rate_deg_s: float = Field(10.0, gt=0)
     warmup_s: float = Field(1800.0, ge=0)
+    # II-6.1 options (the config's [calibration]): bubble-level corrections in 7-15
+    options: CalibrationOptions = CalibrationOptions()

@@ -118,6 +118,10 @@ class TableErrorModel:
       error plus the difference of phi1's scatter before and after the correction, about
       north the bubble error (phi3's own error is in e3), about up (R1 = T2) e2 at phi2 plus
       n_RT's R1 component; the rest of n_RT and the base tilt are levelled out;
+    * uncorrected static settings (``TableGeometry.uncorrected``, II-6.1): phi1 and phi3 carry
+      the survey's level corrections, so the rotary frame keeps the survey's level error
+      (in ``_delta0``) and, about east, phi1's scatter of its one setting; the tilt since the
+      survey's reading is the covariance's (``t_level``);
     * the survey: mean of ``survey_readings`` autocollimator and level readings per mirror
       (isotropic body error autocollimator/sqrt(N), level error bubble/sqrt(N)), the
       base-azimuth step's error about up (``survey_azimuth_arcsec``), and phi1^0 entered as
@@ -137,6 +141,7 @@ class TableErrorModel:
         self.phi0 = tuple(math.radians(x) for x in g.phi0_deg)
         self.level0 = abs(g.phi0_deg[0]) < 1.0  # rotary axis up: the survey reads the levels
         self.settings = {m: tuple(math.radians(x) for x in v) for m, v in g.settings_deg.items()}
+        self.uncorrected = set(g.uncorrected)
         self._names: dict[object, int] = {}
         self._sig: list[float] = []
         no = noise.nonorthogonality_arcsec * ARCSEC
@@ -236,8 +241,12 @@ class TableErrorModel:
             self._source(("s4", kind, m), sn)
             if kind != "R":
                 self._source(("s2", kind, m), sn)
-                self._source(("tauE", kind, m), math.sqrt(bub * bub + 2 * sn * sn))
-                self._source(("tauN", kind, m), bub)
+                if kind in self.uncorrected:  # one setting of phi1, no reading of its own
+                    self._source(("tauE", kind, m), sn)
+                    self._source(("tauN", kind, m), 0.0)
+                else:
+                    self._source(("tauE", kind, m), math.sqrt(bub * bub + 2 * sn * sn))
+                    self._source(("tauN", kind, m), bub)
         n = len(self._sig)
         d0 = self._delta0(n)
         out = {}

@@ -1,0 +1,26 @@
+"""``[calibration]``: the options report 000 leaves to the operator of a calibration day.
+
+Absent (None) in the default config, so a default day's record is unchanged; each field
+cites the section that offers the choice.
+"""
+
+from __future__ import annotations
+
+from pydantic import BaseModel, ConfigDict
+
+
+class CalibrationOptions(BaseModel):
+    """Bubble-level corrections in positions 7-15 (II-6.1): always advised for the
+    accelerometers (Charts II-13, II-14), optional for the gyros (Charts II-11, II-12).
+    False runs those positions uncorrected: the table keeps the survey's one level
+    reading (Chart I-2 step 5), the uncorrected cases of Charts II-21/II-22."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True, strict=True)
+
+    bubble_gyro: bool = True
+    bubble_accel: bool = True
+
+    def uncorrected(self) -> tuple[str, ...]:
+        """The position kinds set without corrections: "G" gyro, "A" accelerometer."""
+        return tuple(k for k, on in (("G", self.bubble_gyro), ("A", self.bubble_accel))
+                     if not on)

@@ -19,6 +19,9 @@ class CalibrationOptions(BaseModel):
 
     bubble_gyro: bool = True
     bubble_accel: bool = True
+    # Chart II-6 step 13's remark: if phi3 can be turned accurately with the table in motion,
+    # the table need not stop between positions m and m + 1 (1-6)
+    turn_phi3_moving: bool = False
 
     def uncorrected(self) -> tuple[str, ...]:
         """The position kinds set without corrections: "G" gyro, "A" accelerometer."""

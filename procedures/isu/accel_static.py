@@ -47,14 +47,16 @@ def _kind(f0: float) -> StaticKind:
 def accel_positions_7_12(st: IsuDrivers, run: Run, settings: ResolverSettings,
                          presets: CounterSettings, outputs: CounterOutputs, s1: float,
                          f0: float, pairs: tuple[int, ...] = (7, 9, 11),
-                         uncorrected: Uncorrected | None = None) -> dict[int, dict]:
+                         uncorrected: Uncorrected | None = None,
+                        precision_arcsec: float = 0.0) -> dict[int, dict]:
     return run_static(st, run, "II-13", TITLE_7_12, _kind(f0), settings, presets, outputs,
-                      pair_steps(pairs), uncorrected)
+                      pair_steps(pairs), uncorrected, precision_arcsec)
 
 
 def accel_positions_13_14(st: IsuDrivers, run: Run, settings: ResolverSettings,
                           presets: CounterSettings, outputs: CounterOutputs, s1: float,
                           f0: float, positions: tuple[int, ...] = (13, 14),
-                          uncorrected: Uncorrected | None = None) -> dict[int, dict]:
+                          uncorrected: Uncorrected | None = None,
+                        precision_arcsec: float = 0.0) -> dict[int, dict]:
     return run_static(st, run, "II-14", TITLE_13_14, _kind(f0), settings, presets, outputs,
-                      single_steps(positions), uncorrected)
+                      single_steps(positions), uncorrected, precision_arcsec)

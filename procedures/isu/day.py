@@ -95,6 +95,7 @@ def measure_day(st: IsuDrivers, run: Run, plan: DayPlan, site: Site, f0: float,
     else:
         run.save_sheet("survey_results", survey)
     unc = uncorrected_for(plan, survey, t_survey)  # II-6.1: bubble corrections or not
+    prec = {"G": plan.options.precision_gyro_arcsec, "A": plan.options.precision_accel_arcsec}
     s1, _ = oscillator_periods(run)  # as Chart I-1 step 3 read them (twice, agreeing)
     settings = resolver_settings(survey)
     run.save_sheet("resolver_settings", settings)
@@ -143,15 +144,15 @@ def measure_day(st: IsuDrivers, run: Run, plan: DayPlan, site: Site, f0: float,
         data.j_term = chart("II-10", lambda: j_experiment(st, run, settings, plan, s1))
     if "II-11" in wanted and (pairs := _pairs((7, 9, 11), pos)):
         data.gyro.update(chart("II-11", lambda: gyro_positions_7_12(
-            st, run, settings, presets, outputs, s1, pairs, unc["G"])))
+            st, run, settings, presets, outputs, s1, pairs, unc["G"], prec["G"])))
     if "II-12" in wanted and (singles := _singles((13, 14, 15), pos)):
         data.gyro.update(chart("II-12", lambda: gyro_positions_13_15(
-            st, run, settings, presets, outputs, s1, singles, unc["G"])))
+            st, run, settings, presets, outputs, s1, singles, unc["G"], prec["G"])))
     if "II-13" in wanted and (pairs := _pairs((7, 9, 11), pos)):
         data.accel.update(chart("II-13", lambda: accel_positions_7_12(
-            st, run, settings, presets, outputs, s1, f0, pairs, unc["A"])))
+            st, run, settings, presets, outputs, s1, f0, pairs, unc["A"], prec["A"])))
     if "II-14" in wanted and (singles := _singles((13, 14), pos)):
         data.accel.update(chart("II-14", lambda: accel_positions_13_14(
-            st, run, settings, presets, outputs, s1, f0, singles, unc["A"])))
+            st, run, settings, presets, outputs, s1, f0, singles, unc["A"], prec["A"])))
     run.save_sheet("counter_outputs", outputs)
     return data

@@ -24,6 +24,7 @@ from procedures.isu.settings import ALONG_AXIS_CHECK, GYRO_ROTATING, turning_rep
 from procedures.isu.sheets import CounterOutputs, ResolverSettings
 from procedures.isu.turn_on import oscillator_periods
 from procedures.runner import CheckSheetRun, Run
+from station.config.calibration import set_to
 
 if TYPE_CHECKING:
     from station.drivers.isu import IsuDrivers
@@ -57,10 +58,14 @@ def position_pair(st: IsuDrivers, sheet: CheckSheetRun, settings: ResolverSettin
                 else f"Turn phi3 by 180 deg: position {mm}"
                 + (" (the table still turning)" if moving else ""))
         with sheet.step(("7" if first else "12") + tag, text) as s:
-            set_position(st, 90.0, None, p.phi3, p.phi4, level=False)
+            prec = plan.options.precision_scale_factor_arcsec  # II-6.1: about 1 deg will do
+            set_position(st, 90.0, None, set_to(p.phi3, prec), set_to(p.phi4, prec),
+                         level=False)
             if first:  # counter 5 counts the gyro along the axis again
                 patch_check_counter(st, ALONG_AXIS_CHECK, k_along)
             s.reading = {"phi3": p.phi3, "phi4": p.phi4}
+            if prec > 0:  # what the table was set to (II-6.1's precision option)
+                s.reading["set_deg"] = [set_to(p.phi3, prec), set_to(p.phi4, prec)]
         text8 = ("Table still turning at the measurement speed: check it" if moving
                  and not first else "Start the table turning at the measurement speed")
         with sheet.step(("8" if first else "13") + tag, text8) as s:

@@ -48,14 +48,16 @@ def _kind(s1: float) -> StaticKind:
 def gyro_positions_7_12(st: IsuDrivers, run: Run, settings: ResolverSettings,
                         presets: CounterSettings, outputs: CounterOutputs, s1: float,
                         pairs: tuple[int, ...] = (7, 9, 11),
-                        uncorrected: Uncorrected | None = None) -> dict[int, dict]:
+                        uncorrected: Uncorrected | None = None,
+                        precision_arcsec: float = 0.0) -> dict[int, dict]:
     return run_static(st, run, "II-11", TITLE_7_12, _kind(s1), settings, presets, outputs,
-                      pair_steps(pairs), uncorrected)
+                      pair_steps(pairs), uncorrected, precision_arcsec)
 
 
 def gyro_positions_13_15(st: IsuDrivers, run: Run, settings: ResolverSettings,
                          presets: CounterSettings, outputs: CounterOutputs, s1: float,
                          positions: tuple[int, ...] = (13, 14, 15),
-                         uncorrected: Uncorrected | None = None) -> dict[int, dict]:
+                         uncorrected: Uncorrected | None = None,
+                        precision_arcsec: float = 0.0) -> dict[int, dict]:
     return run_static(st, run, "II-12", TITLE_13_15, _kind(s1), settings, presets, outputs,
-                      single_steps(positions), uncorrected)
+                      single_steps(positions), uncorrected, precision_arcsec)

@@ -24,6 +24,7 @@ from procedures.isu.readings import resolver
 from procedures.isu.settings import wiring
 from procedures.isu.sheets import CounterOutputs, CounterSettings, ResolverSettings
 from procedures.runner import Run
+from station.config.calibration import set_to
 
 if TYPE_CHECKING:
     from station.drivers.isu import IsuDrivers
@@ -75,8 +76,11 @@ class Uncorrected:
                 .replace("(level re-read)", "(no level reading)"))
 
 
-def _set(st: IsuDrivers, phi3: float, phi4: float, unc: Uncorrected | None) -> PositionSet:
-    """Set phi1 = 0, phi2 = 90 and (phi3, phi4): levelled, or with the survey's corrections."""
+def _set(st: IsuDrivers, phi3: float, phi4: float, unc: Uncorrected | None,
+         precision_arcsec: float = 0.0) -> PositionSet:
+    """Set phi1 = 0, phi2 = 90 and (phi3, phi4) to ``precision_arcsec`` (II-6.1): levelled,
+    or with the survey's corrections."""
+    phi3, phi4 = set_to(phi3, precision_arcsec), set_to(phi4, precision_arcsec)
     if unc is None:
         return set_position(st, 0.0, 90.0, phi3, phi4, level=True)
     ps = set_position(st, unc.phi1_deg, 90.0, phi3 + unc.phi3_deg, phi4, level=False)
@@ -86,9 +90,10 @@ def _set(st: IsuDrivers, phi3: float, phi4: float, unc: Uncorrected | None) -> P
 
 def run_static(st: IsuDrivers, run: Run, chart: str, title: str, kind: StaticKind,
                settings: ResolverSettings, presets: CounterSettings, outputs: CounterOutputs,
-               steps: list[tuple[int, str, str]], uncorrected: Uncorrected | None = None
-               ) -> dict[int, dict]:
-    """One static chart; ``uncorrected``: set every position without bubble corrections."""
+               steps: list[tuple[int, str, str]], uncorrected: Uncorrected | None = None,
+               precision_arcsec: float = 0.0) -> dict[int, dict]:
+    """One static chart; ``uncorrected``: set every position without bubble corrections;
+    ``precision_arcsec``: the resolver-setting precision of its positions (II-6.1)."""
     unc = uncorrected
     data: dict[int, dict] = {}
     with run.sheet(chart, title) as sheet:
@@ -111,7 +116,7 @@ def run_static(st: IsuDrivers, run: Run, chart: str, title: str, kind: StaticKin
             tag = f"/m{m}"
             p = settings.positions[str(m)]
             with sheet.step(first + tag, text if unc is None else unc.text(text)) as s:
-                ps = _set(st, p.phi3, p.phi4, unc)
+                ps = _set(st, p.phi3, p.phi4, unc, precision_arcsec)
                 s.reading = {"phi1": ps.phi[0], "phi3": ps.phi[2], "phi4": ps.phi[3],
                              **ps.reading()}
             row = presets.presets[f"{kind.sheet_key} {m}"]

@@ -123,6 +123,7 @@ class TableGeometry(_In):
     phi0_deg: tuple[float, float, float, float]
     settings_deg: dict[int, tuple[float, float]]
     uncorrected: tuple[str, ...] = ()
+    precision_arcsec: dict[str, float] = {}  # kind -> resolver-setting precision (II-6.1)
 
 
 class CalibrationData(_In):

@@ -14,7 +14,7 @@ from station.config.calibration import CalibrationOptions, set_to
 from station.config.isu import load_config
 
 QUIET = Console(quiet=True)
-CHARTS = ("II-6", "II-13", "II-14")
+CHARTS = ("II-6", "II-11", "II-12", "II-13", "II-14")
 
 
 @pytest.fixture(scope="module")
@@ -22,7 +22,7 @@ def days(tmp_path_factory):
     out = {}
     for name, opts in (("fine", {}), ("coarse", {"precision_scale_factor_arcsec": 3600.0,
                                                  "precision_accel_arcsec": 10.0})):
-        cfg = load_config(seed=7, overrides={"calibration": opts})
+        cfg = load_config(seed=1, overrides={"calibration": opts})
         d = tmp_path_factory.mktemp(name)
         res = run_day(DayRequest(cfg, d, only=CHARTS, quiet=True, align=False), QUIET)
         out[name] = (d, {(r["instrument"], r["parameter"]): r for r in res["calibration"]})

@@ -58,6 +58,22 @@ def required(cfg: StationConfig, items: list[str] | None) -> StationConfig:
     return cfg.model_copy(update={"plan": with_required(cfg.plan, items or [])})
 
 
+def without_bubble(cfg: StationConfig, kinds: list[str] | None) -> StationConfig:
+    """The config with ``--no-bubble gyro|accel`` over its ``[calibration]`` (ValueError
+    naming an unknown kind)."""
+    from station.config.calibration import CalibrationOptions
+
+    if not kinds:
+        return cfg
+    field = {"gyro": "bubble_gyro", "accel": "bubble_accel"}
+    bad = [k for k in kinds if k not in field]
+    if bad:
+        raise ValueError(f"--no-bubble {bad[0]!r}: choose gyro or accel")
+    opts = cfg.calibration or CalibrationOptions()
+    return cfg.model_copy(update={"calibration": opts.model_copy(
+        update={field[k]: False for k in kinds})})
+
+
 def add_commands(app: typer.Typer) -> None:
     """Register this laboratory's commands on the station's command line."""
 
@@ -86,6 +102,10 @@ def add_commands(app: typer.Typer) -> None:
                            "accuracy over the config's \\[plan], NAME=VALUE (gyro_scale_factor, "
                            "gyro_drift_deg_hr, accel_scale_factor_ppm, accel_bias_micro_g, "
                            "max_gate_minutes); repeatable")] = None,
+        no_bubble: Annotated[list[str] | None, typer.Option("--no-bubble", help="set these "
+                             "positions 7-15 without bubble-level corrections, keeping the "
+                             "survey's (II-6.1): gyro, accel; over the config's "
+                             "\\[calibration]; repeatable")] = None,
         quiet: QuietOpt = False,
         operator: OperatorOpt = None,
     ) -> None:
@@ -103,7 +123,7 @@ def add_commands(app: typer.Typer) -> None:
             "prior": None if prior is None else str(prior),
             "survey": None if survey is None else str(survey),
             "tape_library": None if tape_library is None else str(tape_library),
-            "require": require or None})
+            "require": require or None, **({"no_bubble": no_bubble} if no_bubble else {})})
         sel_only = tuple(args["only"]) if args["only"] else None
         sel_pos = tuple(args["positions"]) if args["positions"] else None
         with reported(lambda: None):
@@ -111,6 +131,7 @@ def add_commands(app: typer.Typer) -> None:
         cfg = load_isu_config(config, args["seed"])
         with reported(lambda: None):
             cfg = required(cfg, args.get("require"))
+            cfg = without_bubble(cfg, args.get("no_bubble"))
         fresh_dir = target is None
         target = target_dir(target, "day", cfg.seed)
         try:

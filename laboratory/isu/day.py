@@ -160,8 +160,10 @@ def check_selection(only: tuple[str, ...] | None, positions: tuple[int, ...] | N
 
 
 def day_plan(req: DayRequest) -> DayPlan:
-    """The request's operator choices with the config's required accuracies (``[plan]``)."""
-    return req.plan.model_copy(update={"requirements": req.cfg.plan})
+    """The request's operator choices with the config's required accuracies (``[plan]``)
+    and options (``[calibration]``, when given)."""
+    options = {} if req.cfg.calibration is None else {"options": req.cfg.calibration}
+    return req.plan.model_copy(update={"requirements": req.cfg.plan, **options})
 
 
 def check_plan(cfg: StationConfig, plan: DayPlan) -> None:

@@ -11,7 +11,13 @@ from typing import TYPE_CHECKING
 from procedures.isu.common import Gate, PositionSet
 from procedures.isu.settings import ACCEL, STRINGS
 from procedures.isu.sheets import CounterOutputs, CounterSettings, ResolverSettings
-from procedures.isu.static_positions import StaticKind, pair_steps, run_static, single_steps
+from procedures.isu.static_positions import (
+    StaticKind,
+    Uncorrected,
+    pair_steps,
+    run_static,
+    single_steps,
+)
 from procedures.runner import Run
 
 if TYPE_CHECKING:
@@ -40,13 +46,17 @@ def _kind(f0: float) -> StaticKind:
 
 def accel_positions_7_12(st: IsuDrivers, run: Run, settings: ResolverSettings,
                          presets: CounterSettings, outputs: CounterOutputs, s1: float,
-                         f0: float, pairs: tuple[int, ...] = (7, 9, 11)) -> dict[int, dict]:
+                         f0: float, pairs: tuple[int, ...] = (7, 9, 11),
+                         uncorrected: Uncorrected | None = None,
+                        precision_arcsec: float = 0.0) -> dict[int, dict]:
     return run_static(st, run, "II-13", TITLE_7_12, _kind(f0), settings, presets, outputs,
-                      pair_steps(pairs))
+                      pair_steps(pairs), uncorrected, precision_arcsec)
 
 
 def accel_positions_13_14(st: IsuDrivers, run: Run, settings: ResolverSettings,
                           presets: CounterSettings, outputs: CounterOutputs, s1: float,
-                          f0: float, positions: tuple[int, ...] = (13, 14)) -> dict[int, dict]:
+                          f0: float, positions: tuple[int, ...] = (13, 14),
+                          uncorrected: Uncorrected | None = None,
+                        precision_arcsec: float = 0.0) -> dict[int, dict]:
     return run_static(st, run, "II-14", TITLE_13_14, _kind(f0), settings, presets, outputs,
-                      single_steps(positions))
+                      single_steps(positions), uncorrected, precision_arcsec)

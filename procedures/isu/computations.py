@@ -77,6 +77,8 @@ def calibration_data(data: DayData, plan: DayPlan, site: Site,
         t_bi=tuple(tuple(r) for r in sv.t_bi),
         phi0_deg=sv.position0_deg,
         settings_deg={int(m): v for m, v in sv.settings_deg.items()},
+        uncorrected=plan.options.uncorrected(),
+        precision_arcsec=plan.options.precisions(),
     )
     supplied = {} if prior is None else cf.prior_gyro(prior, set(gyro))
     d1d3, d1d3_sigma = ({}, {}) if prior is None else cf.last_d1d3(prior, set(accel))

@@ -15,6 +15,7 @@ from typing import TYPE_CHECKING, Any
 
 from procedures.isu import settings as st_settings
 from procedures.isu.accel_static import accel_positions_7_12, accel_positions_13_14
+from procedures.isu.bubble import uncorrected_for
 from procedures.isu.calibration.noise_spec import NoiseSpec
 from procedures.isu.gyro_rotating import scale_factor_positions
 from procedures.isu.gyro_static import gyro_positions_7_12, gyro_positions_13_15
@@ -86,11 +87,15 @@ def measure_day(st: IsuDrivers, run: Run, plan: DayPlan, site: Site, f0: float,
         raise ValueError(f"unknown position(s) {sorted(pos - set(range(1, 16)))}; "
                          "calibration positions are 1 to 15")
     run.block("I-1", lambda: turn_on(st, run, plan.warmup_s), lambda _: None)
+    t_survey: float | None = None  # the survey's level reading, as near as the day knows
     if survey is None:
         survey = run.block("I-2", lambda: system_survey(st, run, site, noise=noise),
                            SurveyResults.model_validate)
+        t_survey = st.clock.now()
     else:
         run.save_sheet("survey_results", survey)
+    unc = uncorrected_for(plan, survey, t_survey)  # II-6.1: bubble corrections or not
+    prec = {"G": plan.options.precision_gyro_arcsec, "A": plan.options.precision_accel_arcsec}
     s1, _ = oscillator_periods(run)  # as Chart I-1 step 3 read them (twice, agreeing)
     settings = resolver_settings(survey)
     run.save_sheet("resolver_settings", settings)
@@ -139,15 +144,15 @@ def measure_day(st: IsuDrivers, run: Run, plan: DayPlan, site: Site, f0: float,
         data.j_term = chart("II-10", lambda: j_experiment(st, run, settings, plan, s1))
     if "II-11" in wanted and (pairs := _pairs((7, 9, 11), pos)):
         data.gyro.update(chart("II-11", lambda: gyro_positions_7_12(
-            st, run, settings, presets, outputs, s1, pairs)))
+            st, run, settings, presets, outputs, s1, pairs, unc["G"], prec["G"])))
     if "II-12" in wanted and (singles := _singles((13, 14, 15), pos)):
         data.gyro.update(chart("II-12", lambda: gyro_positions_13_15(
-            st, run, settings, presets, outputs, s1, singles)))
+            st, run, settings, presets, outputs, s1, singles, unc["G"], prec["G"])))
     if "II-13" in wanted and (pairs := _pairs((7, 9, 11), pos)):
         data.accel.update(chart("II-13", lambda: accel_positions_7_12(
-            st, run, settings, presets, outputs, s1, f0, pairs)))
+            st, run, settings, presets, outputs, s1, f0, pairs, unc["A"], prec["A"])))
     if "II-14" in wanted and (singles := _singles((13, 14), pos)):
         data.accel.update(chart("II-14", lambda: accel_positions_13_14(
-            st, run, settings, presets, outputs, s1, f0, singles)))
+            st, run, settings, presets, outputs, s1, f0, singles, unc["A"], prec["A"])))
     run.save_sheet("counter_outputs", outputs)
     return data

@@ -24,6 +24,7 @@ from procedures.isu.settings import ALONG_AXIS_CHECK, GYRO_ROTATING, turning_rep
 from procedures.isu.sheets import CounterOutputs, ResolverSettings
 from procedures.isu.turn_on import oscillator_periods
 from procedures.runner import CheckSheetRun, Run
+from station.config.calibration import set_to
 
 if TYPE_CHECKING:
     from station.drivers.isu import IsuDrivers
@@ -49,19 +50,27 @@ def position_pair(st: IsuDrivers, sheet: CheckSheetRun, settings: ResolverSettin
     timeout = 2.0 * plan.min_turns * 360.0 / plan.table_rate_deg_s + 60.0
     k_along = (m + 1) // 2  # gyro whose input axis the pair puts along the rotary axis
     repeats = turning_repeats(k_along)
+    moving = plan.options.turn_phi3_moving  # Chart II-6 step 13's option
     for first, mm in ((True, m), (False, m + 1)):
         p = settings.positions[str(mm)]
         tag = f"/m{mm}"
         text = (f"Set phi3, phi4 to position {mm}" if first
-                else f"Turn phi3 by 180 deg: position {mm}")
+                else f"Turn phi3 by 180 deg: position {mm}"
+                + (" (the table still turning)" if moving else ""))
         with sheet.step(("7" if first else "12") + tag, text) as s:
-            set_position(st, 90.0, None, p.phi3, p.phi4, level=False)
+            prec = plan.options.precision_scale_factor_arcsec  # II-6.1: about 1 deg will do
+            set_position(st, 90.0, None, set_to(p.phi3, prec), set_to(p.phi4, prec),
+                         level=False)
             if first:  # counter 5 counts the gyro along the axis again
                 patch_check_counter(st, ALONG_AXIS_CHECK, k_along)
             s.reading = {"phi3": p.phi3, "phi4": p.phi4}
-        with sheet.step(("8" if first else "13") + tag, "Start the table turning at the "
-                        "measurement speed") as s:
-            st.table.rotate(2, plan.table_rate_deg_s)
+            if prec > 0:  # what the table was set to (II-6.1's precision option)
+                s.reading["set_deg"] = [set_to(p.phi3, prec), set_to(p.phi4, prec)]
+        text8 = ("Table still turning at the measurement speed: check it" if moving
+                 and not first else "Start the table turning at the measurement speed")
+        with sheet.step(("8" if first else "13") + tag, text8) as s:
+            if not (moving and not first):
+                st.table.rotate(2, plan.table_rate_deg_s)
             st.table.wait_still()
             s.reading = {"rate_deg_s": axis_rate(st, 2, plan.table_rate_deg_s)}
         with sheet.step("9" + tag, "After a rotary output pulse, switch counters 1-4 to "
@@ -74,9 +83,12 @@ def position_pair(st: IsuDrivers, sheet: CheckSheetRun, settings: ResolverSettin
             check_turns_clock(st, 1, gate.readings[1], n_pulses, s1,
                               360.0 / plan.rotation_pulses_per_rev, plan.table_rate_deg_s)
             s.reading = {str(c): v for c, v in gate.readings.items()}
-        with sheet.step("10" + tag, "Counters printed: standby; stop the table"):
-            st.table.stop(2)
-            st.table.wait_still()
+        keep = moving and first  # turning on into position m + 1
+        with sheet.step("10" + tag, "Counters printed: standby"
+                        + ("; the table kept turning" if keep else "; stop the table")):
+            if not keep:
+                st.table.stop(2)
+                st.table.wait_still()
         with sheet.step("11" + tag, "Record the outputs on the Counter Outputs Sheet") as s:
             outputs.outputs[f"gyro {mm}"] = {str(c): v for c, v in gate.readings.items()}
             data[mm] = {

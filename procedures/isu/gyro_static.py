@@ -13,7 +13,13 @@ from typing import TYPE_CHECKING
 from procedures.isu.common import Gate, PositionSet
 from procedures.isu.settings import GYRO_CHECK_COUNTERS, GYRO_STATIC
 from procedures.isu.sheets import CounterOutputs, CounterSettings, ResolverSettings
-from procedures.isu.static_positions import StaticKind, pair_steps, run_static, single_steps
+from procedures.isu.static_positions import (
+    StaticKind,
+    Uncorrected,
+    pair_steps,
+    run_static,
+    single_steps,
+)
 from procedures.runner import Run
 
 if TYPE_CHECKING:
@@ -41,13 +47,17 @@ def _kind(s1: float) -> StaticKind:
 
 def gyro_positions_7_12(st: IsuDrivers, run: Run, settings: ResolverSettings,
                         presets: CounterSettings, outputs: CounterOutputs, s1: float,
-                        pairs: tuple[int, ...] = (7, 9, 11)) -> dict[int, dict]:
+                        pairs: tuple[int, ...] = (7, 9, 11),
+                        uncorrected: Uncorrected | None = None,
+                        precision_arcsec: float = 0.0) -> dict[int, dict]:
     return run_static(st, run, "II-11", TITLE_7_12, _kind(s1), settings, presets, outputs,
-                      pair_steps(pairs))
+                      pair_steps(pairs), uncorrected, precision_arcsec)
 
 
 def gyro_positions_13_15(st: IsuDrivers, run: Run, settings: ResolverSettings,
                          presets: CounterSettings, outputs: CounterOutputs, s1: float,
-                         positions: tuple[int, ...] = (13, 14, 15)) -> dict[int, dict]:
+                         positions: tuple[int, ...] = (13, 14, 15),
+                         uncorrected: Uncorrected | None = None,
+                        precision_arcsec: float = 0.0) -> dict[int, dict]:
     return run_static(st, run, "II-12", TITLE_13_15, _kind(s1), settings, presets, outputs,
-                      single_steps(positions))
+                      single_steps(positions), uncorrected, precision_arcsec)

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
+from station.config.calibration import CalibrationOptions
 from station.config.plan import PlanSettings
 
 
@@ -26,6 +27,8 @@ class DayPlan(BaseModel):
     j_accel_deg_s2: float = Field(5.0, gt=0)
     j_rate_deg_s: float = Field(10.0, gt=0)
     warmup_s: float = Field(1800.0, ge=0)
+    # II-6.1 options (the config's [calibration]): bubble-level corrections in 7-15
+    options: CalibrationOptions = CalibrationOptions()
     # A study's fixed collection times (station plan --verify sweeps them): a gate given here
     # takes this time whatever the requirements; None: the time the requirement implies
     study_gyro_gate_s: float | None = Field(None, gt=0)  # gyro positions 7-15

@@ -97,7 +97,9 @@ def counter_settings(
         for c in STRINGS:
             k = (c + 1) // 2
             t = accel_vertical_s if vert == k else accel_horizontal_s
-            row[str(c)] = int(math.ceil(t * f0))  # the basic frequency converts time to counts
+            # the basic frequency converts time to counts; II-6.2 prints 10 min x 20,000/s as
+            # 1.2 x 10^6 counts, a slip: 600 s x 20,000/s = 1.2 x 10^7
+            row[str(c)] = int(math.ceil(t * f0))
         presets[f"accel {m}"] = row
     return CounterSettings(presets=presets, basis=basis)
 

@@ -24,6 +24,7 @@ from procedures.isu.readings import resolver
 from procedures.isu.settings import wiring
 from procedures.isu.sheets import CounterOutputs, CounterSettings, ResolverSettings
 from procedures.runner import Run
+from station.config.calibration import set_to
 
 if TYPE_CHECKING:
     from station.drivers.isu import IsuDrivers
@@ -58,9 +59,42 @@ def single_steps(positions: Iterable[int]) -> list[tuple[int, str, str]]:
     return [(m, "6", f"Set phi3, phi4 to position {m} with level correction") for m in positions]
 
 
+@dataclass(frozen=True)
+class Uncorrected:
+    """Positions set without bubble-level corrections (II-6.1's option): phi1 and phi3 carry
+    the survey's level corrections (Chart I-2 step 5, deg), read at ``t_level`` (s), the
+    instant a gate's tilt then counts from."""
+
+    phi1_deg: float
+    phi3_deg: float
+    t_level: float
+
+    def text(self, text: str) -> str:
+        """A step's text for an uncorrected setting."""
+        return (text.replace("plus level correction", "plus the survey's level correction")
+                .replace("with level correction", "with the survey's level correction")
+                .replace("(level re-read)", "(no level reading)"))
+
+
+def _set(st: IsuDrivers, phi3: float, phi4: float, unc: Uncorrected | None,
+         precision_arcsec: float = 0.0) -> PositionSet:
+    """Set phi1 = 0, phi2 = 90 and (phi3, phi4) to ``precision_arcsec`` (II-6.1): levelled,
+    or with the survey's corrections."""
+    phi3, phi4 = set_to(phi3, precision_arcsec), set_to(phi4, precision_arcsec)
+    if unc is None:
+        return set_position(st, 0.0, 90.0, phi3, phi4, level=True)
+    ps = set_position(st, unc.phi1_deg, 90.0, phi3 + unc.phi3_deg, phi4, level=False)
+    ps.t_level = unc.t_level
+    return ps
+
+
 def run_static(st: IsuDrivers, run: Run, chart: str, title: str, kind: StaticKind,
                settings: ResolverSettings, presets: CounterSettings, outputs: CounterOutputs,
-               steps: list[tuple[int, str, str]]) -> dict[int, dict]:
+               steps: list[tuple[int, str, str]], uncorrected: Uncorrected | None = None,
+               precision_arcsec: float = 0.0) -> dict[int, dict]:
+    """One static chart; ``uncorrected``: set every position without bubble corrections;
+    ``precision_arcsec``: the resolver-setting precision of its positions (II-6.1)."""
+    unc = uncorrected
     data: dict[int, dict] = {}
     with run.sheet(chart, title) as sheet:
         sheet.done("1", "Resolver and counter settings available")
@@ -73,14 +107,16 @@ def run_static(st: IsuDrivers, run: Run, chart: str, title: str, kind: StaticKin
                 if kind.repeats else "")
         with sheet.step("4", f"Set counters {counters} to {kind.mode}{also}"):
             set_modes(st, every, kind.mode)
-        with sheet.step("5", "Set phi1 to 0 deg plus level correction, phi2 to 90 deg") as s:
-            ps = set_position(st, 0.0, 90.0, resolver(st, 3), resolver(st, 4), True)
+        text5 = "Set phi1 to 0 deg plus level correction, phi2 to 90 deg"
+        with sheet.step("5", text5 if unc is None else unc.text(text5)) as s:
+            p3 = resolver(st, 3) - (0.0 if unc is None else unc.phi3_deg)
+            ps = _set(st, p3, resolver(st, 4), unc)
             s.reading = ps.reading()
         for m, first, text in steps:
             tag = f"/m{m}"
             p = settings.positions[str(m)]
-            with sheet.step(first + tag, text) as s:
-                ps = set_position(st, 0.0, 90.0, p.phi3, p.phi4, level=True)
+            with sheet.step(first + tag, text if unc is None else unc.text(text)) as s:
+                ps = _set(st, p.phi3, p.phi4, unc, precision_arcsec)
                 s.reading = {"phi1": ps.phi[0], "phi3": ps.phi[2], "phi4": ps.phi[3],
                              **ps.reading()}
             row = presets.presets[f"{kind.sheet_key} {m}"]

@@ -30,7 +30,7 @@ MAX_ERRORS = 4  # field errors spelt out in one message; the rest are counted
 # The top-level names of each laboratory's file, and the commands that read it.
 LABORATORIES: dict[str, tuple[str, ...]] = {
     "ISU": ("seed", "site", "environment", "table", "isu", "oscillator", "instruments",
-            "links", "identity", "faults", "limits", "alignment", "plan"),
+            "links", "identity", "faults", "limits", "alignment", "plan", "calibration"),
     "CIGTF": ("identity", "cigtf"),  # [identity] is every laboratory's; its own one last
     "ESG": ("identity", "esg"),
 }

@@ -42,6 +42,7 @@ from sim.isu.params import (
     WorldParams,
 )
 from station.config.alignment import AlignmentSettings
+from station.config.calibration import CalibrationOptions
 from station.config.file import (
     ConfigError,
     check_depth,
@@ -219,6 +220,7 @@ class StationConfig(BaseModel):
     limits: IsuLimits = IsuLimits()  # acceptance limits (station/config/limits.py)
     alignment: AlignmentSettings = AlignmentSettings()  # Part III plan, tape library
     plan: PlanSettings = PlanSettings()  # required accuracies of the day (II-6.2)
+    calibration: CalibrationOptions | None = None  # operator options of report 000 Part II
     identity: IsuIdentity
 
     @field_validator("faults")

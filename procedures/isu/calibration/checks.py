@@ -32,7 +32,7 @@ from procedures.isu.calibration.forward import AccelModel, GyroModel
 from procedures.isu.calibration.geometry import FIRST_COLUMN, t_br
 from procedures.isu.calibration.gyro_equations import GYRO_PARAMS
 from procedures.isu.calibration.inputs import TURNING_POSITIONS, CalibrationData, Constants
-from procedures.isu.calibration.noise_spec import NoiseSpec
+from procedures.isu.calibration.noise_spec import ARCSEC, NoiseSpec
 from procedures.isu.calibration.reduce import Key, reduce
 from procedures.isu.plausibility import Implausible
 from procedures.isu.sheets import ResultRow
@@ -170,6 +170,9 @@ def check_string_sums(data: CalibrationData, rows: list[ResultRow],
     c = data.constants
     est = {(r.instrument, r.parameter): r.estimate for r in rows}
     q = (noise.accel_white_micro_g_rt_hz * 1e-6) ** 2
+    geo = data.geometry
+    # rounding's sigma per angle (rad) of the accelerometer settings' precision (II-6.1)
+    prec = (0.0 if geo is None else geo.precision_arcsec.get("A", 0.0)) * ARCSEC / math.sqrt(12)
     out: dict[str, float] = {}
     for k in (1, 2, 3):
         ab = [est.get((f"accel{k}", f"A.B{j}")) for j in (1, 2, 3)]
@@ -193,6 +196,12 @@ def check_string_sums(data: CalibrationData, rows: list[ResultRow],
         w = 1.0 / np.array(var)
         h = np.linalg.inv(x.T @ (x * w[:, None]))
         beta = h @ (x.T @ (w * np.array(sums)))
+        if prec > 0:  # II-6.1's coarser settings move u: the fitted slope carries that in
+            slope = beta[1] + 2.0 * beta[2] * np.array(u)
+            var = list(np.array(var) + 2.0 * (slope * c.g * prec) ** 2)
+            w = 1.0 / np.array(var)
+            h = np.linalg.inv(x.T @ (x * w[:, None]))
+            beta = h @ (x.T @ (w * np.array(sums)))
         resid = np.array(sums) - x @ beta
         cov_r = np.array(var) - np.einsum("ij,jk,ik->i", x, h, x)
         for m, r, v, v0 in zip(ms, resid, cov_r, var, strict=True):

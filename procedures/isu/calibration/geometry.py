@@ -118,6 +118,10 @@ class TableErrorModel:
       error plus the difference of phi1's scatter before and after the correction, about
       north the bubble error (phi3's own error is in e3), about up (R1 = T2) e2 at phi2 plus
       n_RT's R1 component; the rest of n_RT and the base tilt are levelled out;
+    * uncorrected static settings (``TableGeometry.uncorrected``, II-6.1): phi1 and phi3 carry
+      the survey's level corrections, so the rotary frame keeps the survey's level error
+      (in ``_delta0``) and, about east, phi1's scatter of its one setting; the tilt since the
+      survey's reading is the covariance's (``t_level``);
     * the survey: mean of ``survey_readings`` autocollimator and level readings per mirror
       (isotropic body error autocollimator/sqrt(N), level error bubble/sqrt(N)), the
       base-azimuth step's error about up (``survey_azimuth_arcsec``), and phi1^0 entered as
@@ -125,6 +129,9 @@ class TableErrorModel:
       A position 0 with the rotary axis not vertical is taken unlevelled: e1, e2 and the
       whole n_RT enter instead.
     * turning settings (1-6): only the body against the rotary frame matters.
+    * a setting precision coarser than the table's (``TableGeometry.precision_arcsec``,
+      II-6.1): phi3 and phi4 rounded, an error uniform over the precision, shared by the
+      pair m, m + 1 (phi3 + 180 deg rounds alike).
 
     Not random, so not in the covariance: a static base tilt or azimuth the survey leaves in
     (e.g. the base azimuth at positions 7-15, a turn about up).
@@ -137,6 +144,8 @@ class TableErrorModel:
         self.phi0 = tuple(math.radians(x) for x in g.phi0_deg)
         self.level0 = abs(g.phi0_deg[0]) < 1.0  # rotary axis up: the survey reads the levels
         self.settings = {m: tuple(math.radians(x) for x in v) for m, v in g.settings_deg.items()}
+        self.uncorrected = set(g.uncorrected)
+        self.precision = {k: v * ARCSEC for k, v in g.precision_arcsec.items()}
         self._names: dict[object, int] = {}
         self._sig: list[float] = []
         no = noise.nonorthogonality_arcsec * ARCSEC
@@ -234,10 +243,18 @@ class TableErrorModel:
         for kind, m in keys:  # register the per-setting sources first (fixes n)
             self._source(("s3", kind, m), sn)
             self._source(("s4", kind, m), sn)
+            if kind in self.precision:  # II-6.1: phi3, phi4 rounded, shared by the pair
+                q = self.precision[kind] / math.sqrt(12.0)
+                self._source(("q3", kind, PAIR[m]), q)
+                self._source(("q4", kind, PAIR[m]), q)
             if kind != "R":
                 self._source(("s2", kind, m), sn)
-                self._source(("tauE", kind, m), math.sqrt(bub * bub + 2 * sn * sn))
-                self._source(("tauN", kind, m), bub)
+                if kind in self.uncorrected:  # one setting of phi1, no reading of its own
+                    self._source(("tauE", kind, m), sn)
+                    self._source(("tauN", kind, m), 0.0)
+                else:
+                    self._source(("tauE", kind, m), math.sqrt(bub * bub + 2 * sn * sn))
+                    self._source(("tauN", kind, m), bub)
         n = len(self._sig)
         d0 = self._delta0(n)
         out = {}
@@ -251,6 +268,9 @@ class TableErrorModel:
             self._resolver(rows, 3, p3, t_bo[:, 0])
             self._add(rows, ("s4", kind, m), self.t_bi[:, 0])
             self._add(rows, ("s3", kind, m), t_bo[:, 0])
+            if kind in self.precision:
+                self._add(rows, ("q4", kind, PAIR[m]), self.t_bi[:, 0])
+                self._add(rows, ("q3", kind, PAIR[m]), t_bo[:, 0])
             self._inside(rows, t_bo, t_brg)
             if kind != "R":  # positions 7-15: R = (U, N, -E), so up, east, north are
                 t = nominal[key]  # the first column, minus the third and the second

@@ -115,11 +115,15 @@ class TableGeometry(_In):
     ``t_bi`` is T^BI (rows: body axes in inner-frame components), ``phi0_deg`` the resolver
     readings (phi1..phi4) at position 0, ``settings_deg`` the resolver settings (phi3, phi4)
     of positions 1, 3, 5, 13, 14, 15 (Chart I-5); even positions are phi3 + 180 deg.
+    ``uncorrected``: the static kinds ("G" gyro, "A" accelerometer) set without bubble-level
+    corrections (II-6.1), keeping the survey's level reading.
     """
 
     t_bi: tuple[Vec3, Vec3, Vec3]
     phi0_deg: tuple[float, float, float, float]
     settings_deg: dict[int, tuple[float, float]]
+    uncorrected: tuple[str, ...] = ()
+    precision_arcsec: dict[str, float] = {}  # kind -> resolver-setting precision (II-6.1)
 
 
 class CalibrationData(_In):

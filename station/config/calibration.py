@@ -1,0 +1,50 @@
+"""``[calibration]``: the options report 000 leaves to the operator of a calibration day.
+
+Absent (None) in the default config, so a default day's record is unchanged; each field
+cites the section that offers the choice.
+"""
+
+from __future__ import annotations
+
+from pydantic import BaseModel, ConfigDict, Field
+
+
+class CalibrationOptions(BaseModel):
+    """Bubble-level corrections in positions 7-15 (II-6.1): always advised for the
+    accelerometers (Charts II-13, II-14), optional for the gyros (Charts II-11, II-12).
+    False runs those positions uncorrected: the table keeps the survey's one level
+    reading (Chart I-2 step 5), the uncorrected cases of Charts II-21/II-22."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True, strict=True)
+
+    bubble_gyro: bool = True
+    bubble_accel: bool = True
+    # Chart II-6 step 13's remark: if phi3 can be turned accurately with the table in motion,
+    # the table need not stop between positions m and m + 1 (1-6)
+    turn_phi3_moving: bool = False
+    # II-6.1's resolver-setting precisions (one, two or three): phi3, phi4 set to the nearest
+    # multiple of this, arcsec (0: as precisely as the table sets, the default); the scale
+    # factor positions 1-6 can take about one degree (3600), the accelerometers the finest
+    precision_scale_factor_arcsec: float = Field(0.0, ge=0, le=3600.0)
+    precision_gyro_arcsec: float = Field(0.0, ge=0, le=3600.0)
+    precision_accel_arcsec: float = Field(0.0, ge=0, le=3600.0)
+
+    def precisions(self) -> dict[str, float]:
+        """Setting precision (arcsec) by setting kind: "R" positions 1-6, "G" gyro and "A"
+        accelerometer positions 7-15; only those given."""
+        out = {"R": self.precision_scale_factor_arcsec, "G": self.precision_gyro_arcsec,
+               "A": self.precision_accel_arcsec}
+        return {k: v for k, v in out.items() if v > 0}
+
+    def uncorrected(self) -> tuple[str, ...]:
+        """The position kinds set without corrections: "G" gyro, "A" accelerometer."""
+        return tuple(k for k, on in (("G", self.bubble_gyro), ("A", self.bubble_accel))
+                     if not on)
+
+
+def set_to(deg: float, precision_arcsec: float) -> float:
+    """A resolver setting (deg) to the nearest multiple of ``precision_arcsec`` (0: as is)."""
+    if precision_arcsec <= 0:
+        return deg
+    q = precision_arcsec / 3600.0
+    return round(deg / q) * q

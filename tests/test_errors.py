@@ -19,6 +19,7 @@ from typer.testing import CliRunner
 from instruments.isu.table_controller import TableController
 from laboratory.apply import RawFileError
 from laboratory.calfile import CalibrationFileError
+from laboratory.campaign.spec import SpecError
 from laboratory.cli import app
 from laboratory.history.store import HistoryError
 from laboratory.registry import UnknownLaboratory
@@ -60,7 +61,7 @@ EXIT_CODES: dict[type[OperatorError], int] = {
     BadArgument: 2, ConfigError: 2, RunDirError: 2, JournalError: 2, ResumeMismatch: 2,
     NoServedRack: 2, WrongStation: 2, UnknownLaboratory: 2, ReportError: 2,
     CalibrationFileError: 2, RawFileError: 2,  # `station apply` (laboratory/calfile.py)
-    HistoryError: 2,
+    HistoryError: 2, SpecError: 2,  # `station campaign` (laboratory/campaign/spec.py)
     RunComplete: 0,  # --resume of a finished run: nothing to do, said on stdout
     CheckFailed: 1, Implausible: 1, TooFewLines: 1, ProcedureError: 1, DriverError: 1,
     LinkTimeout: 1, MalformedReply: 1, ReadingOutOfRange: 1, InstrumentRefused: 1,

@@ -20,6 +20,8 @@ from typing import Any
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
 
+from station.errors import UseError
+
 # command -> its laboratory (the run functions of laboratory.virtual)
 COMMANDS = {"day": "isu", "align": "isu", "gyrocompass-test": "cigtf",
             "esg-calibration": "esg"}
@@ -28,7 +30,7 @@ PLAN_PREFIX = "plan."  # sweep paths into the day plan (procedures/isu/plan.py),
 Scalar = float | int | bool | str
 
 
-class SpecError(ValueError):
+class SpecError(UseError, ValueError):
     """A campaign spec that cannot be run (one line naming the file and field)."""
 
 

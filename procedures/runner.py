@@ -34,6 +34,7 @@ from procedures.journal import Journal, JournalError, dumps
 from procedures.sheets import SHEET_MODELS, CheckSheet, Sheet, SheetHeader, StepRecord
 from station.clock import Clock
 from station.errors import StepName, StopError, UseError, current_step
+from station.numerics import pin_blas_threads
 
 VOLATILE = ("wall",)
 RESUME_MODES = ("replay", "skip")
@@ -106,6 +107,7 @@ class Run:
         (``check_<chart>`` for a check-sheet)."""
         if resume not in RESUME_MODES:
             raise ValueError(f"resume mode must be one of {RESUME_MODES}, got {resume!r}")
+        pin_blas_threads()  # the record's numbers must not depend on the machine's cores
         self.clock = clock
         self.journal = journal
         self.listener = listener

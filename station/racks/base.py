@@ -21,6 +21,7 @@ from instruments.base import ByteInstrument
 from station.clock import Clock, VirtualClock
 from station.drivers.driver_set import Driver, DriverFactory
 from station.links import virtual
+from station.numerics import pin_blas_threads
 
 _ids: defaultdict[str, Iterator[int]] = defaultdict(lambda: itertools.count(1))
 
@@ -44,6 +45,7 @@ class SimRack:
 
     def __init__(self, world: Any, serial: dict[str, ByteInstrument],
                  can: dict[str, Any] | None = None) -> None:
+        pin_blas_threads()  # the record's numbers must not depend on the machine's cores
         self.world = world
         self.env: simpy.Environment = world.env
         self.serial = serial

@@ -1,0 +1,28 @@
+"""One BLAS thread for every recorded computation, so a record does not depend on the machine.
+
+OpenBLAS splits a large product or factorisation (the 3K x 3K solve of Charts I-9/I-10)
+over its threads, and the sums come out in another order with another thread count: the
+level tape of one seed differed in its last bits between a 1-thread and a 2-thread process,
+and a resumed run (replayed exactly) refused its own journal when the two processes had
+different counts (a Dask import sets OPENBLAS_NUM_THREADS=1 for the processes it starts).
+threadpoolctl sets the count at run time, whatever the environment was at numpy's import;
+it reaches only the libraries loaded when it is called, so numpy's and scipy.linalg's
+(two OpenBLAS builds in the wheels) are loaded first.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+_limit: list[Any] = []  # the process's one controller, kept alive while the process runs
+
+
+def pin_blas_threads() -> None:
+    """Limit the BLAS libraries of this process to one thread (idempotent, process-wide)."""
+    if _limit:
+        return
+    import numpy  # noqa: F401 - load numpy's BLAS ...
+    import scipy.linalg  # noqa: F401 - ... and scipy's, before limiting them
+    from threadpoolctl import threadpool_limits
+
+    _limit.append(threadpool_limits(limits=1, user_api="blas"))

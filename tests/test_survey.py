@@ -290,6 +290,15 @@ def test_survey_recovers_t_bi_and_sets_the_positions(make_lab):
     print(f"T^BI error {err:.2f} arcsec, predicted bound {bound:.2f} arcsec")
     assert err < bound
 
+    # Chart I-6: columns 2 and 3 of T^BRm are those of T^BI T^IOm T^ORm, and within the
+    # T^BI error of the true unit's (column 3 is for information only: step 4)
+    for m, (p3, p4) in res.settings_deg.items():
+        full = sm.t_br(t_bi, p3, p4)
+        assert np.allclose(res.t_br_column2[m], full[:, 1], atol=1e-14)
+        assert np.allclose(res.t_br_column3[m], full[:, 2], atol=1e-14)
+        true3 = sm.t_br(w.isu.t_bi, p3, p4)[:, 2]
+        assert angle_arcsec(res.t_br_column3[m], true3) < bound
+
     pos_bound = bound + setting_error_arcsec(lab.cfg)
     # position 7: B1 up (phi1 = 0 plus level correction, phi2 = 90, phi3^1, phi4^1)
     p3, p4 = res.settings_deg["1"]

@@ -29,7 +29,13 @@ from procedures.isu.gyro_rotating import wait_clear_of_pulse
 from procedures.isu.plan import DayPlan
 from procedures.isu.readings import axis_rate
 from procedures.isu.settings import ALONG_AXIS_CHECK, GYRO_ROTATING, turning_repeats, wiring
-from procedures.isu.sheets import ResolverSettings
+from procedures.isu.sheets import (
+    NonlinearityCounterOutputs,
+    NonlinearityCounterSettings,
+    NonlinearityGate,
+    NonlinearityOutput,
+    ResolverSettings,
+)
 from procedures.runner import CheckSheetRun, Run
 
 if TYPE_CHECKING:
@@ -76,12 +82,41 @@ def speed_series(st: IsuDrivers, sheet: CheckSheetRun, tag: str, k: int, plan: D
     return rows
 
 
+def speed_key(rate: float) -> str:
+    """A speed as the nonlinearity sheets (Charts II-8, II-9) key it: signed deg/s."""
+    return f"{rate:+g}"
+
+
+def nonlinearity_settings(plan: DayPlan) -> NonlinearityCounterSettings:
+    """Chart II-8 from the plan: per gyro and speed, counters 1 and k + 1 preset to the
+    rotary-axis pulses of the plan's whole turns (Chart II-7 step 6)."""
+    preset = plan.nonlinearity_turns * plan.rotation_pulses_per_rev
+    return NonlinearityCounterSettings(gyros={
+        str(k): {speed_key(r): NonlinearityGate(counters=(1, k + 1), preset=preset,
+                                                rate_deg_s=r)
+                 for r in plan.nonlinearity_rates_deg_s}
+        for k in (1, 2, 3)})
+
+
+def nonlinearity_outputs(points: dict[int, list[dict]]) -> NonlinearityCounterOutputs:
+    """Chart II-9 from the series: counter outputs (step 10) and the rates of steps 14-15."""
+    return NonlinearityCounterOutputs(gyros={
+        str(k): {speed_key(r["rate_deg_s"]): NonlinearityOutput(
+            ticks=r["ticks"], counts=r["counts"], w_deg_hr=r["w_deg_hr"], p_dot=r["p_dot"])
+            for r in rows}
+        for k, rows in points.items()})
+
+
 def nonlinearity_experiment(st: IsuDrivers, run: Run, settings: ResolverSettings, plan: DayPlan,
                             s1: float, omega_sin_lambda: float) -> dict[int, list[dict]]:
-    """Chart II-7 steps 1-15; returns per gyro the (w, P', counts, ticks) points."""
+    """Chart II-7 steps 1-15; returns per gyro the (w, P', counts, ticks) points. The
+    settings go on Chart II-8 before the runs, the outputs on Chart II-9 after them."""
     points: dict[int, list[dict]] = {}
     with run.sheet("II-7", TITLE) as sheet:
-        sheet.done("1", "Resolver and counter settings available")
+        with sheet.step("1", "Resolver settings and the nonlinearity Counter Settings Sheet "
+                        "(Chart II-8) available") as s:
+            run.save_sheet("nonlinearity_counter_settings", nonlinearity_settings(plan))
+            s.reading = {"sheet": "nonlinearity_counter_settings"}
         sheet.done("2", "Turn-on procedures complete (Chart I-1)")
         with sheet.step("3", "Patch gyros, master oscillator and rotary output (positions 1-6)"):
             patch(st, wiring(GYRO_ROTATING))
@@ -99,6 +134,10 @@ def nonlinearity_experiment(st: IsuDrivers, run: Run, settings: ResolverSettings
                 st.table.stop(2)
                 st.table.wait_still()
         sheet.done("13", "Gyros 2 and 3 done as gyro 1")
+        with sheet.step("15", "Record w and P' on the nonlinearity Counter Outputs Sheet "
+                        "(Chart II-9)") as s:
+            run.save_sheet("nonlinearity_counter_outputs", nonlinearity_outputs(points))
+            s.reading = {"sheet": "nonlinearity_counter_outputs"}
     return points
 
 

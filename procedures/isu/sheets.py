@@ -23,6 +23,8 @@ class SurveyResults(Sheet):
     t_bi: list[list[float]]
     settings_deg: dict[str, tuple[float, float]]  # m -> (phi3^m, phi4^m), m = 1, 3, 5, 13, 14, 15
     t_br_column2: dict[str, tuple[float, float, float]]  # m -> (T12, T22, T32)^BRm
+    # Chart I-6 step 4: m -> (T13, T23, T33)^BRm, for information (no equation uses it)
+    t_br_column3: dict[str, tuple[float, float, float]] = Field(default_factory=dict)
     header: SheetHeader | None = None
 
 
@@ -83,6 +85,40 @@ class CounterOutputs(Sheet):
     header: SheetHeader | None = None
 
 
+class NonlinearityGate(Sheet):
+    """One speed of a gyro's nonlinearity series: the counters, their preset and the speed."""
+
+    counters: tuple[int, int]  # counter 1 (S1^T ticks) and counter k + 1 (gyro k pulses)
+    preset: int  # (Sigma n^phi): rotary-axis pulses, whole turns
+    rate_deg_s: float  # the table speed to set
+
+
+class NonlinearityCounterSettings(Sheet):
+    """Counter Settings Sheet for the nonlinearity experiments (Chart II-8): gyro -> speed
+    (deg/s, signed) -> its gate. The report does not print the form; these are the settings
+    Chart II-7 steps 6 and 7 take from it."""
+
+    gyros: dict[str, dict[str, NonlinearityGate]]
+    header: SheetHeader | None = None
+
+
+class NonlinearityOutput(Sheet):
+    """One speed's counter outputs (Chart II-7 step 10) and steps 14-15's rates."""
+
+    ticks: int  # counter 1: S1^T periods over the whole turns
+    counts: int  # counter k + 1: gyro pulses over the same turns
+    w_deg_hr: float  # step 14: total rate about the rotary axis
+    p_dot: float  # step 15: output frequency, pulses/s
+
+
+class NonlinearityCounterOutputs(Sheet):
+    """Counter Outputs Sheet for the nonlinearity experiments (Chart II-9): gyro -> speed
+    -> outputs (the report does not print the form: designed from Chart II-7)."""
+
+    gyros: dict[str, dict[str, NonlinearityOutput]] = Field(default_factory=dict)
+    header: SheetHeader | None = None
+
+
 ARCSEC_PER_DEG = 3600.0
 F = TypeVar("F", float, np.ndarray)
 
@@ -116,7 +152,9 @@ class CalibrationResults(Sheet):
 # check_<chart> is its chart's procedure.
 SHEET_CHARTS = {"survey_results": "I-3", "resolver_settings": "II-1",
                 "counter_connections": "II-2", "counter_settings": "II-3",
-                "counter_outputs": "II-4", "calibration_results": "II-5"}
+                "counter_outputs": "II-4", "calibration_results": "II-5",
+                "nonlinearity_counter_settings": "II-8",
+                "nonlinearity_counter_outputs": "II-9"}
 SHEETS_USED: dict[str, list[str]] = {
     "I-3": [],
     "II-1": ["Chart I-3"],
@@ -124,6 +162,9 @@ SHEETS_USED: dict[str, list[str]] = {
     "II-3": ["Chart II-2"],
     "II-4": ["Chart II-2", "Chart II-3"],
     "II-5": ["Chart I-3", "Chart II-1", "Chart II-3", "Chart II-4"],
+    "II-7": ["Chart II-1", "Chart II-8", "Chart II-9"],
+    "II-8": ["Chart II-1"],
+    "II-9": ["Chart I-3", "Chart II-8"],
     "III-1": ["Chart I-3", "Chart II-5"],
 }
 
@@ -136,6 +177,8 @@ ISU_SHEETS: dict[str, type[Sheet]] = {
     "counter_settings": CounterSettings,
     "counter_outputs": CounterOutputs,
     "calibration_results": CalibrationResults,
+    "nonlinearity_counter_settings": NonlinearityCounterSettings,
+    "nonlinearity_counter_outputs": NonlinearityCounterOutputs,
 }
 
 

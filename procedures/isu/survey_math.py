@@ -189,6 +189,17 @@ def t_br_column2(t_bi: np.ndarray, phi3: float, phi4: float) -> tuple[float, flo
     return float(col[0]), float(col[1]), float(col[2])
 
 
+def t_br_column3(t_bi: np.ndarray, phi3: float, phi4: float) -> tuple[float, float, float]:
+    """Chart I-6 step 4 (for information): (T13, T23, T33)^BRm = -T^BI_i1 sin phi3
+    + T^BI_i2 cos phi3 sin phi4 + T^BI_i3 cos phi3 cos phi4, the third column of
+    T^BI T^IOm T^ORm."""
+    t = np.asarray(t_bi, dtype=float)
+    p3, p4 = math.radians(phi3), math.radians(phi4)
+    col = (-t[:, 0] * math.sin(p3) + t[:, 1] * math.cos(p3) * math.sin(p4)
+           + t[:, 2] * math.cos(p3) * math.cos(p4))
+    return float(col[0]), float(col[1]), float(col[2])
+
+
 def rotation_angle_arcsec(a: np.ndarray, b: np.ndarray) -> float:
     """Angle of the rotation a b^T between two orthogonal matrices, arcsec."""
     r = np.asarray(a, dtype=float) @ np.asarray(b, dtype=float).T

@@ -356,11 +356,13 @@ def system_survey(
             pos0 = (p1 - c1 / 3600.0, p2 + dphi2, p3 - c3 / 3600.0, p4)
             s.reading = {"position0_deg": list(pos0), "autocollimator_deg": list(ac_deg)}
 
-        text8 = "Compute T^BI, phi3^m, phi4^m and T^BRm column 2 (m = 1, 3, 5, 13, 14, 15)"
+        text8 = ("Compute T^BI, phi3^m, phi4^m and T^BRm columns 2 and 3 "
+                 "(m = 1, 3, 5, 13, 14, 15)")
         with sheet.step("8", text8) as s:
             t_bi = sm.t_bi_from_survey(pos0, ac_deg)
             settings = sm.resolver_settings(t_bi)
             col2 = {m: sm.t_br_column2(t_bi, *settings[m]) for m in sm.SURVEYED_POSITIONS}
+            col3 = {m: sm.t_br_column3(t_bi, *settings[m]) for m in sm.SURVEYED_POSITIONS}
             # check: each setting puts its body vector along R1 (first column of T^BRm)
             worst = max(
                 _angle_arcsec(sm.POSITION_VECTORS[m], sm.t_br(t_bi, *settings[m])[:, 0])
@@ -372,6 +374,7 @@ def system_survey(
                 "t_bi": t_bi.tolist(),
                 "settings_deg": {str(m): list(v) for m, v in settings.items()},
                 "t_br_column2": {str(m): list(v) for m, v in col2.items()},
+                "t_br_column3": {str(m): list(v) for m, v in col3.items()},
             }
 
         with sheet.step("9", "Record the results on the Survey Results Sheet (Chart I-3)") as s:
@@ -384,6 +387,7 @@ def system_survey(
                 t_bi=t_bi.tolist(),
                 settings_deg={str(m): v for m, v in settings.items()},
                 t_br_column2={str(m): v for m, v in col2.items()},
+                t_br_column3={str(m): v for m, v in col3.items()},
             )
             run.save_sheet("survey_results", results)
             s.reading = {"sheet": "survey_results"}

@@ -26,12 +26,18 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from procedures.isu.calibration.compute import Row, data_covariance, estimate
+from procedures.isu.calibration.compute import (
+    Row,
+    constants_covariance,
+    data_covariance,
+    estimate,
+)
 from procedures.isu.calibration.forward import NOMINAL_AXES, AccelModel, GyroModel
 from procedures.isu.calibration.geometry import FIRST_COLUMN, t_br
 from procedures.isu.calibration.inputs import CalibrationData, Constants
 from procedures.isu.calibration.noise_spec import NoiseSpec
 from procedures.isu.calibration.reduce import Key, Reduced, reduce
+from procedures.isu.sheets import ResultRow
 
 GYRO_COEFS = ("R", "B_I", "B_O", "B_S", "C_II", "C_SS", "C_IS", "C_OS", "C_IO")
 Q_TERMS = ("Q_II", "Q_IS")
@@ -358,3 +364,36 @@ def sigma_ratios(sigmas: Mapping[Row, float | None], crb: tuple[list[Row], np.nd
             out[r] = float(s) / float(np.sqrt(cov[i, i]))
     return out
 
+
+
+# ------------------------------------------------------------------------------ the sheet
+ESTIMATORS = ("closed-form", "all-positions")
+
+
+def side_by_side(rows: list[ResultRow], data: CalibrationData, noise: NoiseSpec | None,
+                 estimator: str = "closed-form") -> tuple[list[Row], np.ndarray]:
+    """Fill the Calibration Results Sheet's rows (in place) with both estimators and the
+    Cramer-Rao bound at the all-positions estimate; the rows' estimate and sigma become
+    ``estimator``'s. Returns that estimator's rows and full covariance (calibration file)."""
+    if estimator not in ESTIMATORS:
+        raise ValueError(f"estimator: {estimator!r} is not one of {', '.join(ESTIMATORS)}")
+    noise = noise or NoiseSpec()
+    closed, cf_rows, cf_cov = constants_covariance(data, noise)
+    red = reduce(data)
+    d = design(data, closed, red)
+    cov_z = data_covariance(red, d.keys, data, noise, closed)
+    f = fit(data, noise, closed, cov_z)
+    bound_rows, bound = (cramer_rao(data, {**closed, **f.estimates}, noise, closed, cov_z)
+                         if f.rows else ([], np.zeros((0, 0))))
+    for r in rows:
+        key = (r.instrument, r.parameter)
+        r.closed_form, r.closed_form_sigma = r.estimate, r.sigma
+        if key in f.estimates:
+            r.all_positions, r.all_positions_sigma = f.estimates[key], f.sigma(key)
+            i = bound_rows.index(key)
+            r.cramer_rao_sigma = float(np.sqrt(max(bound[i, i], 0.0)))
+        if estimator == "all-positions" and key in f.estimates and key in cf_rows:
+            r.estimate, r.sigma, r.estimator = r.all_positions, r.all_positions_sigma, estimator
+    if estimator == "all-positions":
+        return f.rows, f.covariance
+    return cf_rows, cf_cov

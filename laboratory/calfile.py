@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 
 from laboratory.record import write_json
-from procedures.isu.calibration.all_positions import fit
+from procedures.isu.calibration.all_positions import Q_TERMS, fit
 from procedures.isu.calibration.compute import constants_covariance
 from procedures.isu.calibration.inputs import CalibrationData
 from procedures.isu.calibration.noise_spec import NoiseSpec
@@ -78,9 +78,10 @@ def calibration_covariance(data: CalibrationData, noise: NoiseSpec,
     """Full covariance of the constants the calibration program computes, of the sheet's
     estimator: J Sigma_z J^T of the closed forms (compute.predicted_sigmas keeps only its
     diagonal), or (J_f^T Sigma_z^-1 J_f)^-1 of the all-positions fit."""
-    if estimator == "all-positions":
+    if estimator == "all-positions":  # Q_II, Q_IS on the sheet are the special experiments'
         f = fit(data, noise)
-        return f.rows, f.covariance
+        keep = [i for i, r in enumerate(f.rows) if r[1] not in Q_TERMS]
+        return [f.rows[i] for i in keep], f.covariance[np.ix_(keep, keep)]
     _, rows, cov = constants_covariance(data, noise)
     return rows, cov
 

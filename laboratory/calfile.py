@@ -157,7 +157,7 @@ def write_calibration_file(out: Path, calib: CalibrationResults, timer_period_s:
     if data is not None:
         try:
             cov = calibration_covariance(data, noise or NoiseSpec(), estimator)
-        except ValueError as e:  # a partial calibration the Jacobian cannot cover
+        except (ValueError, np.linalg.LinAlgError) as e:  # a design it cannot cover
             why = f"diagonal: the full covariance could not be taken ({e})"
     doc = calibration_document(out, calib, timer_period_s, cov, why, estimator)
     path = out / FILE_NAME

@@ -382,9 +382,13 @@ def side_by_side(rows: list[ResultRow], data: CalibrationData, noise: NoiseSpec 
     red = reduce(data)
     d = design(data, closed, red)
     cov_z = data_covariance(red, d.keys, data, noise, closed)
-    f = fit(data, noise, closed, cov_z)
-    bound_rows, bound = (cramer_rao(data, {**closed, **f.estimates}, noise, closed, cov_z)
-                         if f.rows else ([], np.zeros((0, 0))))
+    try:
+        f = fit(data, noise, closed, cov_z)
+        bound_rows, bound = (cramer_rao(data, {**closed, **f.estimates}, noise, closed, cov_z)
+                             if f.rows else ([], np.zeros((0, 0))))
+    except np.linalg.LinAlgError:  # a design the fit cannot invert: the closed forms stand
+        f = Fit({}, [], np.zeros((0, 0)), 0.0, 0, 0, [], np.zeros(0))
+        bound_rows, bound = [], np.zeros((0, 0))
     for r in rows:
         key = (r.instrument, r.parameter)
         r.closed_form, r.closed_form_sigma = r.estimate, r.sigma
@@ -394,6 +398,6 @@ def side_by_side(rows: list[ResultRow], data: CalibrationData, noise: NoiseSpec 
             r.cramer_rao_sigma = float(np.sqrt(max(bound[i, i], 0.0)))
         if estimator == "all-positions" and key in f.estimates and key in cf_rows:
             r.estimate, r.sigma, r.estimator = r.all_positions, r.all_positions_sigma, estimator
-    if estimator == "all-positions":
+    if estimator == "all-positions" and f.rows:
         return f.rows, f.covariance
     return cf_rows, cf_cov

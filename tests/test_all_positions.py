@@ -4,13 +4,20 @@ random sign, noise 0.3-3x), the position charts only (II-6, II-11..II-14)."""
 
 from __future__ import annotations
 
+import json
 import math
+import os
+import subprocess
+import sys
+from pathlib import Path
 
+import jsonschema
 import numpy as np
 import pytest
 from random_labs import calibration_day, random_lab
 from scipy.stats import chi2
 
+from laboratory.calfile import load
 from procedures.isu.calibration import CalibrationData, NoiseSpec, calibrate
 from procedures.isu.calibration.all_positions import (
     cramer_rao,
@@ -22,6 +29,7 @@ from procedures.isu.calibration.all_positions import (
 from procedures.isu.calibration.compute import constants_covariance
 from station.config.calibration import CalibrationOptions
 
+ROOT = Path(__file__).resolve().parents[1]
 SEEDS = (101, 102, 103, 104, 105, 106)
 # the constants more positions inform: the closed forms use one pair (or the bisector) where
 # the fit uses every position that sees them (named in docs/calibration-accuracy.md)
@@ -144,3 +152,37 @@ def test_unknown_estimator_refused_in_one_line(labs: list[dict]) -> None:
     with pytest.raises(ValueError, match="estimator"):
         CalibrationOptions(estimator="best")  # type: ignore[arg-type]
     assert CalibrationOptions().estimator == "closed-form"
+
+
+def test_day_with_the_all_positions_estimator(tmp_path: Path) -> None:
+    """`station day` with [calibration] estimator = "all-positions": the sheet shows both,
+    results.json takes the fit's, calibration.json (schema 2) carries the fit's covariance."""
+    cfg = tmp_path / "ap.toml"
+    cfg.write_text('[calibration]\nestimator = "all-positions"\n')
+    out = tmp_path / "day"
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    only = [a for c in ("II-6", "II-11", "II-12", "II-13", "II-14") for a in ("--only", c)]
+    p = subprocess.run([sys.executable, "-m", "laboratory.cli", "day", "--config", str(cfg),
+                        *only, "--out", str(out), "--quiet", "--seed", "5"], cwd=ROOT,
+                       env=env, capture_output=True, text=True, timeout=600)
+    assert p.returncode == 0, p.stderr
+    sheet = json.loads((out / "sheets" / "calibration_results.json").read_text())["rows"]
+    results = {(r["instrument"], r["parameter"]): r
+               for r in json.loads((out / "results.json").read_text())["calibration"]}
+    chosen = [r for r in sheet if r["estimator"] == "all-positions"]
+    assert len(chosen) == 60  # 3 x 13 gyro rows, 3 x 7 accelerometer rows
+    for r in chosen:
+        assert (r["estimate"], r["sigma"]) == (r["all_positions"], r["all_positions_sigma"])
+        assert r["closed_form"] is not None and r["cramer_rao_sigma"] > 0
+        res = results[(r["instrument"], r["parameter"])]
+        assert (res["estimate"], res["sigma"]) == (r["estimate"], r["sigma"])
+    doc = json.loads((out / "calibration.json").read_text())
+    schema = json.loads((ROOT / "docs" / "calibration-file.schema.json").read_text())
+    jsonschema.validate(doc, schema)
+    cov = doc["covariance"]
+    assert (doc["schema_version"], cov["kind"], cov["estimator"]) == (2, "full", "all-positions")
+    sig = {(r["instrument"], r["parameter"]): r["sigma"] for r in doc["constants"]}
+    for (inst, par), row in zip(cov["order"], cov["matrix"], strict=True):
+        i = cov["order"].index([inst, par])
+        assert math.isclose(math.sqrt(row[i]), sig[(inst, par)], rel_tol=1e-9)
+    assert load(out / "calibration.json").covariance.shape == (60, 60)

@@ -163,12 +163,22 @@ class Design:
             return p[f"gyro{k}"][f"g{m}"]
         raise ValueError(f"no model for datum {key}")
 
-    def model(self, theta: np.ndarray, w: Mapping[int, float] | None = None) -> np.ndarray:
+    def model(self, theta: np.ndarray, w: Mapping[int, float] | None = None,
+              only: list[int] | None = None) -> np.ndarray:
+        """The fitted combinations' model values (``only``: those indices)."""
         p = self.values(theta)
         tw = w if w is not None else {m: self.red.values[("w", 0, m)]
                                       for (kind, _, m) in self.keys if kind == "w"}
-        return np.array([sum(a * self.datum(key, p, tw.get(key[2])) for key, a in cb.items())
-                         for cb in self.combos])
+        which = range(len(self.combos)) if only is None else only
+        return np.array([sum(a * self.datum(key, p, tw.get(key[2]))
+                             for key, a in self.combos[i].items()) for i in which])
+
+    def combos_of(self, inst: str) -> list[int]:
+        """Indices of the combinations an instrument's parameters enter."""
+        kinds = ("G", "P") if inst.startswith("gyro") else ("F", "X")
+        k = int(inst[-1])
+        return [i for i, cb in enumerate(self.combos)
+                if any(key[0] in kinds and key[1] == k for key in cb)]
 
     def observed(self) -> np.ndarray:
         return np.array([sum(a * self.red.values[key] for key, a in cb.items())
@@ -184,19 +194,23 @@ class Design:
         rates = {m: self.red.values[("w", 0, m)] for (kind, _, m) in self.keys if kind == "w"}
         for m, w in rates.items():
             h = 1e-7 * max(abs(w), 1e-3)
-            up = self.model(theta, {**rates, m: w + h})
-            dn = self.model(theta, {**rates, m: w - h})
-            a[:, index[("w", 0, m)]] -= (up - dn) / (2 * h)
+            idx = [i for i, cb in enumerate(self.combos)
+                   if any(key[0] == "G" and key[2] == m for key in cb)]
+            up = self.model(theta, {**rates, m: w + h}, idx)
+            dn = self.model(theta, {**rates, m: w - h}, idx)
+            a[idx, index[("w", 0, m)]] -= (up - dn) / (2 * h)
         return a
 
     def jacobian(self, theta: np.ndarray) -> np.ndarray:
         out = np.zeros((len(self.combos), len(theta)))
-        for j, (_, n) in enumerate(self.params):
+        rows = {inst: self.combos_of(inst) for inst in self.base}
+        for j, (inst, n) in enumerate(self.params):
             h = _step(n, theta[j])
             tp, tm = theta.copy(), theta.copy()
             tp[j] += h
             tm[j] -= h
-            out[:, j] = (self.model(tp) - self.model(tm)) / (2 * h)
+            idx = rows[inst]
+            out[idx, j] = (self.model(tp, only=idx) - self.model(tm, only=idx)) / (2 * h)
         return out
 
     def row_jacobian(self, theta: np.ndarray) -> np.ndarray:

@@ -74,12 +74,15 @@ class CalibrationFileError(UseError, ValueError):
 
 # ----- covariance -----
 def calibration_covariance(data: CalibrationData, noise: NoiseSpec,
-                           estimator: str = "closed-form") -> tuple[list[Row], np.ndarray]:
+                           estimator: str = "closed-form",
+                           series: Mapping[int, list[dict]] | None = None
+                           ) -> tuple[list[Row], np.ndarray]:
     """Full covariance of the constants the calibration program computes, of the sheet's
     estimator: J Sigma_z J^T of the closed forms (compute.predicted_sigmas keeps only its
-    diagonal), or (J_f^T Sigma_z^-1 J_f)^-1 of the all-positions fit."""
+    diagonal), or (J_f^T Sigma_z^-1 J_f)^-1 of the all-positions fit (with the II-7 speed
+    ``series`` when the day ran them, as the sheet's)."""
     if estimator == "all-positions":  # Q_II, Q_IS on the sheet are the special experiments'
-        f = fit(data, noise)
+        f = fit(data, noise, series=series)
         keep = [i for i, r in enumerate(f.rows) if r[1] not in Q_TERMS]
         return [f.rows[i] for i in keep], f.covariance[np.ix_(keep, keep)]
     _, rows, cov = constants_covariance(data, noise)
@@ -149,14 +152,15 @@ def calibration_document(out: Path, calib: CalibrationResults, timer_period_s: f
 def write_calibration_file(out: Path, calib: CalibrationResults, timer_period_s: float,
                            data: CalibrationData | None = None,
                            noise: NoiseSpec | None = None,
-                           estimator: str = "closed-form") -> Path:
+                           estimator: str = "closed-form",
+                           series: Mapping[int, list[dict]] | None = None) -> Path:
     """Write DIR/calibration.json: full covariance when ``data`` (the calibration's input)
     is given and its Jacobian can be taken, else the diagonal of the predicted sigmas."""
     cov = None
     why = ""
     if data is not None:
         try:
-            cov = calibration_covariance(data, noise or NoiseSpec(), estimator)
+            cov = calibration_covariance(data, noise or NoiseSpec(), estimator, series)
         except (ValueError, np.linalg.LinAlgError) as e:  # a design it cannot cover
             why = f"diagonal: the full covariance could not be taken ({e})"
     doc = calibration_document(out, calib, timer_period_s, cov, why, estimator)
@@ -175,7 +179,7 @@ def write_day_calibration(out: Path, calib: CalibrationResults, cfg: StationConf
     except ValueError:  # no survey (a partial day): the sheet's sigmas only
         cd = None
     return write_calibration_file(out, calib, osc.s2_divider / osc.nominal_hz, cd, noise,
-                                  plan.options.estimator)
+                                  plan.options.estimator, data.nonlinearity)
 
 
 # ----- reading -----

@@ -3,7 +3,8 @@
 ``random_lab(seed)``: latitude 5-70 deg in either hemisphere, every ISU coefficient (and
 misalignment) redrawn at 0.3-3x with random sign, gyro and accelerometer noise at 0.3-3x
 (one factor each, the lab's NoiseSpec). ``calibration_day(cfg)``: only the position charts
-(II-6, II-11..II-14) measured, as (CalibrationData, NoiseSpec, truth) documents.
+(II-6, II-11..II-14) measured unless told, as (CalibrationData, NoiseSpec, truth, II-7
+speed series) documents.
 """
 
 from __future__ import annotations
@@ -62,8 +63,10 @@ def random_lab(seed: int) -> StationConfig:
                                              "isu": {"gyros": gyros, "accels": accels}})
 
 
-def calibration_day(cfg: StationConfig) -> tuple[dict, dict, dict]:
-    """(CalibrationData as JSON, NoiseSpec as JSON, truth) of the lab's position charts."""
+def calibration_day(cfg: StationConfig, charts: tuple[str, ...] = POSITION_CHARTS
+                    ) -> tuple[dict, dict, dict, dict]:
+    """(CalibrationData as JSON, NoiseSpec as JSON, truth, the II-7 speed series) of the
+    lab's ``charts`` (default the position charts only)."""
     rack = SimulatedRack(cfg)
     st = open_isu_drivers(cfg, rack)
     try:
@@ -71,10 +74,11 @@ def calibration_day(cfg: StationConfig) -> tuple[dict, dict, dict]:
             run = Run(st.clock, Journal(Path(tmp) / "journal.jsonl"))
             plan, site, noise = DayPlan(), site_of(cfg), noise_spec(cfg)
             data = measure_day(st, run, plan, site, cfg.isu.accels[0].f0_hz,
-                               only=POSITION_CHARTS, noise=noise)
+                               only=charts, noise=noise)
             cd = calibration_data(data, plan, site)
         truth = {f"{i}|{p}": v for (i, p), v in calibration_truth(rack.world).items()}
-        return cd.model_dump(mode="json"), noise.model_dump(mode="json"), truth
+        series = {str(k): v for k, v in data.nonlinearity.items()}
+        return cd.model_dump(mode="json"), noise.model_dump(mode="json"), truth, series
     finally:
         st.close()
         rack.close()

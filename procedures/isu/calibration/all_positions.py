@@ -15,8 +15,11 @@ coefficients in deg/hr; per accelerometer P = D1 A ((pulses/s)/g) and D1 D0, D1 
 A constant enters the fit only where the closed forms determine it too (Chart II-16): the
 day's design leaves the others unidentifiable. Q_II and Q_IS enter as fitted constants when
 a gyro has all of positions 1-15: the turns' mean rates carry Q_II (w.G)^2 at the table rate
-(hundreds of deg/hr at 3 deg/hr/(deg/s)^2-scale Q_II), which the closed forms cancel in pair
+(deg/hr at the default Q_II and the turns' rate), which the closed forms cancel in pair
 differences; without all positions a turning pair enters only as its difference, as there.
+The day's II-7 speed series (positions 1, 3, 5 at several speeds) enter too when given, with
+their own covariance (``speed_covariance``): they sharpen each gyro's scale factor. Not
+fitted: the Q_IS series (II-7Q) and the J experiment (II-10), which stay the sheet's.
 """
 
 from __future__ import annotations
@@ -62,6 +65,54 @@ class Fit:
     def sigma(self, row: Row) -> float:
         i = self.rows.index(row)
         return float(np.sqrt(max(self.covariance[i, i], 0.0)))
+
+
+# ------------------------------------------------------------------------------ II-7 data
+@dataclass(frozen=True)
+class SpeedPoint:
+    """One speed of a Chart II-7 series: gyro k along +B_k (position m = 2k - 1), the table
+    turning at ``w_t_deg_s`` (signed, measured), output ``p_dot`` pulses/s over the gate."""
+
+    k: int
+    w_t_deg_s: float
+    p_dot: float
+    gate_s: float
+
+    @property
+    def position(self) -> int:
+        return 2 * self.k - 1
+
+
+def speed_points(series: Mapping[int, list[dict]], c: Constants) -> list[SpeedPoint]:
+    """The II-7 speed series of the day (``DayData.nonlinearity``) as fit data."""
+    out = []
+    for k, pts in sorted(series.items()):
+        for p in pts:
+            w_t = (p["w_deg_hr"] + c.w_sin_lambda) / 3600.0  # the table's rate, deg/s
+            out.append(SpeedPoint(int(k), w_t, p["p_dot"], abs(p["counts"] / p["p_dot"])))
+    return out
+
+
+def speed_covariance(points: list[SpeedPoint], noise: NoiseSpec,
+                     dphi_deg: Mapping[int, float]) -> np.ndarray:
+    """Covariance of the speed series' rates, pulses/s: quantization and angle random walk
+    per gate (as Chart II-7's fit), the pier's tilt change about the rotary axis (south) over
+    the gate, and the gyro's random drift, taken as one offset common to a gyro's series
+    (correlation time an hour, the series well within it)."""
+    n = len(points)
+    out = np.zeros((n, n))
+    for i, p in enumerate(points):
+        to_pulses = 1.0 / (3600.0 * dphi_deg[p.k])  # deg/hr -> pulses/s
+        t = p.gate_s
+        arw = noise.gyro_arw_deg_rt_hr**2 * (t / 3600.0) / (dphi_deg[p.k] * t) ** 2
+        _, nn0, _ = noise.tilt_covariance(0.0)
+        _, nn1, _ = noise.tilt_covariance(t)
+        tilt = 2.0 * float(nn0 - nn1) * (180.0 / np.pi / dphi_deg[p.k] / t) ** 2
+        out[i, i] += noise.count_quantization_var / t**2 + arw + tilt
+        for j, q in enumerate(points):
+            if q.k == p.k:
+                out[i, j] += (noise.gyro_drift_sigma_deg_hr * to_pulses) ** 2
+    return out
 
 
 # ------------------------------------------------------------------------------ parameters
@@ -132,6 +183,7 @@ class Design:
     base: dict[str, dict[str, float]]  # every instrument's internal parameters (held ones)
     combos: list[dict[Key, float]]  # each fitted datum as a combination of reduced data
     rows: list[Row]  # Chart II-5 rows the fit determines
+    speeds: list[SpeedPoint]  # II-7 data fitted after the combinations
 
     def instruments(self) -> list[str]:
         return sorted(self.base)
@@ -169,20 +221,32 @@ class Design:
         p = self.values(theta)
         tw = w if w is not None else {m: self.red.values[("w", 0, m)]
                                       for (kind, _, m) in self.keys if kind == "w"}
-        which = range(len(self.combos)) if only is None else only
-        return np.array([sum(a * self.datum(key, p, tw.get(key[2]))
-                             for key, a in self.combos[i].items()) for i in which])
+        n = len(self.combos)
+        which = range(n + len(self.speeds)) if only is None else only
+        c = self.data.constants
+        out = []
+        for i in which:
+            if i >= n:
+                sp = self.speeds[i - n]
+                gm = _gyro_model(sp.k, p[f"gyro{sp.k}"])
+                out.append(gm.turning_rate(FIRST_COLUMN[sp.position], sp.w_t_deg_s, c))
+                continue
+            out.append(sum(a * self.datum(key, p, tw.get(key[2]))
+                           for key, a in self.combos[i].items()))
+        return np.array(out)
 
     def combos_of(self, inst: str) -> list[int]:
         """Indices of the combinations an instrument's parameters enter."""
         kinds = ("G", "P") if inst.startswith("gyro") else ("F", "X")
         k = int(inst[-1])
+        n = len(self.combos)
         return [i for i, cb in enumerate(self.combos)
-                if any(key[0] in kinds and key[1] == k for key in cb)]
+                if any(key[0] in kinds and key[1] == k for key in cb)] + [
+            n + j for j, sp in enumerate(self.speeds) if inst == f"gyro{sp.k}"]
 
     def observed(self) -> np.ndarray:
         return np.array([sum(a * self.red.values[key] for key, a in cb.items())
-                         for cb in self.combos])
+                         for cb in self.combos] + [sp.p_dot for sp in self.speeds])
 
     def data_map(self, theta: np.ndarray) -> np.ndarray:
         """A: fitted residuals = A (reduced data), the measured table rates included."""
@@ -196,13 +260,15 @@ class Design:
             h = 1e-7 * max(abs(w), 1e-3)
             idx = [i for i, cb in enumerate(self.combos)
                    if any(key[0] == "G" and key[2] == m for key in cb)]
+            if not idx:
+                continue
             up = self.model(theta, {**rates, m: w + h}, idx)
             dn = self.model(theta, {**rates, m: w - h}, idx)
             a[idx, index[("w", 0, m)]] -= (up - dn) / (2 * h)
         return a
 
     def jacobian(self, theta: np.ndarray) -> np.ndarray:
-        out = np.zeros((len(self.combos), len(theta)))
+        out = np.zeros((len(self.combos) + len(self.speeds), len(theta)))
         rows = {inst: self.combos_of(inst) for inst in self.base}
         for j, (inst, n) in enumerate(self.params):
             h = _step(n, theta[j])
@@ -243,8 +309,9 @@ def _step(name: str, x: float) -> float:
 
 
 def design(data: CalibrationData, closed: Mapping[Row, float | None] | None = None,
-           red: Reduced | None = None) -> Design:
-    """The fit's design for the day's data: the closed forms' constants are the free ones."""
+           red: Reduced | None = None, speeds: list[SpeedPoint] | None = None) -> Design:
+    """The fit's design for the day's data: the closed forms' constants are the free ones;
+    ``speeds`` (II-7) of a gyro the fit has Q_II for."""
     red = red or reduce(data)
     c: Constants = data.constants
     closed = closed if closed is not None else estimate(red.values, c)
@@ -291,13 +358,18 @@ def design(data: CalibrationData, closed: Mapping[Row, float | None] | None = No
         rows += [(inst, n) for n in ("D1", "A.B1", "A.B2", "A.B3")]
         rows += [(inst, r) for n, r in (*names.items(), ("b3", "D3")) if n in free]
         combos += [{key: 1.0} for key in keys if key[0] in ("F", "X") and key[1] == k]
-    return Design(data, red, keys, params, base, combos, rows)
+    with_q = {i for i, n in params if n == "Q_II"}
+    kept = [sp for sp in (speeds or []) if f"gyro{sp.k}" in with_q]
+    return Design(data, red, keys, params, base, combos, rows, kept)
 
 
 # ------------------------------------------------------------------------------ the fit
-def _weights(a: np.ndarray, cov_z: np.ndarray) -> np.ndarray:
-    """Inverse of the fitted residuals' covariance A Sigma_z A^T."""
+def _weights(a: np.ndarray, cov_z: np.ndarray, cov_s: np.ndarray | None = None) -> np.ndarray:
+    """Inverse of the fitted residuals' covariance: A Sigma_z A^T, and the II-7 speeds'."""
     s = a @ cov_z @ a.T
+    if cov_s is not None and cov_s.size:
+        n = s.shape[0]
+        s = np.block([[s, np.zeros((n, cov_s.shape[0]))], [np.zeros((cov_s.shape[0], n)), cov_s]])
     s = 0.5 * (s + s.T)
     floor = 1e-18 * max(float(np.max(np.diag(s))), 1e-300)
     s += np.diag(np.where(np.diag(s) > floor, 0.0, floor))
@@ -309,21 +381,29 @@ def _information(d: Design, theta: np.ndarray, w: np.ndarray) -> tuple[np.ndarra
     return jac, jac.T @ w @ jac
 
 
+def _speed_cov(d: Design, noise: NoiseSpec, closed: Mapping[Row, float | None]) -> np.ndarray:
+    dphi = {sp.k: float(closed[(f"gyro{sp.k}", "DeltaPhi")] or 0.0) for sp in d.speeds}
+    return speed_covariance(d.speeds, noise, dphi)
+
+
 def fit(data: CalibrationData, noise: NoiseSpec | None = None,
         closed: Mapping[Row, float | None] | None = None,
-        cov_z: np.ndarray | None = None) -> Fit:
-    """The all-positions estimate of the day's constants and its full covariance."""
+        cov_z: np.ndarray | None = None,
+        series: Mapping[int, list[dict]] | None = None) -> Fit:
+    """The all-positions estimate of the day's constants and its full covariance;
+    ``series``: the day's II-7 speed series (``DayData.nonlinearity``), fitted too."""
     noise = noise or NoiseSpec()
     red = reduce(data)
     closed = closed if closed is not None else estimate(red.values, data.constants)
-    d = design(data, closed, red)
+    d = design(data, closed, red, speed_points(series or {}, data.constants))
     if not d.params:
         return Fit({}, [], np.zeros((0, 0)), 0.0, 0, 0, [], np.zeros(0))
     if cov_z is None:
         cov_z = data_covariance(red, d.keys, data, noise, closed)
+    cov_s = _speed_cov(d, noise, closed)
     theta = d.theta0()
     z = d.observed()
-    w = _weights(d.data_map(theta), cov_z)
+    w = _weights(d.data_map(theta), cov_z, cov_s)
     iterations = 0
     while iterations < MAX_ITERATIONS:
         iterations += 1
@@ -334,7 +414,7 @@ def fit(data: CalibrationData, noise: NoiseSpec | None = None,
         scale = np.sqrt(np.maximum(np.diag(np.linalg.inv(info)), 1e-300))
         if np.all(np.abs(step) < 1e-6 * scale):
             break
-    w = _weights(d.data_map(theta), cov_z)
+    w = _weights(d.data_map(theta), cov_z, cov_s)
     jac, info = _information(d, theta, w)
     cov_theta = np.linalg.inv(info)
     rj = d.row_jacobian(theta)
@@ -347,25 +427,25 @@ def fit(data: CalibrationData, noise: NoiseSpec | None = None,
 def cramer_rao(data: CalibrationData, at: Mapping[Row, float | None],
                noise: NoiseSpec | None = None,
                closed: Mapping[Row, float | None] | None = None,
-               cov_z: np.ndarray | None = None) -> tuple[list[Row], np.ndarray]:
+               cov_z: np.ndarray | None = None,
+               series: Mapping[int, list[dict]] | None = None) -> tuple[list[Row], np.ndarray]:
     """The Cramer-Rao bound of the day's design on the fitted constants: the inverse Fisher
     information (Gaussian data of covariance Sigma_z) at the constants ``at`` (the truth in a
     simulation, the estimate in a laboratory), carried to the Chart II-5 rows."""
     noise = noise or NoiseSpec()
     red = reduce(data)
     closed = closed if closed is not None else estimate(red.values, data.constants)
-    d = design(data, closed, red)
+    d = design(data, closed, red, speed_points(series or {}, data.constants))
     if cov_z is None:
         cov_z = data_covariance(red, d.keys, data, noise, closed)
     for inst in d.base:
         d.base[inst].update({n: x for n, x in internal_from_rows(at, inst).items()})
     theta = d.theta0()
-    w = _weights(d.data_map(theta), cov_z)
+    w = _weights(d.data_map(theta), cov_z, _speed_cov(d, noise, closed))
     _, info = _information(d, theta, w)
     rj = d.row_jacobian(theta)
     cov = rj @ np.linalg.inv(info) @ rj.T
     return list(d.rows), 0.5 * (cov + cov.T)
-
 
 def sigma_ratios(sigmas: Mapping[Row, float | None], crb: tuple[list[Row], np.ndarray]
                  ) -> dict[Row, float]:
@@ -379,16 +459,18 @@ def sigma_ratios(sigmas: Mapping[Row, float | None], crb: tuple[list[Row], np.nd
     return out
 
 
-
 # ------------------------------------------------------------------------------ the sheet
 ESTIMATORS = ("closed-form", "all-positions")
 
 
 def side_by_side(rows: list[ResultRow], data: CalibrationData, noise: NoiseSpec | None,
-                 estimator: str = "closed-form") -> tuple[list[Row], np.ndarray]:
+                 estimator: str = "closed-form",
+                 series: Mapping[int, list[dict]] | None = None
+                 ) -> tuple[list[Row], np.ndarray]:
     """Fill the Calibration Results Sheet's rows (in place) with both estimators and the
     Cramer-Rao bound at the all-positions estimate; the rows' estimate and sigma become
-    ``estimator``'s. Returns that estimator's rows and full covariance (calibration file)."""
+    ``estimator``'s. Returns that estimator's rows and full covariance (calibration file).
+    ``series``: the II-7 speed series, which the fit takes too."""
     if estimator not in ESTIMATORS:
         raise ValueError(f"estimator: {estimator!r} is not one of {', '.join(ESTIMATORS)}")
     noise = noise or NoiseSpec()
@@ -397,9 +479,9 @@ def side_by_side(rows: list[ResultRow], data: CalibrationData, noise: NoiseSpec 
     d = design(data, closed, red)
     cov_z = data_covariance(red, d.keys, data, noise, closed)
     try:
-        f = fit(data, noise, closed, cov_z)
-        bound_rows, bound = (cramer_rao(data, {**closed, **f.estimates}, noise, closed, cov_z)
-                             if f.rows else ([], np.zeros((0, 0))))
+        f = fit(data, noise, closed, cov_z, series)
+        bound_rows, bound = (cramer_rao(data, {**closed, **f.estimates}, noise, closed, cov_z,
+                                        series) if f.rows else ([], np.zeros((0, 0))))
     except np.linalg.LinAlgError:  # a design the fit cannot invert: the closed forms stand
         f = Fit({}, [], np.zeros((0, 0)), 0.0, 0, 0, [], np.zeros(0))
         bound_rows, bound = [], np.zeros((0, 0))

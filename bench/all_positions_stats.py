@@ -1,7 +1,7 @@
 """Both estimators against the truth and the Cramer-Rao bound over random labs written by
 bench/random_calibration_days.py: per constant the rms of error/sigma (closed forms and
 all positions), the median sigma ratio closed/all-positions, all-positions/CRB (at truth),
-and the observed rms error ratio.
+and the observed rms error ratio. The II-7 speed series are fitted when a lab file has them.
 
     PYTHONPATH=. nice -n 10 python bench/all_positions_stats.py LABDIR
 """
@@ -29,9 +29,10 @@ def main() -> None:
         data = CalibrationData.model_validate(doc["data"])
         noise = NoiseSpec.model_validate(doc["noise"])
         truth = {tuple(k.split("|")): v for k, v in doc["truth"].items()}
+        series = {int(k): v for k, v in doc.get("nonlinearity", {}).items()}
         est, rows, cov = constants_covariance(data, noise)
-        f = fit(data, noise, closed=est)
-        crows, crb = cramer_rao(data, truth, noise, closed=est)
+        f = fit(data, noise, closed=est, series=series)
+        crows, crb = cramer_rao(data, truth, noise, closed=est, series=series)
         for r in f.rows:
             s = f.sigma(r)
             e = f.estimates[r] - truth[r]

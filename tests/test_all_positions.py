@@ -26,6 +26,7 @@ from procedures.isu.calibration.all_positions import (
     internal_from_rows,
     rows_from_internal,
     side_by_side,
+    sigma_ratios,
 )
 from procedures.isu.calibration.compute import constants_covariance
 from station.config.calibration import CalibrationOptions
@@ -96,9 +97,12 @@ def test_closed_forms_never_beat_the_bound(labs: list[dict]) -> None:
     """The closed forms are unbiased estimators of the same data: their sigma is at or above
     the bound (to the bound's own 10 % evaluation tolerance)."""
     for lab in labs:
-        for r in lab["fit"].rows:
-            if r in lab["rows"]:
-                assert _sigma(lab["rows"], lab["cov"], r) >= lab["crb"][r] / 1.1, (lab["seed"], r)
+        sig = {r: _sigma(lab["rows"], lab["cov"], r) for r in lab["rows"]}
+        bound = (list(lab["crb"]), np.diag(np.square(list(lab["crb"].values()))))
+        ratios = sigma_ratios(sig, bound)
+        assert set(ratios) == set(lab["fit"].rows) & set(lab["rows"])
+        for r, q in ratios.items():
+            assert q >= 1 / 1.1, (lab["seed"], r, q)
 
 
 def test_more_positions_inform_these_constants(labs: list[dict]) -> None:

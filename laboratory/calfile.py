@@ -20,6 +20,7 @@ from typing import Any
 import numpy as np
 
 from laboratory.record import write_json
+from procedures.isu.calibration.all_positions import Q_TERMS, fit
 from procedures.isu.calibration.compute import constants_covariance
 from procedures.isu.calibration.inputs import CalibrationData
 from procedures.isu.calibration.noise_spec import NoiseSpec
@@ -32,7 +33,8 @@ from station.config.isu import StationConfig
 from station.errors import UseError
 
 FORMAT = "station-calibration-file"
-SCHEMA_VERSION = 1
+SCHEMA_VERSION = 2  # 2: covariance.estimator (issue 19); 1 is still read
+READABLE_VERSIONS = (1, 2)
 FILE_NAME = "calibration.json"
 Row = tuple[str, str]  # (instrument, parameter)
 
@@ -71,10 +73,18 @@ class CalibrationFileError(UseError, ValueError):
 
 
 # ----- covariance -----
-def calibration_covariance(data: CalibrationData, noise: NoiseSpec
+def calibration_covariance(data: CalibrationData, noise: NoiseSpec,
+                           estimator: str = "closed-form",
+                           series: Mapping[int, list[dict]] | None = None
                            ) -> tuple[list[Row], np.ndarray]:
-    """Full covariance J Sigma_z J^T of the constants the calibration program computes
-    (compute.predicted_sigmas keeps only its diagonal): the rows and the matrix."""
+    """Full covariance of the constants the calibration program computes, of the sheet's
+    estimator: J Sigma_z J^T of the closed forms (compute.predicted_sigmas keeps only its
+    diagonal), or (J_f^T Sigma_z^-1 J_f)^-1 of the all-positions fit (with the II-7 speed
+    ``series`` when the day ran them, as the sheet's)."""
+    if estimator == "all-positions":  # Q_II, Q_IS on the sheet are the special experiments'
+        f = fit(data, noise, series=series)
+        keep = [i for i, r in enumerate(f.rows) if r[1] not in Q_TERMS]
+        return [f.rows[i] for i in keep], f.covariance[np.ix_(keep, keep)]
     _, rows, cov = constants_covariance(data, noise)
     return rows, cov
 
@@ -82,7 +92,8 @@ def calibration_covariance(data: CalibrationData, noise: NoiseSpec
 # ----- writing -----
 def calibration_document(out: Path, calib: CalibrationResults, timer_period_s: float,
                          covariance: tuple[list[Row], np.ndarray] | None = None,
-                         covariance_note: str = "") -> dict[str, Any]:
+                         covariance_note: str = "",
+                         estimator: str = "closed-form") -> dict[str, Any]:
     """The calibration file of the run in ``out`` (its run.json gives identity and validity)."""
     run = json.loads((out / "run.json").read_text())
     constants = []
@@ -112,7 +123,9 @@ def calibration_document(out: Path, calib: CalibrationResults, timer_period_s: f
         kind = "full"
         full_rows = [f"{r[0]} {r[1]}" for r in rows if r in idx]
         diag_only = [f"{i} {p}" for i, p in order if (i, p) not in set(rows)]
-        note = ("J Sigma_z J^T of the calibration program (Chart II-15 step 8); "
+        how = ("(J_f^T Sigma_z^-1 J_f)^-1 of the all-positions fit" if estimator ==
+               "all-positions" else "J Sigma_z J^T of the calibration program")
+        note = (f"{how} (Chart II-15 step 8); "
                 + ("rows not computed by that program (separate experiments of Chart "
                    "II-16, or constants taken from another sheet) have their variance only: "
                    + ", ".join(diag_only) if diag_only else "every row correlated"))
@@ -130,7 +143,7 @@ def calibration_document(out: Path, calib: CalibrationResults, timer_period_s: f
         "ieu": {"timer_period_s": timer_period_s,
                 "note": "S2^T: seconds per IEU timer pulse (nominal, from the oscillator)"},
         "constants": constants,
-        "covariance": {"kind": kind, "order": order,
+        "covariance": {"kind": kind, "estimator": estimator, "order": order,
                        "matrix": [[float(x) for x in row] for row in mat],
                        "correlated_rows": full_rows, "note": note},
     }
@@ -138,17 +151,19 @@ def calibration_document(out: Path, calib: CalibrationResults, timer_period_s: f
 
 def write_calibration_file(out: Path, calib: CalibrationResults, timer_period_s: float,
                            data: CalibrationData | None = None,
-                           noise: NoiseSpec | None = None) -> Path:
+                           noise: NoiseSpec | None = None,
+                           estimator: str = "closed-form",
+                           series: Mapping[int, list[dict]] | None = None) -> Path:
     """Write DIR/calibration.json: full covariance when ``data`` (the calibration's input)
     is given and its Jacobian can be taken, else the diagonal of the predicted sigmas."""
     cov = None
     why = ""
     if data is not None:
         try:
-            cov = calibration_covariance(data, noise or NoiseSpec())
-        except ValueError as e:  # a partial calibration the Jacobian cannot cover
+            cov = calibration_covariance(data, noise or NoiseSpec(), estimator, series)
+        except (ValueError, np.linalg.LinAlgError) as e:  # a design it cannot cover
             why = f"diagonal: the full covariance could not be taken ({e})"
-    doc = calibration_document(out, calib, timer_period_s, cov, why)
+    doc = calibration_document(out, calib, timer_period_s, cov, why, estimator)
     path = out / FILE_NAME
     write_json(path, doc)
     return path
@@ -163,7 +178,8 @@ def write_day_calibration(out: Path, calib: CalibrationResults, cfg: StationConf
         cd: CalibrationData | None = calibration_data(data, plan, site)
     except ValueError:  # no survey (a partial day): the sheet's sigmas only
         cd = None
-    return write_calibration_file(out, calib, osc.s2_divider / osc.nominal_hz, cd, noise)
+    return write_calibration_file(out, calib, osc.s2_divider / osc.nominal_hz, cd, noise,
+                                  plan.options.estimator, data.nonlinearity)
 
 
 # ----- reading -----
@@ -208,9 +224,9 @@ def parse(doc: Any, path: Path) -> CalibrationFile:
     if _need(doc, "format", str, path) != FORMAT:
         raise CalibrationFileError(f"{path}: format: {doc['format']!r} is not {FORMAT!r}")
     ver = _need(doc, "schema_version", int, path)
-    if ver != SCHEMA_VERSION:
+    if ver not in READABLE_VERSIONS:
         raise CalibrationFileError(f"{path}: schema_version: {ver} is not supported "
-                                   f"(this station reads {SCHEMA_VERSION})")
+                                   f"(this station reads {READABLE_VERSIONS})")
     unit = _need(doc, "unit", dict, path)
     if not unit or not all(isinstance(v, str) for v in unit.values()):
         raise CalibrationFileError(f"{path}: unit: expected the unit's serials")

@@ -130,7 +130,7 @@ def _set_value(doc: dict, inst: str, par: str, v: object) -> None:
 
 @pytest.mark.parametrize("edit, field", [
     (lambda d: d.pop("unit"), "unit: missing"),
-    (lambda d: d.update(schema_version=2), "schema_version: 2 is not supported"),
+    (lambda d: d.update(schema_version=3), "schema_version: 3 is not supported"),
     (lambda d: d["validity"].pop("run_uid"), "validity.run_uid: missing"),
     (lambda d: d["ieu"].update(timer_period_s=0), "ieu.timer_period_s"),
     (lambda d: d["constants"][3].update(value="x"), "constants[3].value (gyro1 G.B3)"),

@@ -23,6 +23,7 @@ from procedures.isu.calibration import (
     TableGeometry,
     calibrate,
 )
+from procedures.isu.calibration.all_positions import side_by_side
 from procedures.isu.calibration.checks import K_RESULT, check_residuals, check_string_sums
 from procedures.isu.carry_forward import PriorSheet
 from procedures.isu.day import DayData
@@ -221,6 +222,8 @@ def compute_calibration(run: Run, data: DayData, plan: DayPlan, noise: NoiseSpec
         sheet.done("7", "Last (D1 D3) for accelerometers without positions 13, 14", step7)
         with sheet.step("8", "Compute the constants") as s:
             rows = calibrate(cd, noise)
+            side_by_side(rows, cd, noise, plan.options.estimator,  # issue 19: both estimators
+                         data.nonlinearity)
             carried = ([] if prior is None else
                        cf.carry_rows(rows, prior, cd.prior_gyro, cd.last_d1d3))
             special = special_experiments(rows, data, plan, site, noise)

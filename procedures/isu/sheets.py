@@ -137,6 +137,13 @@ class ResultRow(Sheet):
     sigma: float | None
     positions: str  # Chart II-16 entry (prerequisites in parentheses)
     note: str = ""
+    # issue 19: both estimators side by side; estimate/sigma are the ``estimator``'s
+    estimator: str = "closed-form"
+    closed_form: float | None = None
+    closed_form_sigma: float | None = None
+    all_positions: float | None = None
+    all_positions_sigma: float | None = None
+    cramer_rao_sigma: float | None = None  # the day's design's bound, at the estimate
 
 
 class CalibrationResults(Sheet):

@@ -6,6 +6,8 @@ cites the section that offers the choice.
 
 from __future__ import annotations
 
+from typing import Literal
+
 from pydantic import BaseModel, ConfigDict, Field
 
 
@@ -28,6 +30,9 @@ class CalibrationOptions(BaseModel):
     precision_scale_factor_arcsec: float = Field(0.0, ge=0, le=3600.0)
     precision_gyro_arcsec: float = Field(0.0, ge=0, le=3600.0)
     precision_accel_arcsec: float = Field(0.0, ge=0, le=3600.0)
+    # the laboratory's result on the Calibration Results Sheet (issue 19): the manual's
+    # closed forms (II-4.2, II-4.3) or the all-positions least-squares fit shown beside them
+    estimator: Literal["closed-form", "all-positions"] = "closed-form"
 
     def precisions(self) -> dict[str, float]:
         """Setting precision (arcsec) by setting kind: "R" positions 1-6, "G" gyro and "A"

@@ -1,0 +1,33 @@
+"""Calibration data of random admissible laboratories (tests/random_labs.py), one JSON file
+per seed (CalibrationData, NoiseSpec, truth), for bench/all_positions_stats.py.
+
+    PYTHONPATH=. nice -n 10 python bench/random_calibration_days.py OUTDIR SEED...
+    (CHARTS=II7 in the environment: the II-7 speed series too)
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import sys
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
+
+from random_labs import POSITION_CHARTS, calibration_day, random_lab  # noqa: E402
+
+
+def main() -> None:
+    out = Path(sys.argv[1])
+    out.mkdir(parents=True, exist_ok=True)
+    for seed in (int(s) for s in sys.argv[2:]):
+        charts = (*POSITION_CHARTS, "II-7") if "II7" in os.environ.get("CHARTS", "") else \
+            POSITION_CHARTS
+        cd, noise, truth, series = calibration_day(random_lab(seed), charts)
+        doc = {"seed": seed, "data": cd, "noise": noise, "truth": truth, "nonlinearity": series}
+        (out / f"lab{seed}.json").write_text(json.dumps(doc))
+        print(seed, flush=True)
+
+
+if __name__ == "__main__":
+    main()

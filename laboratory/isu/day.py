@@ -25,7 +25,7 @@ from laboratory.identity import RunIdentity, identified, isu_config, isu_identit
 from laboratory.isu.align import day_alignments, render_alignment, tape_library
 from laboratory.isu.display import DayDisplay
 from laboratory.isu.prior import CarriedSheets, carried_sheets
-from laboratory.isu.spec import noise_spec, site_of
+from laboratory.isu.spec import mounting, noise_spec, site_of
 from laboratory.isu.truth import calibration_truth
 from laboratory.plot_worker import PlotWorker
 from laboratory.record import write_results, write_sheets
@@ -170,7 +170,8 @@ def check_plan(cfg: StationConfig, plan: DayPlan) -> None:
     """ValueError (procedures.isu.accuracy.Unreachable) naming a required accuracy that no
     admissible gate reaches, before anything is opened (the day's II-6 settings give the
     same times from the measured clock period)."""
-    collection_times(plan, site_of(cfg), noise_spec(cfg), f0=cfg.isu.accels[0].f0_hz)
+    collection_times(plan, site_of(cfg), noise_spec(cfg), f0=cfg.isu.accels[0].f0_hz,
+                     t_bi=mounting(cfg))
 
 
 def run_day(req: DayRequest, console: Console | None = None,

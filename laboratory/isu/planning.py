@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 from rich.console import Console
 
-from laboratory.isu.spec import noise_spec, site_of
+from laboratory.isu.spec import mounting, noise_spec, site_of
 from laboratory.tables import Column, print_fitted
 from procedures.isu.accuracy import GATE_UNITS, Predictor, Times, Unreachable
 from procedures.isu.plan import DayPlan
@@ -72,7 +72,8 @@ def grid(gate: str, default: Times, plan: DayPlan) -> list[float]:
 def accuracy_table(cfg: StationConfig, plan: DayPlan) -> list[dict]:
     """Every chart's curves as rows: chart, quantity, gate, level, time, units, sigma."""
     plan = plan.model_copy(update={"requirements": cfg.plan})
-    lab = planning_lab(plan, site_of(cfg), noise_spec(cfg), f0=cfg.isu.accels[0].f0_hz)
+    lab = planning_lab(plan, site_of(cfg), noise_spec(cfg), f0=cfg.isu.accels[0].f0_hz,
+                       t_bi=mounting(cfg))
     default = manual_times(plan)
     pred = Predictor(lab, default)
     cache: dict[tuple[Times, bool], dict[str, float]] = {}
@@ -95,7 +96,7 @@ def implied_times(cfg: StationConfig, plan: DayPlan) -> dict:
     plan = plan.model_copy(update={"requirements": cfg.plan})
     try:
         times, gates = collection_times(plan, site_of(cfg), noise_spec(cfg),
-                                        f0=cfg.isu.accels[0].f0_hz)
+                                        f0=cfg.isu.accels[0].f0_hz, t_bi=mounting(cfg))
     except Unreachable as e:
         return {"refused": str(e)}
     return {"times": {"turns": times.turns, "gyro_s": times.gyro_s,

@@ -3,6 +3,8 @@ noise specification (both `station day` and `station align` hand them to the che
 
 from __future__ import annotations
 
+import numpy as np
+
 from procedures.isu.calibration import NoiseSpec
 from procedures.isu.site import Site
 from station.config.isu import StationConfig
@@ -13,6 +15,15 @@ def site_of(cfg: StationConfig) -> Site:
     s = cfg.site
     return Site(latitude_deg=s.latitude_deg, g_local_mps2=s.g_local_mps2,
                 earth_rate_deg_per_hr=s.earth_rate_deg_per_hr)
+
+
+def mounting(cfg: StationConfig) -> np.ndarray:
+    """T^BI of the unit as the station bolts it (``[isu] t_bi_rotation_deg``): what the
+    accuracy prediction takes before a survey (the day's survey recovers it to arcseconds,
+    and II-6 then predicts from the survey's)."""
+    from sim.frames import transform_of_rotated
+
+    return transform_of_rotated(np.radians(np.array(cfg.isu.t_bi_rotation_deg, dtype=float)))
 
 
 def noise_spec(cfg: StationConfig) -> NoiseSpec:

@@ -72,11 +72,12 @@ def study_spec(study: Study, seeds: int, seed: int, times: tuple[float, ...] | N
 
 def predictor(cfg: StationConfig, plan: DayPlan | None = None) -> Predictor:
     """The covariance model of `station plan` for this station (its noise, site, clock)."""
-    from laboratory.isu.spec import noise_spec, site_of
+    from laboratory.isu.spec import mounting, noise_spec, site_of
     from procedures.isu.settings import manual_times, planning_lab
 
     plan = (plan or DayPlan()).model_copy(update={"requirements": cfg.plan})
-    lab = planning_lab(plan, site_of(cfg), noise_spec(cfg), f0=cfg.isu.accels[0].f0_hz)
+    lab = planning_lab(plan, site_of(cfg), noise_spec(cfg), f0=cfg.isu.accels[0].f0_hz,
+                       t_bi=mounting(cfg))
     return Predictor(lab, manual_times(plan))
 
 

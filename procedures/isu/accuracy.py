@@ -1,8 +1,8 @@
 """II-6.2: collection times from required accuracies (Charts II-18..II-24 by prediction).
 
 Before anything is measured, a nominal day (instruments at their class's nominal constants,
-the table at the nominal settings of a unit bolted square, the day's order of positions with
-the gate times under trial) is reduced and propagated exactly as Chart II-15 step 8
+the table at the Chart I-5 settings of the unit's mounting T^BI, the day's order of positions
+with the gate times under trial) is reduced and propagated exactly as Chart II-15 step 8
 propagates a measured day (procedures.isu.calibration.compute: J Sigma_z J^T with the lab's
 NoiseSpec). That gives each required accuracy's predicted sigma against the collection time
 of the gate it concerns; ``choose_times`` takes the smallest time meeting the requirement,
@@ -31,7 +31,13 @@ from procedures.isu.calibration.forward import (
     AccelModel,
     GyroModel,
 )
-from procedures.isu.calibration.geometry import FIRST_COLUMN, default_geometry, t_br
+from procedures.isu.calibration.geometry import (
+    DEFAULT_PHI0_DEG,
+    FIRST_COLUMN,
+    chart_i5_settings,
+    t_br,
+)
+from procedures.isu.calibration.inputs import TableGeometry
 from procedures.isu.calibration.reduce import reduce
 from procedures.isu.site import Site
 
@@ -83,10 +89,22 @@ _FIELD = dict(zip(GATES, ("turns", "gyro_s", "accel_vertical_s", "accel_horizont
                   strict=True))
 
 
+Matrix3 = tuple[tuple[float, float, float], tuple[float, float, float],
+                tuple[float, float, float]]
+SQUARE: Matrix3 = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))
+
+
 @dataclass(frozen=True)
 class Lab:
-    """What the prediction knows of the station: site, noise, counter clock, table, and the
-    instruments' class (3 arcsec/pulse gyros, 2000 (pulses/s)/g accelerometers)."""
+    """What the prediction knows of the station: site, noise, counter clock, table, the
+    unit's mounting T^BI, and the instruments' class (3 arcsec/pulse gyros, 2000
+    (pulses/s)/g accelerometers).
+
+    The mounting matters through the sense of its small bolting error: B1 lies nearly along
+    I1 in position 1, so Chart I-5's phi4 there (and so which of the horizontal
+    accelerometers of positions 7/8 takes phi3's setting error, and how the second column
+    of T^BR turns) is set by that error's direction, not by the nominal square bolting
+    (where phi4 is arbitrary, taken 0)."""
 
     site: Site
     noise: NoiseSpec
@@ -96,14 +114,33 @@ class Lab:
     pulses_per_rev: int = 1
     dphi_arcsec: float = 3.0
     d1: float = 2000.0
+    t_bi: Matrix3 = SQUARE
+
+    def geometry(self) -> TableGeometry:
+        """The table geometry of a day on this mounting: Chart I-5 settings, position 0."""
+        s = chart_i5_settings(np.array(self.t_bi))
+        return TableGeometry(
+            t_bi=self.t_bi, phi0_deg=DEFAULT_PHI0_DEG,
+            settings_deg={m: (math.degrees(a), math.degrees(b)) for m, (a, b) in s.items()})
 
     def turn_s(self) -> float:
         """Seconds of one whole turn."""
         return 360.0 / self.table_rate_deg_s
 
 
-def _constants(lab: Lab) -> Constants:
-    geo = default_geometry()
+def planning_mounting(t_bi: object | None) -> Matrix3:
+    """T^BI as a planning figure: to 1e-4 (20 arcsec), squared up, so that the day's check
+    before the run (the station's mounting) and II-6 (the survey's) ask the same and share
+    one answer; the prediction needs the mounting only to a fraction of a degree."""
+    if t_bi is None:
+        return SQUARE
+    m = np.round(np.asarray(t_bi, dtype=float), 4)
+    u, _, vt = np.linalg.svd(m)
+    r = np.round(u @ vt, 12) + 0.0
+    return tuple(tuple(float(x) for x in row) for row in r)  # type: ignore[return-value]
+
+
+def _constants(lab: Lab, geo: TableGeometry) -> Constants:
     cols = {m: sm.t_br_column2(np.array(geo.t_bi), *geo.settings_deg[m])
             for m in (1, 3, 5, 13, 14, 15)}
     return Constants(g=lab.site.g, w_sin_lambda=lab.site.omega_sin_lambda,
@@ -113,7 +150,8 @@ def _constants(lab: Lab) -> Constants:
 
 def nominal_data(times: Times, lab: Lab, level: bool = True) -> CalibrationData:
     """The counter data a nominal unit gives over a day with these times (no noise)."""
-    c = _constants(lab)
+    geo = lab.geometry()
+    c = _constants(lab, geo)
     dphi = lab.dphi_arcsec / 3600.0
     gyros = [GyroModel(dphi, g.copy(), o.copy(), s.copy(), dict.fromkeys(GYRO_TERMS, 0.0))
              for g, o, s in NOMINAL_AXES]
@@ -151,7 +189,7 @@ def nominal_data(times: Times, lab: Lab, level: bool = True) -> CalibrationData:
         accel[m] = AccelPosition(gamma=gamma, n1=n1, t0=t, t1=t + longest,
                                  t_level=t - LEVEL_LEAD_S if level else SURVEY_S)
         t += longest + POSITION_GAP_S
-    return CalibrationData(constants=c, gyro=gyro, accel=accel, geometry=default_geometry())
+    return CalibrationData(constants=c, gyro=gyro, accel=accel, geometry=geo)
 
 
 Row = tuple[str, str]

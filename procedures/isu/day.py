@@ -100,7 +100,8 @@ def measure_day(st: IsuDrivers, run: Run, plan: DayPlan, site: Site, f0: float,
     settings = resolver_settings(survey)
     run.save_sheet("resolver_settings", settings)
     run.save_sheet("counter_connections", st_settings.counter_connections())
-    times, gates = st_settings.collection_times(plan, site, noise or NoiseSpec(), s1, f0)
+    times, gates = st_settings.collection_times(plan, site, noise or NoiseSpec(), s1, f0,
+                                                survey.t_bi)
     gyro_gate_s, acc_v_s, acc_h_s = times.gyro_s, times.accel_vertical_s, times.accel_horizontal_s
     plan = plan.model_copy(update={"min_turns": times.turns})  # II-6.2: turns for the accuracy
     g = gates

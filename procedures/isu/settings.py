@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import math
 
-from procedures.isu.accuracy import GateChoice, Lab, Times, choose_times
+from procedures.isu.accuracy import GateChoice, Lab, Times, choose_times, planning_mounting
 from procedures.isu.calibration.noise_spec import NoiseSpec
 from procedures.isu.plan import DayPlan
 from procedures.isu.sheets import (
@@ -105,10 +105,11 @@ def counter_settings(
 
 
 def planning_lab(plan: DayPlan, site: Site, noise: NoiseSpec, s1: float = 1e-6,
-                 f0: float = 20000.0) -> Lab:
-    """What the accuracy prediction is told of this station and day."""
+                 f0: float = 20000.0, t_bi: object | None = None) -> Lab:
+    """What the accuracy prediction is told of this station and day (``t_bi``: the unit's
+    mounting T^BI, the survey's on the day; None: bolted square)."""
     return Lab(site=site, noise=noise, s1=s1, f0=f0, table_rate_deg_s=plan.table_rate_deg_s,
-               pulses_per_rev=plan.rotation_pulses_per_rev)
+               pulses_per_rev=plan.rotation_pulses_per_rev, t_bi=planning_mounting(t_bi))
 
 
 def manual_times(plan: DayPlan) -> Times:
@@ -120,13 +121,16 @@ _CHOSEN: dict[str, tuple[Times, list[GateChoice]]] = {}
 
 
 def collection_times(plan: DayPlan, site: Site, noise: NoiseSpec, s1: float = 1e-6,
-                     f0: float = 20000.0) -> tuple[Times, dict[str, GateSetting]]:
+                     f0: float = 20000.0, t_bi: object | None = None
+                     ) -> tuple[Times, dict[str, GateSetting]]:
     """II-6.2 step (2): every gate's time from the plan's required accuracies
-    (procedures.isu.accuracy.Unreachable, naming the requirement, when none reaches it)."""
+    (procedures.isu.accuracy.Unreachable, naming the requirement, when none reaches it);
+    ``t_bi``: the unit's mounting (the day's survey), which sets each instrument's share of
+    the table's orientation errors."""
     req = plan.requirements
     # a planning figure: the counter clock's period to 4 figures, so that the check before
     # the run (nominal clock) and II-6 (the measured one) ask the same and share one answer
-    lab = planning_lab(plan, site, noise, float(f"{s1:.4g}"), f0)
+    lab = planning_lab(plan, site, noise, float(f"{s1:.4g}"), f0, t_bi)
     fixed = plan.study_times()
     key = repr((req, lab, manual_times(plan), fixed))
     if key not in _CHOSEN:

@@ -27,6 +27,11 @@ from numpy.polynomial import legendre as leg
 ORDER = 8
 GL_X, GL_W = leg.leggauss(ORDER)
 MAX_SWEEP = math.pi / 2  # rad of table travel per piece
+# Cells a batch computes ahead of the one asked for while the table holds (no segment starts
+# and one piece per cell): a batch costs about 1 ms whatever its length and a still cell
+# about 30 us more, so a gate of up to half an hour costs one batch, like a 1-s gate
+# (issue 17), and a static stream asks for one batch per half hour, not per cell.
+LOOKAHEAD = 32
 # Legendre coefficients from node values: c_n = (2n+1)/2 sum_i w_i P_n(x_i) f_i
 _P_NODES = leg.legvander(GL_X, ORDER - 1)  # (8 nodes, 8 degrees)
 TO_COEF = (_P_NODES * GL_W[:, None]).T * ((2 * np.arange(ORDER) + 1) / 2.0)[:, None]
@@ -110,6 +115,7 @@ class CellIntegral:
         if k <= self._cells:
             return
         j0 = self._cells
+        k = self._still_until(k)
         busy = {int(x // self.h) for x in self._breakpoints(j0 * self.h, k * self.h)}
         edges = np.arange(j0, k + 1) * self.h
         r = self._abs_rate(edges)
@@ -146,6 +152,16 @@ class CellIntegral:
         self._basis_a = np.concatenate((self._basis_a, basis_a))
         self._end = cum[-1] + total[-1]  # integral from 0 to the end of the last piece
         self._cells = k
+
+    def _still_until(self, k: int) -> int:
+        """``k``, or ``k + LOOKAHEAD`` when the table holds over those cells: no segment
+        starts in them and its rate leaves one piece per cell."""
+        t0, t1 = k * self.h, (k + LOOKAHEAD) * self.h
+        if self._breakpoints(t0, t1):
+            return k
+        if float(np.max(self._abs_rate(np.array([t0, t1])))) * self.h > MAX_SWEEP:
+            return k
+        return k + LOOKAHEAD
 
     # ----- queries -----
     def _piece(self, t: float) -> int:

@@ -21,9 +21,9 @@ from procedures.isu.calibration import (
     GyroPosition,
     NoiseSpec,
     TableGeometry,
-    calibrate,
 )
 from procedures.isu.calibration.checks import K_RESULT, check_residuals, check_string_sums
+from procedures.isu.calibration.compute import calibrate_with_correlation, without
 from procedures.isu.carry_forward import PriorSheet
 from procedures.isu.day import DayData
 from procedures.isu.j_term import j_estimate, j_pairs
@@ -220,7 +220,7 @@ def compute_calibration(run: Run, data: DayData, plan: DayPlan, noise: NoiseSpec
             step7["source"] = prior.source
         sheet.done("7", "Last (D1 D3) for accelerometers without positions 13, 14", step7)
         with sheet.step("8", "Compute the constants") as s:
-            rows = calibrate(cd, noise)
+            rows, corr = calibrate_with_correlation(cd, noise)
             carried = ([] if prior is None else
                        cf.carry_rows(rows, prior, cd.prior_gyro, cd.last_d1d3))
             special = special_experiments(rows, data, plan, site, noise)
@@ -237,7 +237,8 @@ def compute_calibration(run: Run, data: DayData, plan: DayPlan, noise: NoiseSpec
         with sheet.step("9", "Record the valid constants (Chart II-16) on the Calibration "
                         "Results Sheet") as s:
             used = sorted({*data.gyro, *data.accel})
-            results = CalibrationResults(rows=rows, positions_used=used)
+            results = CalibrationResults(rows=rows, positions_used=used,
+                                         correlation=without(corr, carried))
             s.reading = {"positions_used": used}
     run.save_sheet("calibration_results", results)
     return results

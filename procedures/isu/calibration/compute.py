@@ -23,7 +23,7 @@ from procedures.isu.calibration.gyro_equations import GYRO_PARAMS, gyro_estimate
 from procedures.isu.calibration.inputs import CalibrationData, Constants
 from procedures.isu.calibration.noise_spec import NoiseSpec
 from procedures.isu.calibration.reduce import Key, Reduced, reduce
-from procedures.isu.sheets import ResultRow
+from procedures.isu.sheets import ConstantsCorrelation, ResultRow
 
 Row = tuple[str, str]  # (instrument, parameter)
 
@@ -105,20 +105,42 @@ def constants_covariance(
     return est, rows, 0.5 * (m + m.T)
 
 
+def _sigmas(est: dict[Row, float | None], rows: list[Row], cov: np.ndarray
+            ) -> dict[Row, float | None]:
+    sig: dict[Row, float | None] = {r: None for r in est}
+    for r, v in zip(rows, np.diag(cov), strict=True):
+        sig[r] = float(np.sqrt(max(v, 0.0)))
+    return sig
+
+
 def predicted_sigmas(
     data: CalibrationData, noise: NoiseSpec | None = None
 ) -> tuple[dict[Row, float | None], dict[Row, float | None]]:
     """(estimates, predicted standard errors) of every Chart II-5 constant."""
     est, rows, cov = constants_covariance(data, noise)
-    sig: dict[Row, float | None] = {r: None for r in est}
-    for r, v in zip(rows, np.diag(cov), strict=True):
-        sig[r] = float(np.sqrt(max(v, 0.0)))
-    return est, sig
+    return est, _sigmas(est, rows, cov)
+
+
+def correlation(rows: list[Row], cov: np.ndarray) -> ConstantsCorrelation:
+    """The constants' correlation matrix (four decimals) for the Calibration Results Sheet."""
+    d = np.sqrt(np.maximum(np.diag(cov), 0.0))
+    scale = np.where(d > 0, 1.0 / np.where(d > 0, d, 1.0), 0.0)
+    r = np.clip(cov * np.outer(scale, scale), -1.0, 1.0)
+    np.fill_diagonal(r, 1.0)
+    return ConstantsCorrelation(rows=[f"{i} {p}" for i, p in rows],
+                                matrix=[[round(float(x), 4) for x in line] for line in r])
 
 
 def calibrate(data: CalibrationData, noise: NoiseSpec | None = None) -> list[ResultRow]:
     """Calibration Results Sheet rows (Chart II-5), one per instrument and parameter."""
-    est, sig = predicted_sigmas(data, noise)
+    return calibrate_with_correlation(data, noise)[0]
+
+
+def calibrate_with_correlation(data: CalibrationData, noise: NoiseSpec | None = None
+                               ) -> tuple[list[ResultRow], ConstantsCorrelation]:
+    """Chart II-5 rows and the correlation of the constants they determine."""
+    est, det, cov = constants_covariance(data, noise)
+    sig = _sigmas(est, det, cov)
     rows: list[ResultRow] = []
     for k in (1, 2, 3):
         for p in GYRO_PARAMS:
@@ -165,4 +187,12 @@ def calibrate(data: CalibrationData, noise: NoiseSpec | None = None) -> list[Res
                     note=note,
                 )
             )
-    return rows
+    return rows, correlation(det, cov)
+
+
+def without(corr: ConstantsCorrelation, names: list[str]) -> ConstantsCorrelation:
+    """The correlation less the rows ``names`` (carried forward from an earlier sheet: their
+    estimates are not this day's, so they are independent of it)."""
+    keep = [i for i, r in enumerate(corr.rows) if r not in set(names)]
+    return ConstantsCorrelation(rows=[corr.rows[i] for i in keep],
+                                matrix=[[corr.matrix[i][j] for j in keep] for i in keep])

@@ -5,7 +5,8 @@ Predicted standard error: every estimate is a function of the reduced counter da
 through them, of the true orientation at each setting. With J the numerical Jacobian of the
 estimator (central differences, one standard error per step) and Sigma_z the data
 covariance of ``covariance.DataCovariance`` (noise, pier tilt, orientation errors carried
-by the forward model), sigma = sqrt(diag(J Sigma_z J^T)).
+by the forward model), sigma = sqrt(diag(J Sigma_z J^T)), plus for the gyros the variance
+of the turn of O and S about G that no position measures (``neglected``).
 """
 
 from __future__ import annotations
@@ -19,8 +20,9 @@ from procedures.isu.calibration.accel_equations import ACCEL_PARAMS, accel_estim
 from procedures.isu.calibration.covariance import DataCovariance, setting_of
 from procedures.isu.calibration.forward import AccelModel, GyroModel
 from procedures.isu.calibration.geometry import FIRST_COLUMN, TableErrorModel, t_br
-from procedures.isu.calibration.gyro_equations import GYRO_PARAMS, gyro_estimates
+from procedures.isu.calibration.gyro_equations import GYRO_PARAMS
 from procedures.isu.calibration.inputs import CalibrationData, Constants
+from procedures.isu.calibration.neglected import corrected_gyro_estimates, spin_axis_variance
 from procedures.isu.calibration.noise_spec import NoiseSpec
 from procedures.isu.calibration.reduce import Key, Reduced, reduce
 from procedures.isu.sheets import ConstantsCorrelation, ResultRow
@@ -37,10 +39,11 @@ def _central_difference(plus: float | None, minus: float | None, h: float, row: 
 
 
 def estimate(z: Mapping[Key, float], c: Constants) -> dict[Row, float | None]:
-    """All Chart II-5 constants from reduced data (None where not determined)."""
+    """All Chart II-5 constants from reduced data (None where not determined); the gyros'
+    printed forms with the terms they neglect put back (``neglected``)."""
     out: dict[Row, float | None] = {}
     for k in (1, 2, 3):
-        for p, v in gyro_estimates(z, c, k).items():
+        for p, v in corrected_gyro_estimates(z, c, k).items():
             out[(f"gyro{k}", p)] = v
     for k in (1, 2, 3):
         for p, v in accel_estimates(z, c.g, k).items():
@@ -102,7 +105,14 @@ def constants_covariance(
         ep, em = estimate(zp, c), estimate(zm, c)
         jac[:, i] = [_central_difference(ep[r], em[r], h, r, keys[i]) for r in rows]
     m = jac @ cov @ jac.T
+    for i, (inst, p) in enumerate(rows):  # the turn of O, S about G no position measures
+        if inst.startswith("gyro"):
+            m[i, i] += spin_axis_variance(_gyro_rows(est, inst), int(inst[-1])).get(p, 0.0)
     return est, rows, 0.5 * (m + m.T)
+
+
+def _gyro_rows(est: Mapping[Row, float | None], inst: str) -> dict[str, float | None]:
+    return {p: v for (i, p), v in est.items() if i == inst}
 
 
 def _sigmas(est: dict[Row, float | None], rows: list[Row], cov: np.ndarray

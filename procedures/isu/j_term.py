@@ -16,10 +16,12 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
+from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
 
+from procedures.isu.calibration.kernels import Functional, exp_gram
 from procedures.isu.common import patch, set_modes, set_position
 from procedures.isu.plan import DayPlan
 from procedures.isu.plausibility import Implausible, guarded, source_of
@@ -132,7 +134,7 @@ def j_experiment(st: IsuDrivers, run: Run, settings: ResolverSettings, plan: Day
                                 f"{phi_read:.4f} deg where the ramp from {phi_start:.4f} deg "
                                 f"puts it at {prof(t_read) % 360.0:.4f} deg (RATE? "
                                 f"{rate:g} deg/s, commanded {w_end:g})")
-                        rec = {"direction": direction, "phi_start": phi_start,
+                        rec = {"direction": direction, "t_pos_s": t_pos, "phi_start": phi_start,
                                "w_start": w_start, "w_end": w_end, "t_cmd": t_cmd,
                                "gate_s": n_ticks * s1,
                                "t_oper": {str(c): v for c, v in t_oper.items()},
@@ -147,8 +149,65 @@ def j_experiment(st: IsuDrivers, run: Run, settings: ResolverSettings, plan: Day
     return out
 
 
+@dataclass(frozen=True)
+class JNoise:
+    """The error sources of one gyro's J gates (docs/special-experiments.md).
+
+    Counts: quantization ``quantization_var`` (pulses^2 per count, a difference of two
+    floors); the floors of the end of one gate and the start of the next are read a few tens
+    of ms apart, so they share the gyro's fractional phase unless it advanced meanwhile: the
+    two counts' errors correlate by -(q/2)(1 - 6 d(1 - d)), d the fractional advance (rest rate
+    ``rest_rate_deg_hr`` besides the Earth's horizontal rate and the table rate through G.R1).
+    Taken as independent, the chain of back-to-back gates made the predicted sigma about
+    1.3x optimistic where quantization dominates (0.3x noise). ``white_var`` (pulses^2 per
+    gate): angle random walk and the pier's tilt change. Random drift (``drift_deg_hr``,
+    Gauss-Markov over ``drift_tau_s``): nearly the same in the two gates of a pair, so it
+    cancels in their difference instead of adding per gate.
+    """
+
+    quantization_var: float
+    white_var: float
+    drift_deg_hr: float
+    drift_tau_s: float
+    rest_rate_deg_hr: float = 0.0
+
+
+def _gate_times(rec: dict, counter: int) -> tuple[float, float] | None:
+    """Absolute (start, end) of a gate, s; None for a record made before they were kept."""
+    if "t_pos_s" not in rec:
+        return None
+    t0 = rec["t_pos_s"] + rec["t_oper"][str(counter)]
+    return t0, t0 + rec["gate_s"]
+
+
+def gate_covariance(records: list[dict], counter: int, dphi_arcsec: float, g_r: np.ndarray,
+                    omega_sin_lambda: float, accel: float, noise: JNoise) -> np.ndarray:
+    """Covariance (pulses^2) of the count errors of the gates in ``records`` (``JNoise``)."""
+    n = len(records)
+    q = noise.quantization_var
+    cov = np.eye(n) * (q + noise.white_var)
+    times = [_gate_times(r, counter) for r in records]
+    if any(t is None for t in times):  # older records: gates taken as independent
+        return cov + np.eye(n) * (noise.drift_deg_hr * records[0]["gate_s"] / dphi_arcsec) ** 2
+    spans = [t for t in times if t is not None]
+    fs = [Functional.mean(a, b, (b - a) / dphi_arcsec) for a, b in spans]
+    cov += exp_gram(fs, noise.drift_tau_s) * noise.drift_deg_hr**2
+    for j in range(n - 1):
+        rec = records[j]
+        prof = profile(rec["phi_start"], rec["w_start"], rec["w_end"], accel, rec["t_cmd"])
+        t_end = rec["t_oper"][str(counter)] + rec["gate_s"]
+        phi = prof(t_end) * DEG
+        rate = (g_r[0] * rec["w_end"] * 3600.0 + noise.rest_rate_deg_hr
+                + omega_sin_lambda * (g_r[1] * math.sin(phi) + g_r[2] * math.cos(phi)))
+        gap = spans[j + 1][0] - spans[j][1]
+        d = (abs(rate) * gap / dphi_arcsec) % 1.0
+        c = 0.5 * q * (1.0 - 6.0 * d * (1.0 - d))
+        cov[j, j + 1] = cov[j + 1, j] = -c
+    return cov
+
+
 def j_estimate(records: list[dict], counter: int, dphi_arcsec: float, g_r: np.ndarray,
-               omega_sin_lambda: float, accel: float, sigma_counts: float
+               omega_sin_lambda: float, accel: float, noise: JNoise
                ) -> tuple[float, float]:
     """J (hours) and its sigma from the up/down gate pairs of one gyro.
 
@@ -158,7 +217,9 @@ def j_estimate(records: list[dict], counter: int, dphi_arcsec: float, g_r: np.nd
     dphi = dphi_arcsec / 3600.0  # deg per pulse
     w_sin = omega_sin_lambda / 3600.0  # deg/s
     js = []
-    for up, down in zip(records[0::2], records[1::2], strict=True):
+    weights = np.zeros(len(records))
+    pairs = len(records) // 2
+    for i, (up, down) in enumerate(zip(records[0::2], records[1::2], strict=True)):
         terms = []
         for rec in (up, down):
             prof = profile(rec["phi_start"], rec["w_start"], rec["w_end"], accel, rec["t_cmd"])
@@ -170,20 +231,21 @@ def j_estimate(records: list[dict], counter: int, dphi_arcsec: float, g_r: np.nd
             terms.append(angle - known)
         dw = up["w_end"] - up["w_start"] - (down["w_end"] - down["w_start"])  # deg/s
         js.append((terms[0] - terms[1]) / dw / 3600.0)  # deg / (deg/s) = s -> hours
+        weights[2 * i: 2 * i + 2] = np.array([1.0, -1.0]) * dphi / dw / 3600.0 / pairs
     j = float(np.mean(js))
-    # each pair: two counts with sigma_counts pulses, over 2 w1
-    sig_pair = math.sqrt(2.0) * sigma_counts * dphi / abs(dw) / 3600.0
-    return j, sig_pair / math.sqrt(len(js))
+    cov = gate_covariance(records[: 2 * pairs], counter, dphi_arcsec, g_r, omega_sin_lambda,
+                          accel, noise)
+    return j, math.sqrt(max(float(weights @ cov @ weights), 0.0))
 
 
 def j_pairs(records: list[dict], counter: int, dphi_arcsec: float, g_r: np.ndarray,
-            omega_sin_lambda: float, accel: float, sigma_counts: float) -> list[float]:
+            omega_sin_lambda: float, accel: float, noise: JNoise) -> list[float]:
     """Each up/down pair's J against the others' mean, in units of its sigma (the pairs
     are independent measurements of one J; a garbled count makes one pair stand out)."""
     one = [j_estimate(records[i:i + 2], counter, dphi_arcsec, g_r, omega_sin_lambda, accel,
-                      sigma_counts) for i in range(0, len(records) - 1, 2)]
+                      noise) for i in range(0, len(records) - 1, 2)]
     js = np.array([j for j, _ in one])
-    sig = one[0][1] if one else 0.0
+    sig = float(np.sqrt(np.mean([s * s for _, s in one]))) if one else 0.0
     n = len(js)
     if n < 3 or not sig > 0:
         return []

@@ -34,7 +34,7 @@ STATIC = range(7, 16)
 SPIN_AXIS_SIGMA_ARCSEC = 100.0
 
 
-def _g_terms(m: GyroModel, u: np.ndarray, g: float) -> float:
+def g_terms(m: GyroModel, u: np.ndarray, g: float) -> float:
     """R and the g, g^2 terms of Chart IV-2 (deg/hr) with up ``u`` (body), no input rate."""
     a = g * u
     ag, ao, as_ = float(a @ m.G), float(a @ m.O), float(a @ m.S)
@@ -48,7 +48,7 @@ def neglected(est: Mapping[str, Value], c: Constants, k: int) -> dict[int, float
     g0, o0, s0 = NOMINAL_AXES[k - 1]
     nominal = GyroModel(full.dphi_deg, g0, o0, s0, full.coef)
     scale = 1.0 / (3600.0 * full.dphi_deg)
-    return {m: (_g_terms(full, FIRST_COLUMN[m], c.g) - _g_terms(nominal, FIRST_COLUMN[m], c.g))
+    return {m: (g_terms(full, FIRST_COLUMN[m], c.g) - g_terms(nominal, FIRST_COLUMN[m], c.g))
             * scale for m in STATIC}
 
 

@@ -33,7 +33,10 @@ def one(job: tuple[int, bool, float | None]) -> dict:
 
     cfg = random_station(seed, redraw_isu=redraw, noise=noise)
     with tempfile.TemporaryDirectory() as d:
-        res = run_day(DayRequest(cfg, Path(d) / "day", quiet=True), Console(quiet=True))
+        try:
+            res = run_day(DayRequest(cfg, Path(d) / "day", quiet=True), Console(quiet=True))
+        except Exception as e:  # a day that stops: reported, not pooled
+            return {"seed": seed, "lat": cfg.site.latitude_deg, "z": {}, "stopped": str(e)}
     z: dict[str, float] = {}
     for r in res["calibration"]:
         if r.get("sigma") and r.get("error") is not None:
@@ -58,6 +61,9 @@ def main() -> None:
         days = list(ex.map(one, jobs))
     if a.json:
         a.json.write_text(json.dumps(days))
+    for d in days:
+        if "stopped" in d:
+            print(f"seed {d['seed']} stopped: {d['stopped'][:200]}")
     names = sorted({k for d in days for k in d["z"]})
     print(f"{len(days)} days; name: mean z, rms z, max |z| (rms 99 % interval for n)")
     for k in names:

@@ -1,6 +1,7 @@
 """Random admissible laboratories (common to the issue-19 accuracy tests and bench): a site
 at 5-70 deg latitude in either hemisphere, the ISU's coefficients redrawn at 0.3-3x with a
-random sign, the instrument noise at 0.3-3x (one factor per laboratory)."""
+random sign, the instrument noise and the pier's wobble and wander at 0.3-3x (one factor
+per laboratory)."""
 
 from __future__ import annotations
 
@@ -43,7 +44,12 @@ def random_overrides(rng: np.random.Generator, *, redraw_isu: bool = True,
             a["misalignment_arcsec"] = [_redraw(rng, x) for x in a["misalignment_arcsec"]]
         a["noise_micro_g_rt_hz"] *= f
         accels.append(a)
-    return {"site": {"latitude_deg": lat}, "isu": {"gyros": gyros, "accels": accels}}
+    env = default_dict()["environment"]
+    environment = {"wobble": {"amplitude_arcsec": env["wobble"]["amplitude_arcsec"] * f},
+                   "pier_tilt": {"wander_sigma_arcsec":
+                                 env["pier_tilt"]["wander_sigma_arcsec"] * f}}
+    return {"site": {"latitude_deg": lat}, "isu": {"gyros": gyros, "accels": accels},
+            "environment": environment}
 
 
 def random_station(seed: int, **kw: object) -> StationConfig:

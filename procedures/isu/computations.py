@@ -121,11 +121,11 @@ def _j_noise(rows: list[ResultRow], k: int, m: int, noise: NoiseSpec, gate_s: fl
     and the pier's tilt change seen by the horizontal input axis; random drift; its rate at
     rest in position m (R and the g terms of this day's rows, O up)."""
     arw = noise.gyro_arw_deg_rt_hr * 3600.0 / 60.0 * math.sqrt(gate_s)  # arcsec
-    white = (arw**2 + _tilt_change_sigma_arcsec(noise, gate_s) ** 2) / dphi_arcsec**2
+    tilt = (_tilt_change_sigma_arcsec(noise, gate_s) / dphi_arcsec) ** 2
     est = {r.parameter: r.estimate for r in rows if r.instrument == f"gyro{k}"}
     rest = g_terms(GyroModel.from_estimates(k, est), FIRST_COLUMN[m], g)
-    return JNoise(noise.count_quantization_var, white, noise.gyro_drift_sigma_deg_hr,
-                  noise.gyro_drift_tau_s, rest)
+    return JNoise(noise.count_quantization_var, (arw / dphi_arcsec) ** 2,
+                  noise.gyro_drift_sigma_deg_hr, noise.gyro_drift_tau_s, rest, tilt, noise)
 
 
 def _check_speeds(chart: str, k: int, pts: list[dict], fit: NonlinearityFit) -> list[float]:

@@ -21,13 +21,16 @@ from procedures.isu.calibration import (
     GyroPosition,
     NoiseSpec,
     TableGeometry,
-    calibrate,
 )
 from procedures.isu.calibration.all_positions import side_by_side
 from procedures.isu.calibration.checks import K_RESULT, check_residuals, check_string_sums
+from procedures.isu.calibration.compute import calibrate_with_correlation, without
+from procedures.isu.calibration.forward import GyroModel
+from procedures.isu.calibration.geometry import FIRST_COLUMN
+from procedures.isu.calibration.neglected import g_terms
 from procedures.isu.carry_forward import PriorSheet
 from procedures.isu.day import DayData
-from procedures.isu.j_term import j_estimate, j_pairs
+from procedures.isu.j_term import JNoise, j_estimate, j_pairs
 from procedures.isu.nonlinearity import NonlinearityFit, fit_nonlinearity, q_is_from_fit
 from procedures.isu.plan import DayPlan
 from procedures.isu.plausibility import Implausible
@@ -113,6 +116,19 @@ def _tilt_change_sigma_arcsec(noise: NoiseSpec, gate_s: float) -> float:
     return math.sqrt(max(var, 0.0)) * 180.0 / math.pi * 3600.0
 
 
+def _j_noise(rows: list[ResultRow], k: int, m: int, noise: NoiseSpec, gate_s: float,
+             dphi_arcsec: float, g: float) -> JNoise:
+    """Gyro k's J-gate error sources (``JNoise``): count quantization; angle random walk
+    and the pier's tilt change seen by the horizontal input axis; random drift; its rate at
+    rest in position m (R and the g terms of this day's rows, O up)."""
+    arw = noise.gyro_arw_deg_rt_hr * 3600.0 / 60.0 * math.sqrt(gate_s)  # arcsec
+    tilt = (_tilt_change_sigma_arcsec(noise, gate_s) / dphi_arcsec) ** 2
+    est = {r.parameter: r.estimate for r in rows if r.instrument == f"gyro{k}"}
+    rest = g_terms(GyroModel.from_estimates(k, est), FIRST_COLUMN[m], g)
+    return JNoise(noise.count_quantization_var, (arw / dphi_arcsec) ** 2,
+                  noise.gyro_drift_sigma_deg_hr, noise.gyro_drift_tau_s, rest, tilt, noise)
+
+
 def _check_speeds(chart: str, k: int, pts: list[dict], fit: NonlinearityFit) -> list[float]:
     """Each speed of a nonlinearity series off the quadratic through the others (sigma)."""
     for p, z in zip(pts, fit["residual_z"], strict=True):
@@ -175,13 +191,11 @@ def special_experiments(rows: list[ResultRow], data: DayData, plan: DayPlan, sit
             g_r = np.array(gb) @ t_br
             gate = recs[0]["gate_s"]
             dphi_as = scale_factor_arcsec(rdp.estimate)
-            # count noise, and the pier's tilt change seen by the horizontal input axis
-            sig_c = math.hypot(_count_sigma(noise, gate, dphi_as),
-                               _tilt_change_sigma_arcsec(noise, gate) / dphi_as)
+            jn = _j_noise(rows, k, m, noise, gate, dphi_as, sv.g)
             j, sj = j_estimate(recs, c, dphi_as, g_r, site.omega_sin_lambda,
-                               plan.j_accel_deg_s2, sig_c)
+                               plan.j_accel_deg_s2, jn)
             zs = j_pairs(recs, c, dphi_as, g_r, site.omega_sin_lambda,
-                         plan.j_accel_deg_s2, sig_c)
+                         plan.j_accel_deg_s2, jn)
             checks[f"II-10 gyro{k}"] = zs
             for i, z in enumerate(zs):
                 if abs(z) > K_RESULT:
@@ -221,9 +235,10 @@ def compute_calibration(run: Run, data: DayData, plan: DayPlan, noise: NoiseSpec
             step7["source"] = prior.source
         sheet.done("7", "Last (D1 D3) for accelerometers without positions 13, 14", step7)
         with sheet.step("8", "Compute the constants") as s:
-            rows = calibrate(cd, noise)
-            side_by_side(rows, cd, noise, plan.options.estimator,  # issue 19: both estimators
-                         data.nonlinearity)
+            rows, corr = calibrate_with_correlation(cd, noise)
+            # issue 19: the all-positions estimator beside the closed forms (the correlation
+            # carried to the alignments stays the closed forms': see docs/calibration-accuracy)
+            side_by_side(rows, cd, noise, plan.options.estimator, data.nonlinearity)
             carried = ([] if prior is None else
                        cf.carry_rows(rows, prior, cd.prior_gyro, cd.last_d1d3))
             special = special_experiments(rows, data, plan, site, noise)
@@ -240,7 +255,8 @@ def compute_calibration(run: Run, data: DayData, plan: DayPlan, noise: NoiseSpec
         with sheet.step("9", "Record the valid constants (Chart II-16) on the Calibration "
                         "Results Sheet") as s:
             used = sorted({*data.gyro, *data.accel})
-            results = CalibrationResults(rows=rows, positions_used=used)
+            results = CalibrationResults(rows=rows, positions_used=used,
+                                         correlation=without(corr, carried))
             s.reading = {"positions_used": used}
     run.save_sheet("calibration_results", results)
     return results

@@ -16,10 +16,13 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
+from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
 
+from procedures.isu.calibration.kernels import Functional, band_nodes, cosine_gram, exp_gram
+from procedures.isu.calibration.noise_spec import ARCSEC, DAY, NoiseSpec
 from procedures.isu.common import patch, set_modes, set_position
 from procedures.isu.plan import DayPlan
 from procedures.isu.plausibility import Implausible, guarded, source_of
@@ -132,7 +135,7 @@ def j_experiment(st: IsuDrivers, run: Run, settings: ResolverSettings, plan: Day
                                 f"{phi_read:.4f} deg where the ramp from {phi_start:.4f} deg "
                                 f"puts it at {prof(t_read) % 360.0:.4f} deg (RATE? "
                                 f"{rate:g} deg/s, commanded {w_end:g})")
-                        rec = {"direction": direction, "phi_start": phi_start,
+                        rec = {"direction": direction, "t_pos_s": t_pos, "phi_start": phi_start,
                                "w_start": w_start, "w_end": w_end, "t_cmd": t_cmd,
                                "gate_s": n_ticks * s1,
                                "t_oper": {str(c): v for c, v in t_oper.items()},
@@ -147,8 +150,131 @@ def j_experiment(st: IsuDrivers, run: Run, settings: ResolverSettings, plan: Day
     return out
 
 
+@dataclass(frozen=True)
+class JNoise:
+    """The error sources of one gyro's J gates (docs/special-experiments.md).
+
+    Counts: quantization ``quantization_var`` (pulses^2 per count, a difference of two
+    floors); the floors of the end of one gate and the start of the next are read a few tens
+    of ms apart, so they share the gyro's fractional phase unless it advanced meanwhile: the
+    two counts' errors correlate by -(q/2)(1 - 6 d(1 - d)), d the fractional advance (rest rate
+    ``rest_rate_deg_hr`` besides the Earth's horizontal rate and the table rate through G.R1).
+    Taken as independent, the chain of back-to-back gates made the predicted sigma about
+    1.3x optimistic where quantization dominates (0.3x noise). ``white_var`` (pulses^2 per
+    gate): angle random walk. Random drift (``drift_deg_hr``, Gauss-Markov over
+    ``drift_tau_s``): nearly the same in the two gates of a pair, so it cancels in their
+    difference instead of adding per gate. The pier's tilt (``pier``): the horizontal input
+    axis, turning with the table, sees int tilt_rate . G(t) dt (``tilt_functionals``), with
+    the pier's covariance across the gates; taken per gate as the full tilt change (both
+    horizontal axes, ``tilt_var``: the fallback for records without gate times) it was
+    about 1.4x pessimistic where the tilt dominates.
+    """
+
+    quantization_var: float
+    white_var: float
+    drift_deg_hr: float
+    drift_tau_s: float
+    rest_rate_deg_hr: float = 0.0
+    tilt_var: float = 0.0
+    pier: NoiseSpec | None = None
+
+
+def _gate_times(rec: dict, counter: int) -> tuple[float, float] | None:
+    """Absolute (start, end) of a gate, s; None for a record made before they were kept."""
+    if "t_pos_s" not in rec:
+        return None
+    t0 = rec["t_pos_s"] + rec["t_oper"][str(counter)]
+    return t0, t0 + rec["gate_s"]
+
+
+TILT_STEP_S = 0.5  # sub-interval of the tilt functionals: G turns 5 deg in it at 10 deg/s
+
+
+def tilt_functionals(rec: dict, counter: int, g_r: np.ndarray, accel: float
+                     ) -> tuple[Functional, Functional]:
+    """(east, north) functionals of the tilt whose sum is the angle (rad) a gate's gyro sees:
+    int tilt_rate . G dt = [tilt . G] at the ends - int tilt . dG/dt dt, G's horizontal
+    part turning with the table: (G_E, G_N) = (g2 cos phi - g3 sin phi, g2 sin phi
+    + g3 cos phi), phi the rotary angle of the commanded profile."""
+    prof = profile(rec["phi_start"], rec["w_start"], rec["w_end"], accel, rec["t_cmd"])
+    t0 = rec["t_oper"][str(counter)]
+    t1 = t0 + rec["gate_s"]
+    base = rec["t_pos_s"]
+
+    def g_en(t: float) -> tuple[float, float]:
+        p = prof(t) * DEG
+        return (g_r[1] * math.cos(p) - g_r[2] * math.sin(p),
+                g_r[1] * math.sin(p) + g_r[2] * math.cos(p))
+
+    (e0, n0), (e1, n1) = g_en(t0), g_en(t1)
+    fe = Functional.point(base + t1, e1) + Functional.point(base + t0, -e0)
+    fn = Functional.point(base + t1, n1) + Functional.point(base + t0, -n0)
+    k = max(1, int(math.ceil((t1 - t0) / TILT_STEP_S)))
+    edges = np.linspace(t0, t1, k + 1)
+    for a, b in zip(edges[:-1], edges[1:], strict=True):
+        (ea, na), (eb, nb) = g_en(float(a)), g_en(float(b))
+        fe = fe + Functional.mean(base + a, base + b, -(eb - ea))
+        fn = fn + Functional.mean(base + a, base + b, -(nb - na))
+    return fe, fn
+
+
+def tilt_covariance(records: list[dict], counter: int, dphi_arcsec: float, g_r: np.ndarray,
+                    accel: float, pier: NoiseSpec) -> np.ndarray:
+    """Covariance (pulses^2) of the gates' tilt angles (``tilt_functionals``) under the
+    pier's diurnal tilt, wander and wobble (``NoiseSpec``; as ``calibration.covariance``)."""
+    n = len(records)
+    pairs = [tilt_functionals(r, counter, g_r, accel) for r in records]
+    fs = [e for e, _ in pairs] + [x for _, x in pairs]
+    times = [t for f in fs for _, a, b in f.atoms for t in (a, b)]
+    span = max(times) - min(times)
+    amp = 0.5 * pier.tilt_diurnal_pp_arcsec * ARCSEC
+    az = math.radians(pier.tilt_diurnal_azimuth_deg)
+    diurnal = cosine_gram(fs, np.array([1.0 / DAY]), np.array([1.0])) * 0.5 * amp * amp
+    iso = exp_gram(fs, pier.tilt_wander_tau_s) * (pier.tilt_wander_sigma_arcsec * ARCSEC) ** 2
+    fb, df = 1.0 / pier.wobble_period_s, 1.0 / pier.wobble_coherence_s
+    nodes, weights = band_nodes(fb - 0.5 * df, fb + 0.5 * df, span)
+    b = pier.wobble_amplitude_arcsec * ARCSEC
+    iso = iso + cosine_gram(fs, nodes, weights) * 0.5 * b * b
+    E, N = slice(0, n), slice(n, 2 * n)
+    c, s_ = math.cos(az), math.sin(az)
+    rad = (diurnal[E, E] * c * c + diurnal[N, N] * s_ * s_
+           + (diurnal[E, N] + diurnal[N, E]) * c * s_ + iso[E, E] + iso[N, N])
+    return rad * (1.0 / ARCSEC / dphi_arcsec) ** 2
+
+
+def gate_covariance(records: list[dict], counter: int, dphi_arcsec: float, g_r: np.ndarray,
+                    omega_sin_lambda: float, accel: float, noise: JNoise) -> np.ndarray:
+    """Covariance (pulses^2) of the count errors of the gates in ``records`` (``JNoise``)."""
+    n = len(records)
+    q = noise.quantization_var
+    cov = np.eye(n) * (q + noise.white_var)
+    times = [_gate_times(r, counter) for r in records]
+    if any(t is None for t in times):  # older records: gates taken as independent
+        drift = (noise.drift_deg_hr * records[0]["gate_s"] / dphi_arcsec) ** 2
+        return cov + np.eye(n) * (drift + noise.tilt_var)
+    spans = [t for t in times if t is not None]
+    fs = [Functional.mean(a, b, (b - a) / dphi_arcsec) for a, b in spans]
+    cov += exp_gram(fs, noise.drift_tau_s) * noise.drift_deg_hr**2
+    if noise.pier is not None:
+        cov += tilt_covariance(records, counter, dphi_arcsec, g_r, accel, noise.pier)
+    else:
+        cov += np.eye(n) * noise.tilt_var
+    for j in range(n - 1):
+        rec = records[j]
+        prof = profile(rec["phi_start"], rec["w_start"], rec["w_end"], accel, rec["t_cmd"])
+        t_end = rec["t_oper"][str(counter)] + rec["gate_s"]
+        phi = prof(t_end) * DEG
+        rate = (g_r[0] * rec["w_end"] * 3600.0 + noise.rest_rate_deg_hr
+                + omega_sin_lambda * (g_r[1] * math.sin(phi) + g_r[2] * math.cos(phi)))
+        gap = spans[j + 1][0] - spans[j][1]
+        d = (abs(rate) * gap / dphi_arcsec) % 1.0
+        c = 0.5 * q * (1.0 - 6.0 * d * (1.0 - d))
+        cov[j, j + 1] = cov[j + 1, j] = -c
+    return cov
+
+
 def j_estimate(records: list[dict], counter: int, dphi_arcsec: float, g_r: np.ndarray,
-               omega_sin_lambda: float, accel: float, sigma_counts: float
+               omega_sin_lambda: float, accel: float, noise: JNoise
                ) -> tuple[float, float]:
     """J (hours) and its sigma from the up/down gate pairs of one gyro.
 
@@ -158,7 +284,9 @@ def j_estimate(records: list[dict], counter: int, dphi_arcsec: float, g_r: np.nd
     dphi = dphi_arcsec / 3600.0  # deg per pulse
     w_sin = omega_sin_lambda / 3600.0  # deg/s
     js = []
-    for up, down in zip(records[0::2], records[1::2], strict=True):
+    weights = np.zeros(len(records))
+    pairs = len(records) // 2
+    for i, (up, down) in enumerate(zip(records[0::2], records[1::2], strict=True)):
         terms = []
         for rec in (up, down):
             prof = profile(rec["phi_start"], rec["w_start"], rec["w_end"], accel, rec["t_cmd"])
@@ -170,20 +298,21 @@ def j_estimate(records: list[dict], counter: int, dphi_arcsec: float, g_r: np.nd
             terms.append(angle - known)
         dw = up["w_end"] - up["w_start"] - (down["w_end"] - down["w_start"])  # deg/s
         js.append((terms[0] - terms[1]) / dw / 3600.0)  # deg / (deg/s) = s -> hours
+        weights[2 * i: 2 * i + 2] = np.array([1.0, -1.0]) * dphi / dw / 3600.0 / pairs
     j = float(np.mean(js))
-    # each pair: two counts with sigma_counts pulses, over 2 w1
-    sig_pair = math.sqrt(2.0) * sigma_counts * dphi / abs(dw) / 3600.0
-    return j, sig_pair / math.sqrt(len(js))
+    cov = gate_covariance(records[: 2 * pairs], counter, dphi_arcsec, g_r, omega_sin_lambda,
+                          accel, noise)
+    return j, math.sqrt(max(float(weights @ cov @ weights), 0.0))
 
 
 def j_pairs(records: list[dict], counter: int, dphi_arcsec: float, g_r: np.ndarray,
-            omega_sin_lambda: float, accel: float, sigma_counts: float) -> list[float]:
+            omega_sin_lambda: float, accel: float, noise: JNoise) -> list[float]:
     """Each up/down pair's J against the others' mean, in units of its sigma (the pairs
     are independent measurements of one J; a garbled count makes one pair stand out)."""
     one = [j_estimate(records[i:i + 2], counter, dphi_arcsec, g_r, omega_sin_lambda, accel,
-                      sigma_counts) for i in range(0, len(records) - 1, 2)]
+                      noise) for i in range(0, len(records) - 1, 2)]
     js = np.array([j for j, _ in one])
-    sig = one[0][1] if one else 0.0
+    sig = float(np.sqrt(np.mean([s * s for _, s in one]))) if one else 0.0
     n = len(js)
     if n < 3 or not sig > 0:
         return []

@@ -146,12 +146,22 @@ class ResultRow(Sheet):
     cramer_rao_sigma: float | None = None  # the day's design's bound, at the estimate
 
 
+class ConstantsCorrelation(Sheet):
+    """Correlation of the constants computed together from one day's data (Chart II-15
+    step 8): the closed forms share readings, so e.g. D0 and A.B of a horizontal
+    accelerometer correlate; the alignment's error model needs it (with the rows' sigmas)."""
+
+    rows: list[str]  # "accel1 D0", in the order of the matrix
+    matrix: list[list[float]]  # symmetric, unit diagonal, four decimals
+
+
 class CalibrationResults(Sheet):
     """Calibration Results Sheet (Chart II-5)."""
 
     rows: list[ResultRow]
     positions_used: list[int]
     header: SheetHeader | None = None
+    correlation: ConstantsCorrelation | None = None  # None: constants taken as independent
 
 
 # The chart each sheet is, and the sheets its heading cites as used ("Survey Results Sheet

@@ -98,14 +98,19 @@ def survey_sigma_arcsec(noise: NoiseSpec) -> tuple[float, float, float]:
 
 
 def cal_sigma(constants: Constants, f: Callable[[Constants], float]) -> float:
-    """1-sigma of a scalar result f(constants) from the calibration constants' sigmas (taken
-    as independent, as the alignment error models do), by central differences."""
-    var = 0.0
+    """1-sigma of a scalar result f(constants) from the calibration constants' sigmas and
+    their correlation (``Constants.rho``, as the alignment error models), by central
+    differences."""
+    moves: dict[tuple[str, str], float] = {}
     for key, s in constants.sigmas.items():
         if s:
-            d = 0.5 * (f(constants.perturbed(key, s)) - f(constants.perturbed(key, -s)))
-            var += d * d
-    return math.sqrt(var)
+            moves[key] = 0.5 * (f(constants.perturbed(key, s)) - f(constants.perturbed(key, -s)))
+    keys = list(moves)
+    d = np.array([moves[k] for k in keys])
+    if not keys:
+        return 0.0
+    rho = np.array([[constants.rho(a, b) for b in keys] for a in keys])
+    return math.sqrt(max(float(d @ rho @ d), 0.0))
 
 
 def angle_deg(a: np.ndarray, b: np.ndarray) -> float:

@@ -5,8 +5,11 @@ its T and the true attitude at the time it refers to. Its predicted covariance i
 independent parts, each mapped to phi by a numerical Jacobian of the alignment computation:
 
 * calibration: each constant of the Calibration Results Sheet the preprocessing uses, moved
-  by its predicted sigma (the sheet gives sigmas only, so the constants are taken as
-  independent), through preprocessing, estimation and the alignment matrix;
+  by its predicted sigma, through preprocessing, estimation and the alignment matrix; the
+  moves combine with the sheet's correlation of the constants (``correlated_cov``: the
+  closed forms share readings, so D0 and A.B of a horizontal accelerometer correlate at
+  about -0.65 and -0.4; taken as independent, the level axes came out 1.3-1.9x
+  pessimistic); a sheet without a correlation gives independent constants;
 * the estimator: the error covariance of g_hat against g at t* (``estimation``), for the
   posterior mean (A^-1) and for the simple average alike, under the lab's NoiseSpec: the
   accelerometer white noise, the IEU's string-count quantization (below), floor vibration,
@@ -164,10 +167,24 @@ def calibration_terms(constants: Constants, solve: Callable[[Constants], np.ndar
 
 
 def cov_of(terms: Iterable[np.ndarray]) -> np.ndarray:
+    """Covariance of independent contributions (sum of outer products)."""
     c = np.zeros((3, 3))
     for v in terms:
         c += np.outer(v, v)
     return c
+
+
+def correlated_cov(terms: dict[tuple[str, str], np.ndarray], constants: Constants,
+                   keep: Callable[[tuple[str, str]], bool] = lambda k: True) -> np.ndarray:
+    """Covariance sum_ij rho_ij v_i v_j^T of the terms (each a one-sigma move) ``keep``
+    selects, with the constants' correlation rho (``Constants.rho``)."""
+    keys = [k for k in terms if keep(k)]
+    if not keys:
+        return np.zeros((3, 3))
+    v = np.array([terms[k] for k in keys])  # n x 3
+    rho = np.array([[constants.rho(a, b) for b in keys] for a in keys])
+    c = v.T @ rho @ v
+    return 0.5 * (c + c.T)
 
 
 def as_enu_arcsec(cov: np.ndarray) -> list[float]:

@@ -115,9 +115,9 @@ def gyro_error_model(record: IeuRecord, c: Constants, M: np.ndarray, b: np.ndarr
         return gyro_solution(record, cc, M, b, opts, inst)[0]
 
     cal = em.calibration_terms(c, solve, ACCEL_KEYS + GYRO_KEYS)
-    cov_cal = em.cov_of(cal.values())
-    cov_bias = em.cov_of(v for k, v in cal.items() if k in BIAS_KEYS)
-    cov_gyro_cal = em.cov_of(v for k, v in cal.items() if k[0].startswith("gyro"))
+    cov_cal = em.correlated_cov(cal, c)
+    cov_bias = em.correlated_cov(cal, c, lambda k: k in BIAS_KEYS)
+    cov_gyro_cal = em.correlated_cov(cal, c, lambda k: k[0].startswith("gyro"))
     # g: the estimator's error covariance against g at t* (simple average or posterior)
     cov_g = es.error_covariance(M[:3, : 3 * params.K], b[:3], params) / es.G0**2
     j_g = em.jacobian(em.phi_of(t0, lambda g: gyro_t(g, w_b, opts, inst)), g_b, 1e-7)

@@ -111,8 +111,8 @@ def level_error_model(record: IeuRecord, c: Constants, M: np.ndarray, b: np.ndar
         return level_solution(record, cc, M, b, alpha1, theta1, g_survey, inst)[0]
 
     cal = em.calibration_terms(c, solve, ACCEL_KEYS)
-    cov_cal = em.cov_of(cal.values())
-    cov_bias = em.cov_of(v for k, v in cal.items() if k in BIAS_KEYS)
+    cov_cal = em.correlated_cov(cal, c)
+    cov_bias = em.correlated_cov(cal, c, lambda k: k in BIAS_KEYS)
     cov_g = es.error_covariance(M, b, params) / es.G0**2  # g^2, against g at t*
     j_g = em.jacobian(em.phi_of(t0, lambda g: level_t(g, alpha1, theta1, g_survey, inst)),
                       g_b, 1e-7)

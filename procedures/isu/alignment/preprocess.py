@@ -49,6 +49,16 @@ class Constants:
 
     values: dict[tuple[str, str], float]
     sigmas: dict[tuple[str, str], float] = field(default_factory=dict)
+    # correlation of two constants computed together (Chart II-15 step 8), either order;
+    # a pair not listed is independent
+    correlation: dict[tuple[tuple[str, str], tuple[str, str]], float] = field(
+        default_factory=dict)
+
+    def rho(self, a: tuple[str, str], b: tuple[str, str]) -> float:
+        """Correlation of the errors of constants a and b (1 when a is b)."""
+        if a == b:
+            return 1.0
+        return self.correlation.get((a, b), self.correlation.get((b, a), 0.0))
 
     @classmethod
     def from_sheet(cls, sheet: CalibrationResults, gyros: bool) -> Constants:
@@ -69,12 +79,21 @@ class Constants:
             )
         values = {k: float(rows[k].estimate) for k in want}  # type: ignore[arg-type]
         sigmas = {k: float(rows[k].sigma or 0.0) for k in want}
-        return cls(values, sigmas)
+        corr: dict[tuple[tuple[str, str], tuple[str, str]], float] = {}
+        if sheet.correlation is not None:
+            names = [(r.split(" ")[0], r.split(" ")[-1]) for r in sheet.correlation.rows]
+            wanted = set(want)
+            for i, a in enumerate(names):
+                for j in range(i + 1, len(names)):
+                    b, r = names[j], sheet.correlation.matrix[i][j]
+                    if r and a in wanted and b in wanted:
+                        corr[(a, b)] = float(r)
+        return cls(values, sigmas, corr)
 
     def perturbed(self, key: tuple[str, str], delta: float) -> Constants:
         v = dict(self.values)
         v[key] += delta
-        return Constants(v, self.sigmas)
+        return Constants(v, self.sigmas, self.correlation)
 
     def get(self, inst: str, k: int, par: str) -> float:
         return self.values[(f"{inst}{k}", par)]

@@ -5,7 +5,8 @@ Predicted standard error: every estimate is a function of the reduced counter da
 through them, of the true orientation at each setting. With J the numerical Jacobian of the
 estimator (central differences, one standard error per step) and Sigma_z the data
 covariance of ``covariance.DataCovariance`` (noise, pier tilt, orientation errors carried
-by the forward model), sigma = sqrt(diag(J Sigma_z J^T)).
+by the forward model), sigma = sqrt(diag(J Sigma_z J^T)), plus for the gyros the variance
+of the turn of O and S about G that no position measures (``neglected``).
 """
 
 from __future__ import annotations
@@ -19,11 +20,12 @@ from procedures.isu.calibration.accel_equations import ACCEL_PARAMS, accel_estim
 from procedures.isu.calibration.covariance import DataCovariance, setting_of
 from procedures.isu.calibration.forward import AccelModel, GyroModel
 from procedures.isu.calibration.geometry import FIRST_COLUMN, TableErrorModel, t_br
-from procedures.isu.calibration.gyro_equations import GYRO_PARAMS, gyro_estimates
+from procedures.isu.calibration.gyro_equations import GYRO_PARAMS
 from procedures.isu.calibration.inputs import CalibrationData, Constants
+from procedures.isu.calibration.neglected import corrected_gyro_estimates, spin_axis_variance
 from procedures.isu.calibration.noise_spec import NoiseSpec
 from procedures.isu.calibration.reduce import Key, Reduced, reduce
-from procedures.isu.sheets import ResultRow
+from procedures.isu.sheets import ConstantsCorrelation, ResultRow
 
 Row = tuple[str, str]  # (instrument, parameter)
 
@@ -37,10 +39,11 @@ def _central_difference(plus: float | None, minus: float | None, h: float, row: 
 
 
 def estimate(z: Mapping[Key, float], c: Constants) -> dict[Row, float | None]:
-    """All Chart II-5 constants from reduced data (None where not determined)."""
+    """All Chart II-5 constants from reduced data (None where not determined); the gyros'
+    printed forms with the terms they neglect put back (``neglected``)."""
     out: dict[Row, float | None] = {}
     for k in (1, 2, 3):
-        for p, v in gyro_estimates(z, c, k).items():
+        for p, v in corrected_gyro_estimates(z, c, k).items():
             out[(f"gyro{k}", p)] = v
     for k in (1, 2, 3):
         for p, v in accel_estimates(z, c.g, k).items():
@@ -102,7 +105,22 @@ def constants_covariance(
         ep, em = estimate(zp, c), estimate(zm, c)
         jac[:, i] = [_central_difference(ep[r], em[r], h, r, keys[i]) for r in rows]
     m = jac @ cov @ jac.T
+    for i, (inst, p) in enumerate(rows):  # the turn of O, S about G no position measures
+        if inst.startswith("gyro"):
+            m[i, i] += spin_axis_variance(_gyro_rows(est, inst), int(inst[-1])).get(p, 0.0)
     return est, rows, 0.5 * (m + m.T)
+
+
+def _gyro_rows(est: Mapping[Row, float | None], inst: str) -> dict[str, float | None]:
+    return {p: v for (i, p), v in est.items() if i == inst}
+
+
+def _sigmas(est: dict[Row, float | None], rows: list[Row], cov: np.ndarray
+            ) -> dict[Row, float | None]:
+    sig: dict[Row, float | None] = {r: None for r in est}
+    for r, v in zip(rows, np.diag(cov), strict=True):
+        sig[r] = float(np.sqrt(max(v, 0.0)))
+    return sig
 
 
 def predicted_sigmas(
@@ -110,15 +128,29 @@ def predicted_sigmas(
 ) -> tuple[dict[Row, float | None], dict[Row, float | None]]:
     """(estimates, predicted standard errors) of every Chart II-5 constant."""
     est, rows, cov = constants_covariance(data, noise)
-    sig: dict[Row, float | None] = {r: None for r in est}
-    for r, v in zip(rows, np.diag(cov), strict=True):
-        sig[r] = float(np.sqrt(max(v, 0.0)))
-    return est, sig
+    return est, _sigmas(est, rows, cov)
+
+
+def correlation(rows: list[Row], cov: np.ndarray) -> ConstantsCorrelation:
+    """The constants' correlation matrix (four decimals) for the Calibration Results Sheet."""
+    d = np.sqrt(np.maximum(np.diag(cov), 0.0))
+    scale = np.where(d > 0, 1.0 / np.where(d > 0, d, 1.0), 0.0)
+    r = np.clip(cov * np.outer(scale, scale), -1.0, 1.0)
+    np.fill_diagonal(r, 1.0)
+    return ConstantsCorrelation(rows=[f"{i} {p}" for i, p in rows],
+                                matrix=[[round(float(x), 4) for x in line] for line in r])
 
 
 def calibrate(data: CalibrationData, noise: NoiseSpec | None = None) -> list[ResultRow]:
     """Calibration Results Sheet rows (Chart II-5), one per instrument and parameter."""
-    est, sig = predicted_sigmas(data, noise)
+    return calibrate_with_correlation(data, noise)[0]
+
+
+def calibrate_with_correlation(data: CalibrationData, noise: NoiseSpec | None = None
+                               ) -> tuple[list[ResultRow], ConstantsCorrelation]:
+    """Chart II-5 rows and the correlation of the constants they determine."""
+    est, det, cov = constants_covariance(data, noise)
+    sig = _sigmas(est, det, cov)
     rows: list[ResultRow] = []
     for k in (1, 2, 3):
         for p in GYRO_PARAMS:
@@ -165,4 +197,12 @@ def calibrate(data: CalibrationData, noise: NoiseSpec | None = None) -> list[Res
                     note=note,
                 )
             )
-    return rows
+    return rows, correlation(det, cov)
+
+
+def without(corr: ConstantsCorrelation, names: list[str]) -> ConstantsCorrelation:
+    """The correlation less the rows ``names`` (carried forward from an earlier sheet: their
+    estimates are not this day's, so they are independent of it)."""
+    keep = [i for i, r in enumerate(corr.rows) if r not in set(names)]
+    return ConstantsCorrelation(rows=[corr.rows[i] for i in keep],
+                                matrix=[[corr.matrix[i][j] for j in keep] for i in keep])

@@ -197,15 +197,15 @@ def run_esg_calibration(seed: int, out: Path, params: EsgParams | None = None,
     """
     out = Path(out)
     params = params or EsgParams()
-    plan = (replace(plan, latitude_deg=params.latitude_deg) if plan is not None
-            else EsgPlan(latitude_deg=params.latitude_deg))
+    plan = replace(plan or EsgPlan(latitude_deg=0.0), latitude_deg=params.latitude_deg,
+                   counters=params.counters)
     prepare(out, resume, links)
     wall0 = time.perf_counter()
     conn = connect(registry.get("esg"), Seeded(params, seed), links, rack_hook)
     st, served, world = conn.drivers, conn.served, conn.coefficient_world
     with PlotWorker(PLOTS, STUDY, STRATEGY) as plots, journaled_run(  # matplotlib meanwhile
             out, conn, resume, renew=RENEW, seed=seed, test="esg-calibration", order=order,
-            extremity_setup=plan.extremity_setup,
+            extremity_setup=plan.extremity_setup, counters=plan.counters,
             identify=Identifying("esg", "esg-calibration", seed, "esg", EsgConfig, params)) as (
             run, extra, t_start):
         if with_study:  # the study needs no measurement: computed and drawn during the run

@@ -68,6 +68,9 @@ class EsgPlan:
     # ESG-DPX after step 2: lamps, discriminator and delay set up at the pattern extremity
     # (False: the processor's preset discriminator and delay, lamps as delivered)
     extremity_setup: bool = True
+    # the data processor's counters: 2 as the report's (pickoffs read two at a time), 3 for
+    # the simultaneous three-pickoff acquisition (docs/esg-options.md)
+    counters: int = 2
 
 
 # ---------------------------------------------------------------- design mechanization
@@ -190,11 +193,21 @@ def _move_head(st: EsgDrivers, plan: EsgPlan, gamma: float) -> float:
     return r + 360.0 * round((gamma - r) / 360.0)
 
 
-def _read(st: EsgDrivers, plan: EsgPlan, pickoffs: tuple[int, int]) -> Setting:
+def _read(st: EsgDrivers, plan: EsgPlan, pickoffs: tuple[int, ...]) -> Setting:
     return read_setting(st.processor, pickoffs, plan.lines_per_setting)
 
 
+def _scan_pickoffs(plan: EsgPlan) -> tuple[int, ...]:
+    """Pickoff 2 (the scanned one) and pickoff 1, and pickoff 3 too with three counters."""
+    return (2, 1, 3) if plan.counters >= 3 else (2, 1)
+
+
 def _read_three(st: EsgDrivers, plan: EsgPlan) -> dict[int, float | None]:
+    """The three count ratios: one setting on a three-counter processor; else pickoffs 1
+    and 2, then 3 and 2 (pickoff 2's mean of the two)."""
+    if plan.counters >= 3:
+        r = _read(st, plan, (1, 2, 3))
+        return {p: r.cr[p] for p in (1, 2, 3)}
     a = _read(st, plan, (1, 2))
     b = _read(st, plan, (3, 2))
     out = {1: a.cr[1], 3: b.cr[3]}
@@ -431,7 +444,7 @@ def equator(st: EsgDrivers, run: Run, plan: EsgPlan, sh: CheckSheetRun, acq: Acq
     with sh.step("7", "pickoff 2 midway: the equator's count ratio") as s:
         g_mid = 0.5 * (acq.gamma_a_deg + acq.gamma_b_deg)
         g_set = _move_head(st, plan, g_mid)
-        r = _read(st, plan, (2, 1))
+        r = _read(st, plan, _scan_pickoffs(plan))
         # the mid angle belongs to time tb; move it on by the drift to the reading's time
         slope_eq = design_slope_per_deg(90.0, plan.design_inclination_deg) * (
             acq.colatitude_sign)
@@ -507,7 +520,7 @@ def baseline_start(st: EsgDrivers, plan: EsgPlan, acq: Acquisition,
     g, _, _ = find_ratio(st, plan, acq.cr_eq, acq.gamma_eq_deg, slope_per_deg)
     acq.gamma_eq_deg = g
     g_set = _move_head(st, plan, g)
-    return g_set, _read(st, plan, (2, 1))
+    return g_set, _read(st, plan, _scan_pickoffs(plan))
 
 
 def run_scan(st: EsgDrivers, plan: EsgPlan, sh: CheckSheetRun, acq: Acquisition, name: str,
@@ -522,7 +535,7 @@ def run_scan(st: EsgDrivers, plan: EsgPlan, sh: CheckSheetRun, acq: Acquisition,
     for k, off in enumerate(offsets, start=1):
         with sh.step(f"{name}.{k:02d}", f"spindle {off:g} deg from the baseline") as s:
             g = _move_head(st, plan, gamma0 + sgn * off)
-            r = _read(st, plan, (2, 1))
+            r = _read(st, plan, _scan_pickoffs(plan))
             if r.cr[2] is None:
                 raise CheckFailed(f"pickoff 2 off the pattern {off:g} deg from the "
                                   "equator")
@@ -530,7 +543,7 @@ def run_scan(st: EsgDrivers, plan: EsgPlan, sh: CheckSheetRun, acq: Acquisition,
             s.reading = {"gamma_deg": g, "offset_deg": side * off, **r.reading()}
     with sh.step(f"{name}.{len(offsets) + 1:02d}", "back to the baseline angle") as s:
         g = _move_head(st, plan, gamma0)
-        end = _read(st, plan, (2, 1))
+        end = _read(st, plan, _scan_pickoffs(plan))
         s.reading = {"gamma_deg": g, **end.reading()}
     scan = Scan(name, side, increment, Baseline(gamma0, start, end), points)
     acq.scans.append(scan)

@@ -195,8 +195,8 @@ class DataProcessor(ByteInstrument):
 
     def _set_q(self, _: list[str]) -> str:
         s = self.settings
-        return (f"{' '.join(map(str, self.pickoffs))} {self.revolutions} {self.run} {s.threshold_v:g} "
-                f"{s.min_width_us:g} {s.logic_delay_us:g}")
+        return (f"{' '.join(map(str, self.pickoffs))} {self.revolutions} {self.run} "
+                f"{s.threshold_v:g} {s.min_width_us:g} {s.logic_delay_us:g}")
 
     # ----- the stream -----
     def _first_index(self) -> int:

@@ -83,7 +83,8 @@ def agreeing(rows: list[list[float]], tol: float = AGREE) -> list[bool]:
 
 def read_setting(proc: ProcessorDriver, pickoffs: tuple[int, ...], n_lines: int = 5,
                  min_lines: int = 3, attempts: int = 3) -> Setting:
-    """Select two pickoffs (three on a three-counter processor), take ``n_lines`` lines, reject bad ones, average the rest."""
+    """Select two pickoffs (three on a three-counter processor), take ``n_lines`` lines,
+    reject bad ones, average the rest."""
     proc.select(*pickoffs)
     rejected: list[str] = []
     printed: list[str] = []

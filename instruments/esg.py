@@ -2,8 +2,10 @@
 
 Protocols as in docs/esg.md (folded into docs/protocols.md, "ESG laboratory").
 
-Data processor (two counters on two of the three pickoffs, 100 MHz counts):
-  SEL <a> <b>     counters A and B to pickoffs a, b (1..3, distinct)           -> OK
+Data processor (two counters on two of the three pickoffs, 100 MHz counts; a processor
+built with three counters, ``EsgParams.counters = 3``, reads all three at once):
+  SEL <a> <b> [<c>]  counters A, B (and C) to pickoffs a, b (, c) (1..3, distinct;
+                  c only with three counters)                                  -> OK
   REV <n>         revolutions summed per line, n in {1, 2, 4, 8, 10}           -> OK
   RUN <n>         run number printed in the lines, 0..9999999                  -> OK
   THR <volts>     HIT threshold 0.1..5                                         -> OK
@@ -13,7 +15,8 @@ Data processor (two counters on two of the three pickoffs, 100 MHz counts):
   GO <k>          OK, then k data lines one every 0.0002 h (k 1..1000000)
   GO              OK, then data lines until HALT
   HALT            stop the stream (OK also when none runs)                     -> OK
-  SET?            "<a> <b> <rev> <run> <thr> <disc> <delay>"
+  SET?            "<a> <b> <rev> <run> <thr> <disc> <delay>" (with a third pickoff
+                  selected: "<a> <b> <c> <rev> ...")
   SCOPE? <k>      pickoff k's pulses on the scope: "<height V> <logic width> <line-1
                   width> <line-2 width> <logic-to-line-1 time>" (us), or "OFF"
 The settings commands and TZERO are refused while a stream runs (ERR 16 busy); queries
@@ -81,7 +84,8 @@ class DataProcessor(ByteInstrument):
     def __init__(self, name: str, world: EsgWorld, latency_s: float) -> None:
         super().__init__(name, world.env, latency_s)
         self.world = world
-        self.pickoffs = (2, 3)
+        self.pickoffs: tuple[int, ...] = (2, 3)
+        self.counters = int(world.p.counters)
         self.revolutions = 10
         self.run = 0
         self.settings = ProcessorSettings()
@@ -92,7 +96,7 @@ class DataProcessor(ByteInstrument):
         self._rng = stream(world.seed, "esg", "corrupt")
         self._stream: simpy.Process | None = None
         for usage, action in (
-            ("SEL <a> <b>", self._sel),
+            ("SEL <a> <b> [<c>]", self._sel),
             ("REV <n>", self._rev),
             ("RUN <n>", self._run_number),
             ("THR <volts>", lambda a: self._setting("THR", "threshold_v", a[0], "threshold",
@@ -137,10 +141,16 @@ class DataProcessor(ByteInstrument):
     def _sel(self, args: list[str]) -> str:
         a = as_int(args[0], "pickoff a", 1, 3)
         b = as_int(args[1], "pickoff b", 1, 3)
-        if a == b:
-            raise InstrumentError(12, f"pickoffs must be distinct, got {a} {b}")
+        sel = [a, b]
+        if len(args) > 2:
+            if self.counters < 3:
+                raise InstrumentError(12, "a third pickoff needs a third counter (this "
+                                      "processor has two)")
+            sel.append(as_int(args[2], "pickoff c", 1, 3))
+        if len(set(sel)) < len(sel):
+            raise InstrumentError(12, f"pickoffs must be distinct, got {' '.join(map(str, sel))}")
         self._settable("SEL")
-        self.pickoffs = (a, b)
+        self.pickoffs = tuple(sel)
         return "OK"
 
     def _rev(self, args: list[str]) -> str:
@@ -184,10 +194,9 @@ class DataProcessor(ByteInstrument):
         return "OK"
 
     def _set_q(self, _: list[str]) -> str:
-        a, b = self.pickoffs
         s = self.settings
-        return (f"{a} {b} {self.revolutions} {self.run} {s.threshold_v:g} "
-                f"{s.min_width_us:g} {s.logic_delay_us:g}")
+        return (f"{' '.join(map(str, self.pickoffs))} {self.revolutions} {self.run} "
+                f"{s.threshold_v:g} {s.min_width_us:g} {s.logic_delay_us:g}")
 
     # ----- the stream -----
     def _first_index(self) -> int:
@@ -199,7 +208,7 @@ class DataProcessor(ByteInstrument):
         return max(0, -((self.t_zero - earliest) // LINE_TICKS))  # ceiling division
 
     def _lines(self, k: int | None, ok_seq: int) -> Generator[simpy.Event, Any, None]:
-        a, b = self.pickoffs
+        a, b, *c = self.pickoffs
         rev, run, settings = self.revolutions, self.run, self.settings
         n = self._first_index()
         done = 0
@@ -207,7 +216,8 @@ class DataProcessor(ByteInstrument):
             while k is None or done < k:
                 t = self.t_zero + n * LINE_TICKS
                 yield self.env.timeout(t - self.env.now)
-                counts = self.world.data_line(seconds(t), a, b, rev, settings)
+                counts = self.world.data_line(seconds(t), a, b, rev, settings,
+                                              c[0] if c else None)
                 line = self.format_line(n, counts.c1, run, counts.period_sum)
                 while self.replies_done < ok_seq:  # the GO's OK leaves (or is cleared) first
                     yield self._done_event

@@ -43,7 +43,10 @@ from laboratory.tables import Column, print_fitted
 from laboratory.verdicts import judge_schedules, run_verdict
 from procedures.esg.acquisition import RENEW, Acquisition, EsgPlan, acquire
 from procedures.esg.calibration import SCHEDULES, ScheduleResult, assign, calibrate, nominal
+from procedures.esg.cosine import CosineParams
+from procedures.esg.mechanization import Mechanization
 from procedures.esg.table4 import REPORT_ORDER, order_trials, table4
+from sim.esg.pattern import PatternSpec, nominal_pattern
 from sim.esg.world import EsgParams, EsgWorld
 from station.config.esg import EsgConfig
 from station.config.limits import EsgLimits
@@ -172,6 +175,22 @@ def calibration_plot(results: list[ScheduleResult], path: Path) -> None:
     schedule_plot(plain_schedules(results), path)
 
 
+def drawing(spec: PatternSpec) -> dict:
+    """The plan's pattern drawing from the rotor's spec: kind, inclination (great circle),
+    K (cosine), the lines' end, and the last whole-degree scan offset inside it."""
+    return {"pattern_kind": spec.kind, "design_inclination_deg": spec.inclination_deg,
+            "design_cosine_k": nominal_pattern(spec).k if spec.kind == "cosine" else 0.0,
+            "design_top_deg": spec.top_colatitude_deg,
+            "scan_end_deg": math.floor(89.0 - spec.top_colatitude_deg)}
+
+
+def mechanization_record(nom: Mechanization) -> dict:
+    """The nominal mechanization as esg.json keeps it."""
+    if isinstance(nom, CosineParams):
+        return {"kind": "cosine", "k": nom.k, "d0": nom.d0}
+    return {"b": nom.b, "c": nom.c, "dbar": nom.dbar, "inclination_deg": nom.inclination_deg}
+
+
 def plain_schedules(results: list[ScheduleResult]) -> list[dict]:
     """What the schedule plot draws of each schedule, as plain data for the plot child."""
     return [{"name": r.name, "calibration": r.calibration, "readout": r.readout}
@@ -197,15 +216,15 @@ def run_esg_calibration(seed: int, out: Path, params: EsgParams | None = None,
     """
     out = Path(out)
     params = params or EsgParams()
-    plan = (replace(plan, latitude_deg=params.latitude_deg) if plan is not None
-            else EsgPlan(latitude_deg=params.latitude_deg))
+    plan = replace(plan or EsgPlan(latitude_deg=0.0), latitude_deg=params.latitude_deg,
+                   counters=params.counters, **drawing(params.pattern))
     prepare(out, resume, links)
     wall0 = time.perf_counter()
     conn = connect(registry.get("esg"), Seeded(params, seed), links, rack_hook)
     st, served, world = conn.drivers, conn.served, conn.coefficient_world
     with PlotWorker(PLOTS, STUDY, STRATEGY) as plots, journaled_run(  # matplotlib meanwhile
             out, conn, resume, renew=RENEW, seed=seed, test="esg-calibration", order=order,
-            extremity_setup=plan.extremity_setup,
+            extremity_setup=plan.extremity_setup, counters=plan.counters,
             identify=Identifying("esg", "esg-calibration", seed, "esg", EsgConfig, params)) as (
             run, extra, t_start):
         if with_study:  # the study needs no measurement: computed and drawn during the run
@@ -241,8 +260,7 @@ def run_esg_calibration(seed: int, out: Path, params: EsgParams | None = None,
             "schedules": schedules,
             "table4": tab4,
             "order_trials": trials,
-            "nominal": {"b": nom.b, "c": nom.c, "dbar": nom.dbar,
-                        "inclination_deg": nom.inclination_deg},
+            "nominal": mechanization_record(nom),
             "acquisition": {
                 "cr_a": acq.cr_a, "cr_b": acq.cr_b, "cr_eq": acq.cr_eq,
                 "theta_star_deg": acq.theta_star_deg,

@@ -51,6 +51,10 @@ def add_commands(app: typer.Typer) -> None:
             help="set the lamps, discriminator and delay up at the pattern extremity after "
                  "spin-up (sheet ESG-DPX; default, or the config's \\[esg.procedure] "
                  "extremity_setup) or keep the processor's preset 20 us / 241 us")] = None,
+        counters: Annotated[int | None, typer.Option(
+            "--counters", help="the data processor's counters: 2 (the report's, pickoffs "
+            "read two at a time; default, or the config's \\[esg.procedure] counters) or 3 "
+            "(the three pickoffs read at once)")] = None,
         operator: OperatorOpt = None,
     ) -> None:
         """The strapdown ESG pattern calibration and readout study (report 004)."""
@@ -63,11 +67,14 @@ def add_commands(app: typer.Typer) -> None:
         )
 
         check_seed(seed)
+        if counters is not None and counters not in (2, 3):
+            fail(f"--counters {counters}: give 2 or 3")
         if order is not None and order not in ORDER_CHOICES:
             fail(f"--order {order}: give one of {', '.join(ORDER_CHOICES)}")
         target, args = new_or_resumed("esg-calibration", out, resume,
                                       {"seed": seed, "order": order_value(order),
-                                       "extremity_setup": extremity})
+                                       "extremity_setup": extremity,
+                                       "counters": counters})
         run_seed = 1 if args["seed"] is None else args["seed"]
         from station.config.identity import load_identity
 
@@ -78,6 +85,9 @@ def add_commands(app: typer.Typer) -> None:
                          else load_esg_reduction(config).order)
             setup = (args["extremity_setup"] if args["extremity_setup"] is not None
                      else load_esg_procedure(config).extremity_setup)
+        from dataclasses import replace
+
+        n_counters = args.get("counters")
         from procedures.esg.acquisition import EsgPlan
 
         # the site's latitude comes from the params (run_esg_calibration sets it)
@@ -85,7 +95,10 @@ def add_commands(app: typer.Typer) -> None:
         with invoked(operator, identity=unit):
             res, target = station_run(
                 load_esg_params, config, "esg", run_seed, target, resume is not None,
-                lambda params, d: run_esg_calibration(run_seed, d, params=params, links=links,
+                lambda params, d: run_esg_calibration(run_seed, d, params=params if n_counters
+                                                      is None else replace(
+                                                          params, counters=n_counters),
+                                                      links=links,
                                                       resume=resume is not None, limits=limits,
                                                       order=run_order, plan=plan))
         render_tables(console, res)

@@ -25,7 +25,13 @@ from dataclasses import dataclass, field, fields
 import numpy as np
 
 from procedures.esg import geometry as geo
-from procedures.esg.mechanization import NominalParams, nominal_colatitude, nominal_count_ratio
+from procedures.esg.cosine import CosineParams
+from procedures.esg.mechanization import (
+    Mechanization,
+    NominalParams,
+    nominal_colatitude,
+    nominal_count_ratio,
+)
 from procedures.esg.readings import Setting, read_setting
 from procedures.esg.readout import pickoffs_from_mirrors
 from procedures.esg.setup import extremity_setup
@@ -44,6 +50,11 @@ class EsgPlan:
 
     latitude_deg: float  # the site's (the laboratory's params give it: sim/esg/rotor.py)
     design_inclination_deg: float = 56.0  # great circle at the equator (pattern drawing)
+    # the drawing's pattern: "great_circle" (the report's rotor) or "cosine" (its K from
+    # the drawing; docs/esg-options.md); the lines end at design_top_deg
+    pattern_kind: str = "great_circle"
+    design_cosine_k: float = 0.0
+    design_top_deg: float = 43.0
     mirror_angle_deg: float = MIRROR_ANGLE_DEG
     lines_per_setting: int = 5
     revolutions: int = 10
@@ -68,6 +79,13 @@ class EsgPlan:
     # ESG-DPX after step 2: lamps, discriminator and delay set up at the pattern extremity
     # (False: the processor's preset discriminator and delay, lamps as delivered)
     extremity_setup: bool = True
+    # the data processor's counters: 2 as the report's (pickoffs read two at a time), 3 for
+    # the simultaneous three-pickoff acquisition (docs/esg-options.md)
+    counters: int = 2
+    # a scan point whose count ratio is this far from the drawing's at the scan's nominal
+    # colatitude is a mis-gated count (the logic gate meeting another line near a cosine
+    # pattern's extremity): the scan ends there (docs/esg-options.md)
+    scan_gate_tolerance: float = 0.02
 
 
 # ---------------------------------------------------------------- design mechanization
@@ -85,6 +103,25 @@ def design_colatitude_deg(cr: float, inclination_deg: float) -> float:
 def design_slope_per_deg(theta_deg: float, inclination_deg: float) -> float:
     """d(CR)/d(theta) of the drawing's pattern at a colatitude (numerical, per degree)."""
     p, h = design_params(inclination_deg), 0.01
+    return float(nominal_count_ratio(theta_deg + h, p)
+                 - nominal_count_ratio(theta_deg - h, p)) / (2 * h)
+
+
+def drawing(plan: EsgPlan) -> Mechanization:
+    """The drawing's mechanization of the plan's pattern (no offsets)."""
+    if plan.pattern_kind == "cosine":
+        return CosineParams(plan.design_cosine_k, 0.0)
+    return design_params(plan.design_inclination_deg)
+
+
+def plan_colatitude_deg(cr: float, plan: EsgPlan) -> float:
+    """Colatitude from a count ratio by the drawing's pattern."""
+    return float(nominal_colatitude(cr, drawing(plan)))
+
+
+def plan_slope_per_deg(theta_deg: float, plan: EsgPlan) -> float:
+    """d(CR)/d(theta) of the drawing's pattern at a colatitude (numerical, per degree)."""
+    p, h = drawing(plan), 0.01
     return float(nominal_count_ratio(theta_deg + h, p)
                  - nominal_count_ratio(theta_deg - h, p)) / (2 * h)
 
@@ -190,11 +227,21 @@ def _move_head(st: EsgDrivers, plan: EsgPlan, gamma: float) -> float:
     return r + 360.0 * round((gamma - r) / 360.0)
 
 
-def _read(st: EsgDrivers, plan: EsgPlan, pickoffs: tuple[int, int]) -> Setting:
+def _read(st: EsgDrivers, plan: EsgPlan, pickoffs: tuple[int, ...]) -> Setting:
     return read_setting(st.processor, pickoffs, plan.lines_per_setting)
 
 
+def _scan_pickoffs(plan: EsgPlan) -> tuple[int, ...]:
+    """Pickoff 2 (the scanned one) and pickoff 1, and pickoff 3 too with three counters."""
+    return (2, 1, 3) if plan.counters >= 3 else (2, 1)
+
+
 def _read_three(st: EsgDrivers, plan: EsgPlan) -> dict[int, float | None]:
+    """The three count ratios: one setting on a three-counter processor; else pickoffs 1
+    and 2, then 3 and 2 (pickoff 2's mean of the two)."""
+    if plan.counters >= 3:
+        r = _read(st, plan, (1, 2, 3))
+        return {p: r.cr[p] for p in (1, 2, 3)}
     a = _read(st, plan, (1, 2))
     b = _read(st, plan, (3, 2))
     out = {1: a.cr[1], 3: b.cr[3]}
@@ -219,8 +266,7 @@ def _settings(st: EsgDrivers) -> tuple[float, float, float]:
 def _spin_axis_lab(st: EsgDrivers, plan: EsgPlan, cr: dict[int, float]) -> np.ndarray:
     """The spin axis in the lab from three count ratios by the drawing's pattern and the
     nominal geometry (good to a few arcmin: enough to point the axes)."""
-    alpha = np.array([math.cos(math.radians(design_colatitude_deg(cr[i], plan
-                                                                  .design_inclination_deg)))
+    alpha = np.array([math.cos(math.radians(plan_colatitude_deg(cr[i], plan)))
                       for i in (1, 2, 3)])
     s_case = geo.unit(np.linalg.solve(pickoffs_from_mirrors(plan.mirror_angle_deg), alpha))
     return geo.r_lc(*_settings(st)) @ s_case
@@ -301,7 +347,7 @@ def start_gyro(st: EsgDrivers, run: Run, plan: EsgPlan, sh: CheckSheetRun) -> No
 def _east_drift(st: EsgDrivers, plan: EsgPlan, tilt: float) -> float:
     """East-west drift of s (deg/hr) with s along the spindle (pickoffs 2 and 3 at the
     equator; pickoff 3 looks east at spindle angle 0, so its colatitude follows s east)."""
-    slope = design_slope_per_deg(90.0, plan.design_inclination_deg)
+    slope = plan_slope_per_deg(90.0, plan)
     a = _read(st, plan, (2, 3))
     st.clock.sleep(plan.drift_wait_s)
     b = _read(st, plan, (2, 3))
@@ -416,8 +462,9 @@ def equator(st: EsgDrivers, run: Run, plan: EsgPlan, sh: CheckSheetRun, acq: Acq
     with sh.step("6", "spindle readings where pickoff 2 reads the first, the second and "
                  "again the first equal ratio (step 4's means)") as s:
         ga1, ta1, slope_a = find_ratio(st, plan, acq.cr_a, g)
-        # the second point is 180 - 2 theta* away, on the side where the ratio falls
-        direction = -1.0 if slope_a > 0 else 1.0
+        # the second point is 180 - 2 theta* away, on the side where the ratio moves
+        # towards the second ratio (falls on a great circle, rises on a cosine pattern)
+        direction = 1.0 if slope_a * (acq.cr_b - acq.cr_a) > 0 else -1.0
         span = 180.0 - 2.0 * acq.theta_star_deg
         gb, tb, _ = find_ratio(st, plan, acq.cr_b, ga1 + direction * span)
         ga2, ta2, _ = find_ratio(st, plan, acq.cr_a, ga1, slope_a)
@@ -431,9 +478,9 @@ def equator(st: EsgDrivers, run: Run, plan: EsgPlan, sh: CheckSheetRun, acq: Acq
     with sh.step("7", "pickoff 2 midway: the equator's count ratio") as s:
         g_mid = 0.5 * (acq.gamma_a_deg + acq.gamma_b_deg)
         g_set = _move_head(st, plan, g_mid)
-        r = _read(st, plan, (2, 1))
+        r = _read(st, plan, _scan_pickoffs(plan))
         # the mid angle belongs to time tb; move it on by the drift to the reading's time
-        slope_eq = design_slope_per_deg(90.0, plan.design_inclination_deg) * (
+        slope_eq = plan_slope_per_deg(90.0, plan) * (
             acq.colatitude_sign)
         acq.cr_eq = r.ratio(2) - slope_eq * ((g_set - g_mid) - rate * (r.t_s - tb))
         acq.gamma_eq_deg = g_mid + rate * (r.t_s - tb)
@@ -465,7 +512,7 @@ def tilt_to_equator(st: EsgDrivers, plan: EsgPlan, cr_eq: float) -> dict:
 
 def pickoff_check(st: EsgDrivers, run: Run, plan: EsgPlan, acq: Acquisition) -> None:
     """ESG-PA: pickoff 1 against the spindle by coning, with s across the spindle."""
-    slope = design_slope_per_deg(90.0, plan.design_inclination_deg)
+    slope = plan_slope_per_deg(90.0, plan)
     with run.sheet("ESG-PA", "Pickoff alignment check by coning") as sh:
         with sh.step("PA.1", "pickoff 1 count ratio over one spindle turn (and back to "
                      "the start); first harmonic = coning of pickoff 1") as s:
@@ -507,7 +554,7 @@ def baseline_start(st: EsgDrivers, plan: EsgPlan, acq: Acquisition,
     g, _, _ = find_ratio(st, plan, acq.cr_eq, acq.gamma_eq_deg, slope_per_deg)
     acq.gamma_eq_deg = g
     g_set = _move_head(st, plan, g)
-    return g_set, _read(st, plan, (2, 1))
+    return g_set, _read(st, plan, _scan_pickoffs(plan))
 
 
 def run_scan(st: EsgDrivers, plan: EsgPlan, sh: CheckSheetRun, acq: Acquisition, name: str,
@@ -519,18 +566,25 @@ def run_scan(st: EsgDrivers, plan: EsgPlan, sh: CheckSheetRun, acq: Acquisition,
     points: list[ScanPoint] = []
     # spindle direction that lowers pickoff 2's colatitude for side +1
     sgn = -acq.colatitude_sign * side
+    n_steps = len(offsets)
     for k, off in enumerate(offsets, start=1):
         with sh.step(f"{name}.{k:02d}", f"spindle {off:g} deg from the baseline") as s:
             g = _move_head(st, plan, gamma0 + sgn * off)
-            r = _read(st, plan, (2, 1))
+            r = _read(st, plan, _scan_pickoffs(plan))
             if r.cr[2] is None:
                 raise CheckFailed(f"pickoff 2 off the pattern {off:g} deg from the "
                                   "equator")
-            points.append(ScanPoint(name, increment, side * off, g, r))
+            expected = float(nominal_count_ratio(90.0 - side * off, drawing(plan)))
             s.reading = {"gamma_deg": g, "offset_deg": side * off, **r.reading()}
-    with sh.step(f"{name}.{len(offsets) + 1:02d}", "back to the baseline angle") as s:
+            if abs(r.ratio(2) - expected) > plan.scan_gate_tolerance:
+                s.reading.update(refused=f"count ratio {r.ratio(2):.5f} against the "
+                                 f"drawing's {expected:.5f}: mis-gated, the scan ends here")
+                n_steps = k
+                break
+            points.append(ScanPoint(name, increment, side * off, g, r))
+    with sh.step(f"{name}.{n_steps + 1:02d}", "back to the baseline angle") as s:
         g = _move_head(st, plan, gamma0)
-        end = _read(st, plan, (2, 1))
+        end = _read(st, plan, _scan_pickoffs(plan))
         s.reading = {"gamma_deg": g, **end.reading()}
     scan = Scan(name, side, increment, Baseline(gamma0, start, end), points)
     acq.scans.append(scan)
@@ -576,7 +630,8 @@ def rotor_setup(st: EsgDrivers, run: Run, plan: EsgPlan, sh: CheckSheetRun,
     start_gyro(st, run, plan, sh)
     if plan.extremity_setup:
         extremity_setup(st, run, plan.latitude_deg, plan.mirror_angle_deg,
-                        lambda a, e, g: _move_all(st, plan, a, e, g), lambda: _damp(st, plan))
+                        lambda a, e, g: _move_all(st, plan, a, e, g), lambda: _damp(st, plan),
+                        plan.design_top_deg)
     cancel_drift(st, run, plan, sh, acq)
     s_lab = geo.drift_equilibrium(plan.latitude_deg, acq.unbalance_k_deg_hr)
     s_lab = equal_ratio_points(st, run, plan, sh, acq, s_lab)
@@ -592,7 +647,7 @@ def calibration_scans(st: EsgDrivers, run: Run, plan: EsgPlan, sh: CheckSheetRun
                       acq: Acquisition) -> None:
     """Steps 9-12 (step 8, the tilt and lock, is the end of ``rotor_setup``)."""
     # d(CR)/d(gamma) at the equator: d(CR)/d(theta) times d(theta)/d(gamma)
-    slope_g = design_slope_per_deg(90.0, plan.design_inclination_deg) * acq.colatitude_sign
+    slope_g = plan_slope_per_deg(90.0, plan) * acq.colatitude_sign
     inc9 = plan.fine_step_arcmin / 60.0
     n9 = int(round(plan.fine_span_deg / inc9))
     offs9 = [round(inc9 * k, 6) for k in range(-n9, n9 + 1) if k != 0]

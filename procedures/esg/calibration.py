@@ -15,12 +15,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from procedures.esg.acquisition import Acquisition, EsgPlan, Scan, design_slope_per_deg, fine_slope
+from procedures.esg.acquisition import Acquisition, EsgPlan, Scan, fine_slope, plan_slope_per_deg
 from procedures.esg.chebyshev_fit import ChebyshevFit, fit_deviation
 from procedures.esg.mechanization import (
-    NominalParams,
+    Mechanization,
     equal_ratio_colatitude,
-    fit_nominal,
+    fit_mechanization,
     pickoff_gram,
 )
 
@@ -88,7 +88,7 @@ def budget(acq: Acquisition, plan: EsgPlan, n_lines: int = 5) -> Budget:
     k = -fine_slope(sc9)  # per degree of colatitude
     s_line = _line_sigma(acq)
     s_set = s_line / math.sqrt(n_lines)
-    k_a = abs(design_slope_per_deg(acq.theta_star_deg, plan.design_inclination_deg))
+    k_a = abs(plan_slope_per_deg(acq.theta_star_deg, plan))
     head = HEAD_SIGMA_ARCSEC / 3600.0
     s_cr_ab = s_set * math.sqrt(2.5) / 3.0  # mean of three pickoffs, pickoff 2 read twice
     var_ga = s_set ** 2 / (2 * k_a ** 2) + (s_cr_ab / k_a) ** 2 + head ** 2
@@ -135,10 +135,11 @@ def _scan_points(sc: Scan, acq: Acquisition, bud: Budget, k: float, cs: int,
     return out
 
 
-def nominal(acq: Acquisition, plan: EsgPlan) -> NominalParams:
-    """b, c, dbar from the two equal-ratio points (colatitude from the mirror angle)."""
+def nominal(acq: Acquisition, plan: EsgPlan) -> Mechanization:
+    """b, c, dbar (a cosine pattern: K, d0) from the two equal-ratio points (colatitude
+    from the mirror angle)."""
     theta_star = equal_ratio_colatitude(pickoff_gram(plan.mirror_angle_deg))
-    return fit_nominal(acq.cr_a, acq.cr_b, theta_star)
+    return fit_mechanization(plan.pattern_kind, acq.cr_a, acq.cr_b, theta_star)
 
 
 @dataclass
@@ -154,7 +155,7 @@ class ScheduleResult:
         return math.sqrt(sum(x * x for x in v) / len(v)) if v else float("nan")
 
 
-def calibrate(points: list[Point], params: NominalParams, schedule: str,
+def calibrate(points: list[Point], params: Mechanization, schedule: str,
               order: int = 7) -> ScheduleResult:
     """Fit a schedule's points; calibration errors on them, readout errors on the rest."""
     fit_pts = [p for p in points if in_schedule(p, schedule)]

@@ -30,7 +30,7 @@ from numpy.polynomial import Chebyshev, Polynomial
 from numpy.polynomial import chebyshev as C
 from numpy.typing import ArrayLike
 
-from procedures.esg.mechanization import NominalParams, nominal_cos
+from procedures.esg.mechanization import Mechanization, nominal_cos
 
 __all__ = ["ChebyshevFit", "chebyshev_lsq", "fit_deviation", "residuals"]
 
@@ -45,7 +45,7 @@ class ChebyshevFit:
     hi: float
     coef: np.ndarray            # Chebyshev coefficients a_0..a_n (least squares)
     coef_direct: np.ndarray     # the same assuming discrete orthogonality
-    params: NominalParams | None = None
+    params: Mechanization | None = None
 
     @property
     def order(self) -> int:
@@ -112,7 +112,7 @@ def chebyshev_lsq(y: ArrayLike, f: ArrayLike, order: int = 7, margin: float = MA
     return lo, hi, coef, direct
 
 
-def fit_deviation(cr: ArrayLike, theta_deg: ArrayLike, params: NominalParams, order: int = 7,
+def fit_deviation(cr: ArrayLike, theta_deg: ArrayLike, params: Mechanization, order: int = 7,
                   margin: float = MARGIN_CR) -> ChebyshevFit:
     """Fit eq. 11 to measured colatitudes (deg) at count ratios, nominal ``params``."""
     cr = np.asarray(cr, dtype=float)

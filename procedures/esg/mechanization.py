@@ -52,7 +52,10 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
+from procedures.esg.cosine import CosineParams, cosine_cos, cosine_count_ratio, fit_cosine
+
 __all__ = [
+    "Mechanization",
     "NominalParams",
     "half_phase",
     "nominal_cos",
@@ -63,6 +66,7 @@ __all__ = [
     "pickoff_gram",
     "equal_ratio_colatitude",
     "fit_nominal",
+    "fit_mechanization",
 ]
 
 
@@ -80,13 +84,20 @@ class NominalParams:
         return math.degrees(math.atan2(self.b, self.c))
 
 
+# the great circle's (this module) or the cosine pattern's (procedures/esg/cosine.py)
+Mechanization = NominalParams | CosineParams
+
+
 def half_phase(cr: ArrayLike) -> np.ndarray:
     """X = cos(mu / 2) = sin((pi - mu) / 2), mu = 2 pi CR (eqs. 3, 4)."""
     return np.cos(np.pi * np.asarray(cr, dtype=float))
 
 
-def nominal_cos(cr: ArrayLike, params: NominalParams) -> np.ndarray:
-    """cos(th_n) from count ratios by the closed-form root of eq. 8 (eq. 10); vectorised."""
+def nominal_cos(cr: ArrayLike, params: Mechanization) -> np.ndarray:
+    """cos(th_n) from count ratios by the closed-form root of eq. 8 (eq. 10); vectorised.
+    A cosine pattern's by its own mechanization (procedures/esg/cosine.py)."""
+    if isinstance(params, CosineParams):
+        return cosine_cos(cr, params)
     b, c, d = params.b, params.c, params.dbar
     a = b * half_phase(cr)
     den = c * c + a * a
@@ -94,13 +105,15 @@ def nominal_cos(cr: ArrayLike, params: NominalParams) -> np.ndarray:
     return (c * d - a * root) / den
 
 
-def nominal_colatitude(cr: ArrayLike, params: NominalParams) -> np.ndarray:
+def nominal_colatitude(cr: ArrayLike, params: Mechanization) -> np.ndarray:
     """Nominal colatitude th_n (deg) for count ratios (eq. 10); vectorised."""
     return np.degrees(np.arccos(np.clip(nominal_cos(cr, params), -1.0, 1.0)))
 
 
-def nominal_count_ratio(theta_deg: ArrayLike, params: NominalParams) -> np.ndarray:
+def nominal_count_ratio(theta_deg: ArrayLike, params: Mechanization) -> np.ndarray:
     """Inverse of eq. 8: the count ratio the nominal mechanization assigns to a colatitude."""
+    if isinstance(params, CosineParams):
+        return cosine_count_ratio(theta_deg, params)
     th = np.radians(np.asarray(theta_deg, dtype=float))
     x = (params.dbar - params.c * np.cos(th)) / (params.b * np.sin(th))
     return np.arccos(np.clip(x, -1.0, 1.0)) / np.pi
@@ -165,3 +178,14 @@ def fit_nominal(cr_a: float, cr_b: float, theta_star: float) -> NominalParams:
                          "(cr_a belongs to the colatitude below 90 deg and must exceed cr_b)")
     b, c = vb / norm, vc / norm
     return NominalParams(b=b, c=c, dbar=0.5 * b * (xa + xb) * math.sin(th))
+
+
+def fit_mechanization(kind: str, cr_a: float, cr_b: float, theta_star: float
+                      ) -> Mechanization:
+    """The nominal mechanization of a ``great_circle`` or ``cosine`` pattern from the two
+    equal-ratio points."""
+    if kind == "cosine":
+        return fit_cosine(cr_a, cr_b, theta_star)
+    if kind != "great_circle":
+        raise ValueError(f"pattern kind must be great_circle or cosine, not {kind!r}")
+    return fit_nominal(cr_a, cr_b, theta_star)

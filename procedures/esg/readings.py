@@ -22,7 +22,7 @@ AGREE = 5e-5  # count ratio; about 5 times the line-to-line scatter (13 arcsec)
 class Setting:
     """Mean count ratios of one setting and what went into them."""
 
-    pickoffs: tuple[int, int]
+    pickoffs: tuple[int, ...]  # two, or three on a three-counter processor
     t_s: float  # mean time of the lines used, processor clock, s
     cr: dict[int, float | None]  # None: the pickoff is off the pattern
     times_s: list[float] = field(default_factory=list)
@@ -51,8 +51,7 @@ class Setting:
     @classmethod
     def from_reading(cls, d: dict) -> Setting:
         """The setting back from its journal form (``reading``)."""
-        first, second = d["pickoffs"]
-        return cls((first, second), d["t_s"],
+        return cls(tuple(d["pickoffs"]), d["t_s"],
                    {int(k): v for k, v in d["cr"].items()}, list(d["times_s"]),
                    {int(k): list(v) for k, v in d["line_cr"].items()},
                    list(d["rejected"]), list(d.get("lines", [])))
@@ -82,9 +81,10 @@ def agreeing(rows: list[list[float]], tol: float = AGREE) -> list[bool]:
     return best[2] if best else []
 
 
-def read_setting(proc: ProcessorDriver, pickoffs: tuple[int, int], n_lines: int = 5,
+def read_setting(proc: ProcessorDriver, pickoffs: tuple[int, ...], n_lines: int = 5,
                  min_lines: int = 3, attempts: int = 3) -> Setting:
-    """Select two pickoffs, take ``n_lines`` lines, reject bad ones, average the rest."""
+    """Select two pickoffs (three on a three-counter processor), take ``n_lines`` lines,
+    reject bad ones, average the rest."""
     proc.select(*pickoffs)
     rejected: list[str] = []
     printed: list[str] = []

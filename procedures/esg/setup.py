@@ -33,9 +33,11 @@ from procedures.runner import Run
 from station.drivers.esg import EsgDrivers
 from station.errors import CheckFailed
 
-# colatitudes of pickoff 2 tried in turn (the pattern ends at 43 deg; the spin axis drifts
-# while the case is turned, so a first setting may leave the pickoff off the pattern)
-EXTREMITY_DEG = (43.6, 44.0, 44.5, 45.0)
+# colatitudes of pickoff 2 tried in turn, just inside the pattern's end (43 deg on the report's
+# rotor; the spin axis drifts while the case is turned, so a first setting may leave the
+# pickoff off the pattern)
+EXTREMITY_STEPS_DEG = (0.6, 1.0, 1.5, 2.0)
+EXTREMITY_DEG = tuple(round(43.0 + d, 6) for d in EXTREMITY_STEPS_DEG)
 DISC_MARGIN_US = 3.0
 DELAY_MARGIN_US = 20.0
 DISC_RANGE_US = (2.0, 24.0)
@@ -62,15 +64,16 @@ def delay_us(logic_to_line_us: float) -> float:
 
 def extremity_setup(st: EsgDrivers, run: Run, latitude_deg: float, mirror_angle_deg: float,
                     move: Callable[[float, float, float], None],
-                    damp: Callable[[], None]) -> dict:
+                    damp: Callable[[], None], top_deg: float = 43.0) -> dict:
     """Sheet ESG-DPX; ``move(az, tilt, gamma)`` and ``damp()`` are the acquisition's own
-    moves. Returns the settings made."""
+    moves; ``top_deg`` the pattern's end on the drawing. Returns the settings made."""
+    tried = tuple(round(top_deg + d, 6) for d in EXTREMITY_STEPS_DEG)
     s_lab = geo.from_az_el(0.0, latitude_deg)  # after step 2 the spin axis is on the spindle
     with run.sheet("ESG-DPX", "Processor and lamp adjustments at the pattern extremity") as sh:
         with sh.step("DPX.1", "case turned: pickoff 2 at the pattern extremity, pickoff 3 "
                      "at the equator; pulses on the scope") as s:
             scope: dict[int, dict | None] = {}
-            for th in EXTREMITY_DEG:
+            for th in tried:
                 a, e, g = geo.point_case(extremity_direction(th, mirror_angle_deg), s_lab)
                 move(a, e, g)
                 scope = {k: st.processor.scope(k) for k in (1, 2, 3)}
@@ -80,7 +83,7 @@ def extremity_setup(st: EsgDrivers, run: Run, latitude_deg: float, mirror_angle_
                          "scope": {str(k): v for k, v in scope.items()}}
             if scope[2] is None or scope[3] is None:
                 raise CheckFailed("pickoff 2 or 3 sees no pattern at the extremity setting "
-                                  f"(tried pickoff 2 at {', '.join(map(str, EXTREMITY_DEG))} "
+                                  f"(tried pickoff 2 at {', '.join(map(str, tried))} "
                                   "deg)")
         on = {k: v for k, v in scope.items() if v is not None}
         with sh.step("DPX.2", "lamp currents: every pickoff's pulses to the lowest height") as s:

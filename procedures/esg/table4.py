@@ -26,7 +26,7 @@ import numpy as np
 
 from procedures.esg.calibration import Point, ScheduleResult, calibrate, in_schedule
 from procedures.esg.chebyshev_fit import fit_deviation
-from procedures.esg.mechanization import NominalParams
+from procedures.esg.mechanization import Mechanization
 
 ORDERS = (5, 6, 7, 8, 9)  # the report's trials
 REPORT_ORDER = 7
@@ -68,7 +68,7 @@ def residual_sigma(res: ScheduleResult) -> float:
     return math.sqrt(sum(x * x for x in e) / dof) if dof > 0 else float("nan")
 
 
-def prediction_rms(points: list[Point], params: NominalParams, schedule: str,
+def prediction_rms(points: list[Point], params: Mechanization, schedule: str,
                    order: int) -> float:
     """rms (arcsec) of the leave-one-out residuals of a schedule's interior calibration
     points (not the smallest and largest count ratio)."""
@@ -85,7 +85,7 @@ def prediction_rms(points: list[Point], params: NominalParams, schedule: str,
     return math.sqrt(sum(e * e for e in errs) / len(errs))
 
 
-def order_trials(points: list[Point], params: NominalParams, schedules: Sequence[str],
+def order_trials(points: list[Point], params: Mechanization, schedules: Sequence[str],
                  truth: Callable[[ScheduleResult], None] | None = None,
                  orders: Sequence[int] = ORDERS, goal_arcsec: float = 15.0) -> list[dict]:
     """Fit each schedule at each order; the residuals (and, with ``truth``, which adds the

@@ -83,6 +83,9 @@ class EsgParams:
     mount: MountSpec = field(default_factory=MountSpec)
     case: CaseSpec = field(default_factory=CaseSpec)
     signal: SignalSpec = field(default_factory=SignalSpec)
+    # the data processor's time-interval counters: 2 as built (report 004: "A simultaneous
+    # measurement of the three pickoffs was not possible"), 3 to read all three at once
+    counters: int = 2
 
     @property
     def latitude_deg(self) -> float:
@@ -186,10 +189,12 @@ class EsgWorld:
 
     # ----- data processor -----
     def data_line(self, t: float, pickoff_a: int, pickoff_b: int, revolutions: int,
-                  settings: ProcessorSettings) -> LineCounts:
-        """Counts for the `revolutions` revolutions ending at time t (t <= now)."""
-        if {pickoff_a, pickoff_b} - {1, 2, 3} or pickoff_a == pickoff_b:
-            raise ValueError(f"pickoffs must be two distinct of 1..3: {pickoff_a}, {pickoff_b}")
+                  settings: ProcessorSettings, pickoff_c: int | None = None) -> LineCounts:
+        """Counts for the `revolutions` revolutions ending at time t (t <= now); a third
+        pickoff ``pickoff_c`` on a three-counter processor."""
+        chosen = [pickoff_a, pickoff_b] + ([] if pickoff_c is None else [pickoff_c])
+        if set(chosen) - {1, 2, 3} or len(set(chosen)) < len(chosen):
+            raise ValueError(f"pickoffs must be distinct of 1..3: {chosen}")
         if int(revolutions) < 1:
             raise ValueError("revolutions must be >= 1")
         revolutions = int(revolutions)
@@ -203,7 +208,7 @@ class EsgWorld:
         s_end, s_start = self.spin_axis_case(t), self.spin_axis_case(t0)
         alpha = 2.0 * math.pi * ((self.rotor.profile.revolutions(t) + self._phase0) % 1.0)
         channels = []
-        for i in (pickoff_a, pickoff_b):
+        for i in chosen:
             p = self.case.pickoffs[i - 1]
             th_end = math.acos(max(-1.0, min(1.0, float(p @ s_end))))
             th_start = math.acos(max(-1.0, min(1.0, float(p @ s_start))))

@@ -69,6 +69,9 @@ class ProcedureConfig(BaseModel):
     # sheet ESG-DPX: lamps, discriminator and delay set up at the pattern extremity after
     # spin-up (false: the processor's preset 20 us and 241 us, lamps as delivered)
     extremity_setup: bool = True
+    # the data processor's time-interval counters: 2 as the report's (two pickoffs at a
+    # time), 3 for the simultaneous three-pickoff acquisition (docs/esg-options.md)
+    counters: Literal[2, 3] = 2
 
 
 class EsgConfig(BaseModel):
@@ -97,7 +100,7 @@ def params_from(cfg: EsgConfig) -> EsgParams:
     (site latitude included), its tables the pattern's and the signal's."""
     p = EsgParams()
     return replace(p, rotor=_set(p.rotor, cfg), pattern=_set(p.pattern, cfg.pattern),
-                   signal=_set(p.signal, cfg.signal))
+                   signal=_set(p.signal, cfg.signal), counters=cfg.procedure.counters)
 
 
 def load_esg_params(path: str | Path | None) -> EsgParams:

@@ -37,11 +37,15 @@ LINE_UNITS = 20  # 0.0002 h in the 1e-5 h units of the time field
 WRAP = 10**7
 REVOLUTIONS = (1, 2, 4, 8, 10)
 MAX_LINES = 1_000_000  # GO k accepts k up to this
-SETTINGS = Form([
-    integer("pickoff a", 1, 3), integer("pickoff b", 1, 3), integer("revolutions", 1, 10),
-    integer("run number", 0, WRAP - 1), general("threshold, V", 0.1, 5.0),
-    general("discriminator, us", 2.0, 24.0), general("logic delay, us", 20.0, 2000.0),
-])
+_SETTINGS_TAIL = [
+    integer("revolutions", 1, 10), integer("run number", 0, WRAP - 1),
+    general("threshold, V", 0.1, 5.0), general("discriminator, us", 2.0, 24.0),
+    general("logic delay, us", 20.0, 2000.0)]
+# two pickoffs selected, or three on a three-counter processor
+SETTINGS = OneOf(Form([integer("pickoff a", 1, 3), integer("pickoff b", 1, 3),
+                       *_SETTINGS_TAIL]),
+                 Form([integer("pickoff a", 1, 3), integer("pickoff b", 1, 3),
+                       integer("pickoff c", 1, 3), *_SETTINGS_TAIL]))
 SCOPE = OneOf(Form([literal("OFF")]),
               Form([fixed("pulse height, V", 2, 0.0, 20.0),
                     fixed("logic line width, us", 1, 0.0, 10000.0),
@@ -98,7 +102,7 @@ class ProcessorDriver(SerialDriver):
         super().__init__(name, url, clock, timeout)
         # selection and run number as last set or read (the driver is the processor's only
         # host); None until known: lines() then asks SET? first
-        self._known: tuple[tuple[int, int], int] | None = None
+        self._known: tuple[tuple[int, ...], int] | None = None
 
     # ----- exchanges: a data line still arriving from a stream is never taken for a reply
     def _background(self, body: bytes) -> bool:
@@ -110,12 +114,14 @@ class ProcessorDriver(SerialDriver):
         return super()._exchange(cmd, form, timeout)
 
     # ----- settings -----
-    def select(self, a: int, b: int) -> None:
-        """Counters A and B to pickoffs ``a`` and ``b`` (1..3, distinct)."""
+    def select(self, *pickoffs: int) -> None:
+        """Counters A and B (and C, on a three-counter processor) to the pickoffs (1..3,
+        distinct)."""
         known = self._known
-        self.command(f"SEL {int(a)} {int(b)}")
+        sel = tuple(int(p) for p in pickoffs)
+        self.command("SEL " + " ".join(map(str, sel)))
         if known is not None:
-            self._known = ((int(a), int(b)), known[1])
+            self._known = (sel, known[1])
 
     def revolutions(self, n: int) -> None:
         self.command(f"REV {int(n)}")
@@ -143,15 +149,21 @@ class ProcessorDriver(SerialDriver):
         self.command("HALT")
 
     def settings(self) -> dict:
-        """``{"pickoffs": (a, b), "revolutions", "run", "threshold_v", "min_width_us",
-        "logic_delay_us"}`` as the processor reports them."""
-        a, b, rev, run, thr, disc, delay = self.ask("SET?", SETTINGS)
-        if a == b:
-            raise self.refuse("SET?", f"pickoffs must be distinct, got {a} {b}")
+        """``{"pickoffs": (a, b) or (a, b, c), "revolutions", "run", "threshold_v",
+        "min_width_us", "logic_delay_us"}`` as the processor reports them."""
+        form, v = self.ask("SET?", SETTINGS)
+        sel = tuple(v[:2 + form])
+        rev, run, thr, disc, delay = v[2 + form:]
+        if len(set(sel)) < len(sel):
+            raise self.refuse("SET?", f"pickoffs must be distinct, got "
+                              f"{' '.join(map(str, sel))}")
         if rev not in REVOLUTIONS:
             raise self.refuse("SET?", f"revolutions {rev} not one of {REVOLUTIONS}")
-        self._known = ((a, b), run)
-        return {"pickoffs": (a, b), "revolutions": rev, "run": run, "threshold_v": thr,
+        self._known = (sel, run)
+        if not form:  # the two-counter reading as it always was
+            return {"pickoffs": (sel[0], sel[1]), "revolutions": rev, "run": run,
+                    "threshold_v": thr, "min_width_us": disc, "logic_delay_us": delay}
+        return {"pickoffs": sel, "revolutions": rev, "run": run, "threshold_v": thr,
                 "min_width_us": disc, "logic_delay_us": delay}
 
     def scope(self, pickoff: int) -> dict | None:
@@ -179,8 +191,8 @@ class ProcessorDriver(SerialDriver):
         if known is None:
             s = self.settings()
             known = (s["pickoffs"], s["run"])
-        (a, b), run = known
-        selected = {a, b}
+        sel, run = known
+        selected = set(sel)
         try:
             self.command(f"GO {k}")
         except LinkTimeout:

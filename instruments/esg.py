@@ -96,7 +96,8 @@ class DataProcessor(ByteInstrument):
         self._rng = stream(world.seed, "esg", "corrupt")
         self._stream: simpy.Process | None = None
         for usage, action in (
-            ("SEL <a> <b> [<c>]", self._sel),
+            # a two-counter processor keeps its two-pickoff usage (a third is ERR 11)
+            ("SEL <a> <b> [<c>]" if self.counters >= 3 else "SEL <a> <b>", self._sel),
             ("REV <n>", self._rev),
             ("RUN <n>", self._run_number),
             ("THR <volts>", lambda a: self._setting("THR", "threshold_v", a[0], "threshold",

@@ -223,6 +223,7 @@ class Predictor:
             ep, em = estimate(zp, data.constants), estimate(zm, data.constants)
             jac[:, i] = [(ep[r] - em[r]) / (2 * h) for r in self.rows]  # type: ignore[operator]
         self.jac = jac
+        self._cache[(self.default, True)] = jac @ cov @ jac.T  # what _covariance would give
 
     def covariance(self, times: Times, level: bool = True) -> np.ndarray:
         """J Sigma_z J^T of the constants for a day with these times (each evaluated once:

@@ -5,13 +5,15 @@ over its threads, and the sums come out in another order with another thread cou
 level tape of one seed differed in its last bits between a 1-thread and a 2-thread process,
 and a resumed run (replayed exactly) refused its own journal when the two processes had
 different counts (a Dask import sets OPENBLAS_NUM_THREADS=1 for the processes it starts).
-threadpoolctl sets the count at run time, whatever the environment was at numpy's import;
-it reaches only the libraries loaded when it is called, so numpy's and scipy.linalg's
-(two OpenBLAS builds in the wheels) are loaded first.
+threadpoolctl sets the count of the libraries already loaded (numpy's, whatever the
+environment was at its import); OPENBLAS_NUM_THREADS, read by OpenBLAS when it loads, sets
+it for those loaded later (scipy.linalg's own build, imported only by the commands that use
+it) and for the processes the run starts.
 """
 
 from __future__ import annotations
 
+import os
 from typing import Any
 
 _limit: list[Any] = []  # the process's one controller, kept alive while the process runs
@@ -21,8 +23,8 @@ def pin_blas_threads() -> None:
     """Limit the BLAS libraries of this process to one thread (idempotent, process-wide)."""
     if _limit:
         return
-    import numpy  # noqa: F401 - load numpy's BLAS ...
-    import scipy.linalg  # noqa: F401 - ... and scipy's, before limiting them
+    os.environ["OPENBLAS_NUM_THREADS"] = "1"  # for the libraries loaded from now on
+    import numpy  # noqa: F401 - load numpy's BLAS, so that it is limited too
     from threadpoolctl import threadpool_limits
 
     _limit.append(threadpool_limits(limits=1, user_api="blas"))

@@ -35,6 +35,7 @@ import numpy as np
 
 from procedures.cigtf.procedure import TestPlan
 from sim.cigtf.world import CigtfParams, CigtfWorld
+from station.config.assignment import named_item
 from station.config.cigtf import Eq27Config
 from station.config.limits import CigtfLimits
 
@@ -44,11 +45,8 @@ VARIABLES = {"rotor-voltage": "V", "azimuth": "deg"}
 def parse_vary(text: str) -> tuple[str, list[float]]:
     """``NAME=V1,V2,...`` checked: a known name, at least two distinct finite values
     (whole degrees for the azimuth)."""
-    name, sep, values = text.partition("=")
-    name = name.strip()
-    if not sep or name not in VARIABLES:
-        raise ValueError(f"--vary {text!r}: expected rotor-voltage=V1,V2,... or "
-                         f"azimuth=DEG1,DEG2,...")
+    name, values = named_item("--vary", text, VARIABLES,
+                              "expected rotor-voltage=V1,V2,... or azimuth=DEG1,DEG2,...")
     try:
         xs = [float(v) for v in values.split(",")]
     except ValueError:

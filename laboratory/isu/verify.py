@@ -26,6 +26,7 @@ from laboratory.campaign.summary import LEVEL, interval
 from laboratory.tables import Column, print_fitted
 from procedures.isu.accuracy import GATE_UNITS, Predictor
 from procedures.isu.plan import DayPlan
+from station.config.assignment import named_item
 from station.config.isu import StationConfig
 from station.files import atomic_path
 
@@ -193,11 +194,8 @@ def parse_times(items: list[str] | None) -> dict[str, tuple[float, ...]]:
     """``--times CHART=T1,T2,...`` items (ValueError naming a bad item)."""
     got: dict[str, tuple[float, ...]] = {}
     for item in items or ():
-        chart, eq, text = item.partition("=")
-        chart = chart.strip()
-        if not eq or chart not in STUDIES:
-            raise ValueError(f"--times {item!r}: give CHART=T1,T2,... with CHART one of "
-                             f"{', '.join(STUDIES)}")
+        chart, text = named_item("--times", item, STUDIES, "give CHART=T1,T2,... with "
+                                 f"CHART one of {', '.join(STUDIES)}")
         try:
             vals = tuple(float(v) for v in text.split(",") if v.strip())
         except ValueError:

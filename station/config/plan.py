@@ -11,6 +11,8 @@ from __future__ import annotations
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
+from station.config.assignment import named_item
+
 # name -> (units, what it bounds, chart): the one list the command line and the sheets use
 REQUIREMENT_TEXT = {
     "gyro_scale_factor": ("relative", "sigma(DeltaPhi)/DeltaPhi of each gyro", "II-18"),
@@ -50,11 +52,8 @@ def with_required(plan: PlanSettings, given: list[str]) -> PlanSettings:
     names = [*REQUIREMENT_TEXT, "max_gate_minutes"]
     update: dict[str, float] = {}
     for item in given:
-        name, eq, text = item.partition("=")
-        name = name.strip()
-        if not eq or name not in names:
-            raise ValueError(f"--require {item!r}: give NAME=VALUE with NAME one of "
-                             f"{', '.join(names)}")
+        name, text = named_item("--require", item, names,
+                                f"give NAME=VALUE with NAME one of {', '.join(names)}")
         try:
             update[name] = float(text)
         except ValueError:

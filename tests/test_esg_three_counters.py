@@ -1,6 +1,6 @@
-"""The three-counter data processor (report 004, "Line edge error estimation": "A
-simultaneous measurement of the three pickoffs was not possible, hence, two pickoffs have
-been utilized"): the option that reads all three pickoffs in one revolution, the
+"""The three-counter data processor (report 004, section "Line edge error estimation": its
+two interval counters timed two pickoffs at once, so the third was left unused even where
+it saw the pattern): the option that reads all three pickoffs in one revolution, the
 three-pickoff attitude readout from the acquired lines, and the calibration run with it
 (docs/esg-options.md)."""
 

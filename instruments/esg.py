@@ -143,10 +143,7 @@ class DataProcessor(ByteInstrument):
         a = as_int(args[0], "pickoff a", 1, 3)
         b = as_int(args[1], "pickoff b", 1, 3)
         sel = [a, b]
-        if len(args) > 2:
-            if self.counters < 3:
-                raise InstrumentError(12, "a third pickoff needs a third counter (this "
-                                      "processor has two)")
+        if len(args) > 2:  # only a three-counter processor's usage admits a third
             sel.append(as_int(args[2], "pickoff c", 1, 3))
         if len(set(sel)) < len(sel):
             raise InstrumentError(12, f"pickoffs must be distinct, got {' '.join(map(str, sel))}")

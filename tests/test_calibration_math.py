@@ -700,3 +700,24 @@ def test_kernels_against_quadrature():
 def test_accel_keys_round_trip_through_json():
     p = NOISE_FREE.accel[7]
     assert AccelPosition.model_validate_json(p.model_dump_json()) == p
+
+
+def test_a_datum_moves_only_the_instruments_that_read_it():
+    """constants_covariance re-estimates only ``readers(key)`` per datum; every other
+    instrument's constants must come out bit-identical when the datum moves."""
+    from procedures.isu.calibration.compute import INSTRUMENTS, estimate_of, readers
+
+    data = make_data(np.random.default_rng(7), NoiseSpec())
+    z0 = reduce(data).values
+    c = data.constants
+    base = {inst: estimate_of(z0, c, inst) for inst in INSTRUMENTS}
+    moved = 0
+    for key, v in z0.items():
+        z = dict(z0)
+        z[key] = v * (1.0 + 1e-3) + 1e-6
+        for inst in INSTRUMENTS:
+            if inst in readers(key):
+                moved += estimate_of(z, c, inst) != base[inst]
+            else:
+                assert estimate_of(z, c, inst) == base[inst], (key, inst)
+    assert moved > len(z0) // 2  # the rule is not vacuous: the readers do move

@@ -25,7 +25,7 @@ fitted: the Q_IS series (II-7Q) and the J experiment (II-10), which stay the she
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -41,6 +41,7 @@ from procedures.isu.calibration.inputs import CalibrationData, Constants
 from procedures.isu.calibration.noise_spec import NoiseSpec
 from procedures.isu.calibration.reduce import Key, Reduced, reduce
 from procedures.isu.sheets import ResultRow
+from sim.frames import cross3, norm3
 
 GYRO_COEFS = ("R", "B_I", "B_O", "B_S", "C_II", "C_SS", "C_IS", "C_OS", "C_IO")
 Q_TERMS = ("Q_II", "Q_IS")
@@ -118,18 +119,18 @@ def speed_covariance(points: list[SpeedPoint], noise: NoiseSpec,
 # ------------------------------------------------------------------------------ parameters
 def _gyro_model(k: int, p: Mapping[str, float]) -> GyroModel:
     g = np.array([p["g1"], p["g2"], p["g3"]])
-    norm = float(np.linalg.norm(g))
+    norm = float(norm3(g))
     G = g / norm
     o0 = NOMINAL_AXES[k - 1][1]
     O = o0 - (o0 @ G) * G  # noqa: E741 - the report's symbol
-    O = O / np.linalg.norm(O)  # noqa: E741
+    O = O / norm3(O)  # noqa: E741
     coef = {t: float(p.get(t, 0.0)) for t in (*GYRO_COEFS, *Q_TERMS)}
-    return GyroModel(1.0 / norm, G, O, np.cross(G, O), coef)
+    return GyroModel(1.0 / norm, G, O, cross3(G, O), coef)
 
 
 def _accel_model(p: Mapping[str, float]) -> AccelModel:
     P = np.array([p["P1"], p["P2"], p["P3"]])
-    d1 = float(np.linalg.norm(P))
+    d1 = float(norm3(P))
     return AccelModel(d1, P / d1, p["b0"] / d1, p["b2"] / d1, p["b3"] / d1)
 
 
@@ -158,17 +159,37 @@ def rows_from_internal(p: Mapping[str, float], inst: str) -> dict[str, float]:
     """Chart II-5 values of one instrument from its internal parameters."""
     if inst.startswith("gyro"):
         g = np.array([p["g1"], p["g2"], p["g3"]])
-        norm = float(np.linalg.norm(g))
+        norm = float(norm3(g))
         out = {"DeltaPhi": 1.0 / norm}
         out.update({f"G.B{j}": float(g[j - 1]) / norm for j in (1, 2, 3)})
         out.update({t: float(p[t]) for t in (*GYRO_COEFS, *Q_TERMS) if t in p})
         return out
     P = np.array([p["P1"], p["P2"], p["P3"]])
-    d1 = float(np.linalg.norm(P))
+    d1 = float(norm3(P))
     out = {"D1": d1}
     out.update({f"A.B{j}": float(P[j - 1]) / d1 for j in (1, 2, 3)})
     out.update({"D0": p["b0"] / d1, "D2": p["b2"] / d1, "D3": p["b3"] / d1})
     return out
+
+
+class _Models:
+    """Each instrument's forward model at one parameter set, built on first use: a model
+    evaluation reads the same instrument's model for many data."""
+
+    def __init__(self, p: Mapping[str, dict[str, float]]) -> None:
+        self.p = p
+        self.gyros: dict[int, GyroModel] = {}
+        self.accels: dict[int, AccelModel] = {}
+
+    def gyro(self, k: int) -> GyroModel:
+        if k not in self.gyros:
+            self.gyros[k] = _gyro_model(k, self.p[f"gyro{k}"])
+        return self.gyros[k]
+
+    def accel(self, k: int) -> AccelModel:
+        if k not in self.accels:
+            self.accels[k] = _accel_model(self.p[f"accel{k}"])
+        return self.accels[k]
 
 
 # ------------------------------------------------------------------------------ the design
@@ -184,6 +205,7 @@ class Design:
     combos: list[dict[Key, float]]  # each fitted datum as a combination of reduced data
     rows: list[Row]  # Chart II-5 rows the fit determines
     speeds: list[SpeedPoint]  # II-7 data fitted after the combinations
+    t_br_cache: dict[int, np.ndarray] = field(default_factory=dict, repr=False, compare=False)
 
     def instruments(self) -> list[str]:
         return sorted(self.base)
@@ -197,23 +219,31 @@ class Design:
             out[i][n] = float(x)
         return out
 
-    def datum(self, key: Key, p: Mapping[str, dict[str, float]], w: float | None) -> float:
+    def datum(self, key: Key, p: Mapping[str, dict[str, float]], w: float | None,
+              models: _Models | None = None) -> float:
         """Forward model of one reduced datum (``w``: the measured table rate, 1-6)."""
         kind, k, m = key
         c = self.data.constants
+        models = models if models is not None else _Models(p)
         if kind == "G":
-            gm = _gyro_model(k, p[f"gyro{k}"])
+            gm = models.gyro(k)
             if m <= 6:
                 return gm.turning_rate(FIRST_COLUMN[m], float(w or 0.0), c)
-            t = t_br(m, c)
+            t = self._t_br(m)
             return gm.static_rate(t[:, 0], t[:, 1], c)
         if kind == "F":
-            return _accel_model(p[f"accel{k}"]).difference(t_br(m, c)[:, 0], c)
+            return models.accel(k).difference(self._t_br(m)[:, 0], c)
         if kind == "X":
             return p[f"accel{k}"]["b3"]
         if kind == "P":
             return p[f"gyro{k}"][f"g{m}"]
         raise ValueError(f"no model for datum {key}")
+
+    def _t_br(self, m: int) -> np.ndarray:
+        """T^BRm of the day's survey, computed once per design (the constants are fixed)."""
+        if m not in self.t_br_cache:
+            self.t_br_cache[m] = t_br(m, self.data.constants)
+        return self.t_br_cache[m]
 
     def model(self, theta: np.ndarray, w: Mapping[int, float] | None = None,
               only: list[int] | None = None) -> np.ndarray:
@@ -224,14 +254,15 @@ class Design:
         n = len(self.combos)
         which = range(n + len(self.speeds)) if only is None else only
         c = self.data.constants
+        models = _Models(p)
         out = []
         for i in which:
             if i >= n:
                 sp = self.speeds[i - n]
-                gm = _gyro_model(sp.k, p[f"gyro{sp.k}"])
-                out.append(gm.turning_rate(FIRST_COLUMN[sp.position], sp.w_t_deg_s, c))
+                out.append(models.gyro(sp.k).turning_rate(FIRST_COLUMN[sp.position],
+                                                          sp.w_t_deg_s, c))
                 continue
-            out.append(sum(a * self.datum(key, p, tw.get(key[2]))
+            out.append(sum(a * self.datum(key, p, tw.get(key[2]), models)
                            for key, a in self.combos[i].items()))
         return np.array(out)
 

@@ -26,6 +26,7 @@ from procedures.isu.calibration.neglected import corrected_gyro_estimates, spin_
 from procedures.isu.calibration.noise_spec import NoiseSpec
 from procedures.isu.calibration.reduce import Key, Reduced, reduce
 from procedures.isu.sheets import ConstantsCorrelation, ResultRow
+from sim.frames import cross3, norm3
 
 Row = tuple[str, str]  # (instrument, parameter)
 
@@ -38,17 +39,38 @@ def _central_difference(plus: float | None, minus: float | None, h: float, row: 
     return (plus - minus) / (2 * h)
 
 
+INSTRUMENTS = ("gyro1", "gyro2", "gyro3", "accel1", "accel2", "accel3")
+
+
+def estimate_of(z: Mapping[Key, float], c: Constants, inst: str) -> dict[Row, float | None]:
+    """One instrument's Chart II-5 constants (``estimate``'s, for that instrument only)."""
+    k = int(inst[-1])
+    if inst.startswith("gyro"):
+        return {(inst, p): v for p, v in corrected_gyro_estimates(z, c, k).items()}
+    return {(inst, p): v for p, v in accel_estimates(z, c.g, k).items()}
+
+
 def estimate(z: Mapping[Key, float], c: Constants) -> dict[Row, float | None]:
     """All Chart II-5 constants from reduced data (None where not determined); the gyros'
     printed forms with the terms they neglect put back (``neglected``)."""
     out: dict[Row, float | None] = {}
-    for k in (1, 2, 3):
-        for p, v in corrected_gyro_estimates(z, c, k).items():
-            out[(f"gyro{k}", p)] = v
-    for k in (1, 2, 3):
-        for p, v in accel_estimates(z, c.g, k).items():
-            out[(f"accel{k}", p)] = v
+    for inst in INSTRUMENTS:
+        out.update(estimate_of(z, c, inst))
     return out
+
+
+def readers(key: Key) -> tuple[str, ...]:
+    """The instruments whose closed forms read datum ``key`` (reduce's kinds): a gyro's
+    rates and supplied misalignments its own, an accelerometer's differences and supplied
+    (D1 D3) its own, the table rate every gyro's; an unknown kind, every instrument."""
+    kind, k, _ = key
+    if kind in ("G", "P"):
+        return (f"gyro{k}",)
+    if kind in ("F", "X"):
+        return (f"accel{k}",)
+    if kind == "w":
+        return INSTRUMENTS[:3]
+    return INSTRUMENTS
 
 
 def _nominal_t_br(m: int, c: Constants) -> np.ndarray:
@@ -57,9 +79,9 @@ def _nominal_t_br(m: int, c: Constants) -> np.ndarray:
         return t_br(m, c)
     except ValueError:
         c1 = FIRST_COLUMN[m]
-        c2 = np.cross(c1, [0.0, 0.0, 1.0] if abs(c1[2]) < 0.9 else [1.0, 0.0, 0.0])
-        c2 = c2 / np.linalg.norm(c2)
-        return np.column_stack((c1, c2, np.cross(c1, c2)))
+        c2 = cross3(c1, [0.0, 0.0, 1.0] if abs(c1[2]) < 0.9 else [1.0, 0.0, 0.0])
+        c2 = c2 / norm3(c2)
+        return np.column_stack((c1, c2, cross3(c1, c2)))
 
 
 def data_covariance(
@@ -98,12 +120,18 @@ def constants_covariance(
     steps = np.where(steps > 0, steps, 1e-9 * np.maximum(np.abs(z0), 1.0))
     rows = [r for r, v in est.items() if v is not None]
     jac = np.zeros((len(rows), len(keys)))
+    index = {r: n for n, r in enumerate(rows)}
     for i, h in enumerate(steps):
+        # Only the instruments that read the datum are estimated again: the others' rows
+        # would come out identical, their differences exactly zero.
         zp, zm = dict(red.values), dict(red.values)
         zp[keys[i]] = z0[i] + h
         zm[keys[i]] = z0[i] - h
-        ep, em = estimate(zp, c), estimate(zm, c)
-        jac[:, i] = [_central_difference(ep[r], em[r], h, r, keys[i]) for r in rows]
+        for inst in readers(keys[i]):
+            ep, em = estimate_of(zp, c, inst), estimate_of(zm, c, inst)
+            for r in ep:
+                if r in index:
+                    jac[index[r], i] = _central_difference(ep[r], em[r], h, r, keys[i])
     m = jac @ cov @ jac.T
     for i, (inst, p) in enumerate(rows):  # the turn of O, S about G no position measures
         if inst.startswith("gyro"):

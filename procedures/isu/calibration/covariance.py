@@ -39,6 +39,7 @@ from procedures.isu.calibration.kernels import (
 )
 from procedures.isu.calibration.noise_spec import ARCSEC, DAY, NoiseSpec
 from procedures.isu.calibration.reduce import Key, Reduced
+from sim.frames import cross3
 
 RAD2DEG = 180.0 / math.pi
 
@@ -142,7 +143,7 @@ class DataCovariance:
                 else:
                     t = self.t_br[("G", m)]
                     u, no = t[:, 0], t[:, 1]
-                    e = -float(gm.G @ np.cross(u, no)) * to_pulses
+                    e = -float(gm.G @ cross3(u, no)) * to_pulses
                     n = float(gm.G @ no) * to_pulses
             elif kind == "F":
                 am = self.accels[k]
@@ -155,7 +156,7 @@ class DataCovariance:
                 t = self.t_br[("A", m)]
                 u, no = t[:, 0], t[:, 1]
                 s = am.D1 * self.c.g
-                e, n = s * float(am.A @ no), s * float(am.A @ np.cross(u, no))
+                e, n = s * float(am.A @ no), s * float(am.A @ cross3(u, no))
             fs.append(f)
             he.append(e)
             hn.append(n)
@@ -208,7 +209,7 @@ class DataCovariance:
         kind, k, m = key
 
         def turn(v: np.ndarray) -> np.ndarray:
-            return v - np.cross(delta, v)
+            return v - cross3(delta, v)
 
         if kind == "G" and m <= 6:
             w = self.red.values[("w", 0, m)]

@@ -26,6 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from procedures.isu.calibration.inputs import Constants
+from sim.frames import cross3, norm3
 
 E3 = np.eye(3)
 NOMINAL_AXES = (  # (G, O, S) of gyros 1, 2, 3 in body components (DOMAIN.md, Chart III-9)
@@ -50,10 +51,10 @@ class GyroModel:
         g0, o0, _ = NOMINAL_AXES[k - 1]
         gb = [est.get(f"G.B{j}") for j in (1, 2, 3)]
         G = np.array(gb, dtype=float) if None not in gb else g0.copy()
-        G = G / np.linalg.norm(G)
+        G = G / norm3(G)
         O = o0 - (o0 @ G) * G  # noqa: E741
-        O = O / np.linalg.norm(O)  # noqa: E741
-        S = np.cross(G, O)
+        O = O / norm3(O)  # noqa: E741
+        S = cross3(G, O)
         dphi = est.get("DeltaPhi")
         coef = {t: float(est.get(t) or 0.0) for t in GYRO_TERMS}
         return GyroModel(float(dphi) if dphi else 3.0 / 3600.0, G, O, S, coef)  # deg/pulse
@@ -128,7 +129,7 @@ class AccelModel:
     def from_estimates(k: int, est: dict[str, float | None]) -> AccelModel:
         ab = [est.get(f"A.B{j}") for j in (1, 2, 3)]
         A = np.array(ab, dtype=float) if None not in ab else E3[k - 1].copy()
-        A = A / np.linalg.norm(A)
+        A = A / norm3(A)
         return AccelModel(
             float(est.get("D1") or 2000.0),
             A,

@@ -23,6 +23,7 @@ import numpy as np
 
 from procedures.isu.calibration.inputs import Constants, TableGeometry
 from procedures.isu.calibration.noise_spec import ARCSEC, NoiseSpec
+from sim.frames import cross3
 
 E3 = np.eye(3)
 _S2 = 1.0 / math.sqrt(2.0)
@@ -56,7 +57,7 @@ def t_br(m: int, c: Constants) -> np.ndarray:
         raise ValueError(f"position {m} needs T12..T32 of T^BR{src} (Chart II-15 step 4)")
     c1 = FIRST_COLUMN[m]
     c2 = np.asarray(c.t_br_column2[src], dtype=float)
-    return np.column_stack((c1, c2, np.cross(c1, c2)))
+    return np.column_stack((c1, c2, cross3(c1, c2)))
 
 
 def gimbal(p: float) -> np.ndarray:

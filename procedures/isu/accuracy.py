@@ -24,7 +24,7 @@ from procedures.isu.calibration import (
     GyroPosition,
     NoiseSpec,
 )
-from procedures.isu.calibration.compute import data_covariance, estimate
+from procedures.isu.calibration.compute import data_covariance, estimate, estimator_jacobian
 from procedures.isu.calibration.forward import (
     GYRO_TERMS,
     NOMINAL_AXES,
@@ -215,13 +215,7 @@ class Predictor:
         z0 = np.array([red.values[k] for k in self.keys])
         steps = np.sqrt(np.maximum(np.diag(cov), 0.0))
         steps = np.where(steps > 0, steps, 1e-9 * np.maximum(np.abs(z0), 1.0))
-        jac = np.zeros((len(self.rows), len(self.keys)))
-        for i, h in enumerate(steps):
-            zp, zm = dict(red.values), dict(red.values)
-            zp[self.keys[i]] = z0[i] + h
-            zm[self.keys[i]] = z0[i] - h
-            ep, em = estimate(zp, data.constants), estimate(zm, data.constants)
-            jac[:, i] = [(ep[r] - em[r]) / (2 * h) for r in self.rows]  # type: ignore[operator]
+        jac = estimator_jacobian(red.values, data.constants, self.keys, self.rows, steps)
         self.jac = jac
         self._cache[(self.default, True)] = jac @ cov @ jac.T  # what _covariance would give
 

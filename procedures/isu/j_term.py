@@ -44,32 +44,57 @@ PROFILE_DELAY_S = 0.05
 DEG = math.pi / 180.0
 
 
-def profile(phi0_deg: float, w0: float, w1: float, acc: float,
-            t_cmd: float) -> Callable[[float], float]:
+@dataclass(frozen=True)
+class RampProfile:
     """phi2(t) in deg (t from the reading phi0) for a ramp from rate w0 to w1 (deg/s) at
-    |acc| commanded at t_cmd."""
-    a = math.copysign(acc, w1 - w0)
-    t_ramp = abs(w1 - w0) / acc
+    |acc| commanded at t_cmd: a line, a parabola, a line (``breaks`` between them)."""
 
-    def phi(t: float) -> float:
+    phi0_deg: float
+    w0: float
+    w1: float
+    acc: float
+    t_cmd: float
+
+    @property
+    def t_ramp(self) -> float:
+        return abs(self.w1 - self.w0) / self.acc
+
+    @property
+    def breaks(self) -> tuple[float, float]:
+        return self.t_cmd, self.t_cmd + self.t_ramp
+
+    def __call__(self, t: float) -> float:
+        a = math.copysign(self.acc, self.w1 - self.w0)
+        w0, t_cmd, t_ramp = self.w0, self.t_cmd, self.t_ramp
         if t <= t_cmd:
-            return phi0_deg + w0 * t
+            return self.phi0_deg + w0 * t
         dt = t - t_cmd
         if dt <= t_ramp:
-            return phi0_deg + w0 * t_cmd + w0 * dt + 0.5 * a * dt * dt
-        return phi0_deg + w0 * t_cmd + w0 * t_ramp + 0.5 * a * t_ramp**2 + w1 * (dt - t_ramp)
+            return self.phi0_deg + w0 * t_cmd + w0 * dt + 0.5 * a * dt * dt
+        return (self.phi0_deg + w0 * t_cmd + w0 * t_ramp + 0.5 * a * t_ramp**2
+                + self.w1 * (dt - t_ramp))
 
-    return phi
+
+def profile(phi0_deg: float, w0: float, w1: float, acc: float, t_cmd: float) -> RampProfile:
+    """The commanded phi2(t) of one gate (``RampProfile``)."""
+    return RampProfile(phi0_deg, w0, w1, acc, t_cmd)
+
+
+GAUSS_NODES = 32  # per smooth piece: sin and cos of a phase sweeping a few radians, to 1e-15
 
 
 def gate_integrals(phi: Callable[[float], float], t0: float,
                    t1: float) -> tuple[float, float, float]:
-    """theta (deg), int sin(phi2) dt, int cos(phi2) dt over [t0, t1] (times relative).
-    scipy.integrate is imported here, when a J-term chart is computed, not at start."""
-    from scipy.integrate import quad
-
-    s = quad(lambda t: math.sin(phi(t) * DEG), t0, t1, limit=400, epsabs=1e-10)[0]
-    c = quad(lambda t: math.cos(phi(t) * DEG), t0, t1, limit=400, epsabs=1e-10)[0]
+    """theta (deg), int sin(phi2) dt, int cos(phi2) dt over [t0, t1] (times relative):
+    Gauss-Legendre on each smooth piece of the profile (split at its ``breaks``)."""
+    cuts = [t0, *sorted(b for b in getattr(phi, "breaks", ()) if t0 < b < t1), t1]
+    x, w = np.polynomial.legendre.leggauss(GAUSS_NODES)
+    s = c = 0.0
+    for lo, hi in zip(cuts[:-1], cuts[1:], strict=True):
+        half, mid = 0.5 * (hi - lo), 0.5 * (hi + lo)
+        ang = np.array([phi(float(t)) for t in mid + half * x]) * DEG
+        s += half * float(w @ np.sin(ang))
+        c += half * float(w @ np.cos(ang))
     return phi(t1) - phi(t0), s, c
 
 

@@ -118,7 +118,6 @@ from typing import TypedDict, Unpack
 import numpy as np
 from numpy.typing import ArrayLike
 from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
-from scipy import linalg as sla
 
 from procedures.isu.calibration.noise_spec import ARCSEC, NoiseSpec
 
@@ -334,6 +333,22 @@ def _point_interval(
     return np.stack([v @ w for v in evaluate(lag)])
 
 
+def toeplitz(row: np.ndarray) -> np.ndarray:
+    """The symmetric Toeplitz matrix T[i, j] = row[|i - j|] (a stationary process's Gram)."""
+    i = np.arange(len(row))
+    return np.asarray(row)[np.abs(i[:, None] - i[None, :])]
+
+
+def block_diag(*blocks: np.ndarray) -> np.ndarray:
+    """The blocks on the diagonal of one matrix, zeros elsewhere."""
+    out = np.zeros((sum(b.shape[0] for b in blocks), sum(b.shape[1] for b in blocks)))
+    r = c = 0
+    for b in blocks:
+        out[r:r + b.shape[0], c:c + b.shape[1]] = b
+        r, c = r + b.shape[0], c + b.shape[1]
+    return out
+
+
 def noise_gram(table: CovarianceTable, dt: float, K: int, name: str = "phi") -> np.ndarray:
     """Sigma_n or Sigma_alpha of Chart I-9: covariance of the K interval integrals (K x K)."""
     row = np.zeros(K)
@@ -341,7 +356,7 @@ def noise_gram(table: CovarianceTable, dt: float, K: int, name: str = "phi") -> 
         n = _nodes(dt, table.spacing)
         row = _toeplitz_rows(lambda t: (table.evaluate(t, name),), dt, K, n)[0]
     row[0] += table.white * dt
-    return sla.toeplitz(row)
+    return toeplitz(row)
 
 
 @dataclass(frozen=True)
@@ -362,7 +377,7 @@ def tilt_moments(params: LevelParams) -> TiltMoments:
     idx = ((0, 2), (2, 1))  # (E,E)->ee, (E,N)->en, (N,N)->nn
     c0 = np.array([[c00[idx[a][b]] for b in range(2)] for a in range(2)])
     c = np.array([[cs[idx[a][b]] for b in range(2)] for a in range(2)])
-    grams = [sla.toeplitz(r) for r in rows]
+    grams = [toeplitz(r) for r in rows]
     gram = np.array([[grams[idx[a][b]] for b in range(2)] for a in range(2)])
     return TiltMoments(c0, c, gram)
 
@@ -438,8 +453,7 @@ def simple_average(K: int, dt: float, n_axes: int = 3) -> tuple[np.ndarray, np.n
 def posterior_level(params: LevelParams) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Posterior-mean M (3 x 3K), b (3,) and A^-1 (3 x 3), Charts I-9 and I-10."""
     j = joint(params)
-    factor = sla.cho_factor(j.s_xx, lower=True, check_finite=False)
-    gain = sla.cho_solve(factor, j.s_yx.T, check_finite=False).T  # S_yX S_XX^-1 = -A^-1 B
+    gain = np.linalg.solve(j.s_xx, j.s_yx.T).T  # S_yX S_XX^-1 = -A^-1 B
     cov = j.s_yy - gain @ j.s_yx.T
     return gain, j.a1 - gain @ j.a2, 0.5 * (cov + cov.T)
 
@@ -544,7 +558,7 @@ def chart_i9_quantities(params: LevelParams) -> ChartI9:
         return blk
 
     s_theta = np.block([[c_block(0, 0), c_block(0, 1)], [c_block(1, 0), c_block(1, 1)]])
-    s_z = sla.block_diag(sg, sN, s_theta)
+    s_z = block_diag(sg, sN, s_theta)
     nz = 3 + 3 * K + 2 * (K + 1)
     v = np.zeros((3 + 3 * K, nz))
     e_col = 3 + 3 * K  # theta_E(t*), then Theta_E (K), theta_N(t*), Theta_N (K)

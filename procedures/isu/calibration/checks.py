@@ -27,7 +27,7 @@ from collections.abc import Mapping
 import numpy as np
 
 from procedures.isu.calibration.accel_equations import ACCEL_PARAMS
-from procedures.isu.calibration.compute import Row, data_covariance, estimate
+from procedures.isu.calibration.compute import Row, data_covariance, estimate, estimate_of, readers
 from procedures.isu.calibration.forward import AccelModel, GyroModel
 from procedures.isu.calibration.geometry import FIRST_COLUMN, t_br
 from procedures.isu.calibration.gyro_equations import GYRO_PARAMS
@@ -58,17 +58,27 @@ def counters_of(key: Key) -> str:
     return f"counter{k + 1} (gyro {k})"
 
 
+def owner(key: Key) -> str:
+    """The instrument a G or F datum belongs to."""
+    kind, k, _ = key
+    return f"gyro{k}" if kind == "G" else f"accel{k}"
+
+
 def predictions(z: Mapping[Key, float], c: Constants, keys: list[Key],
                 special: Mapping[Row, float]) -> np.ndarray:
     """Each datum in ``keys`` as the constants computed from ``z`` predict it."""
-    est = estimate(z, c)
+    est: dict[Row, float | None] = {}
+    for inst in sorted({owner(key) for key in keys}):  # only the models these data need
+        est.update(estimate_of(z, c, inst))
     est = {**est, **special}
 
     def sub(prefix: str) -> dict[str, float | None]:
         return {p: v for (inst, p), v in est.items() if inst == prefix}
 
-    gyros = {k: GyroModel.from_estimates(k, sub(f"gyro{k}")) for k in (1, 2, 3)}
-    accels = {k: AccelModel.from_estimates(k, sub(f"accel{k}")) for k in (1, 2, 3)}
+    gyros = {k: GyroModel.from_estimates(k, sub(f"gyro{k}")) for k in (1, 2, 3)
+             if any(key[0] == "G" and key[1] == k for key in keys)}
+    accels = {k: AccelModel.from_estimates(k, sub(f"accel{k}")) for k in (1, 2, 3)
+              if any(key[0] != "G" and key[1] == k for key in keys)}
     out = []
     for kind, k, m in keys:
         if kind == "G" and m in TURNING_POSITIONS:
@@ -119,12 +129,19 @@ def check_residuals(data: CalibrationData, rows: list[ResultRow],
     steps = np.where(steps > 0, steps, 1e-9 * np.maximum(np.abs(z0), 1.0))
     jac = np.zeros((len(judged), len(keys)))
     for i, h in enumerate(steps):
+        # Only the data of the instruments that read this datum (and the datum itself)
+        # move: the other residuals would come out identical, their differences zero.
+        near = set(readers(keys[i]))
+        idx = [j for j, key in enumerate(judged) if owner(key) in near or key == keys[i]]
+        if not idx:
+            continue
+        moved = [judged[j] for j in idx]
         zp, zm = dict(red.values), dict(red.values)
         zp[keys[i]] = z0[i] + h
         zm[keys[i]] = z0[i] - h
-        rp = np.array([zp[key] for key in judged]) - predictions(zp, c, judged, special)
-        rm = np.array([zm[key] for key in judged]) - predictions(zm, c, judged, special)
-        jac[:, i] = (rp - rm) / (2.0 * h)
+        rp = np.array([zp[key] for key in moved]) - predictions(zp, c, moved, special)
+        rm = np.array([zm[key] for key in moved]) - predictions(zm, c, moved, special)
+        jac[idx, i] = (rp - rm) / (2.0 * h)
     var = np.einsum("ij,jk,ik->i", jac, cov, jac)
     for row, s in sp_sigma.items():  # Q_II, Q_IS at their sigmas (special experiments)
         if s:

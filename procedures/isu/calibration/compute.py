@@ -104,6 +104,25 @@ def data_covariance(
     return DataCovariance(red, keys, c, noise, gyros, accels, table, tbr).matrix()
 
 
+def estimator_jacobian(z: Mapping[Key, float], c: Constants, keys: list[Key], rows: list[Row],
+                       steps: np.ndarray) -> np.ndarray:
+    """d(rows)/d(data) of the closed forms by central differences of ``steps``. Only the
+    instruments that read a datum are estimated again: the others' rows would come out
+    identical, their differences exactly zero."""
+    jac = np.zeros((len(rows), len(keys)))
+    index = {r: n for n, r in enumerate(rows)}
+    for i, h in enumerate(steps):
+        zp, zm = dict(z), dict(z)
+        zp[keys[i]] = z[keys[i]] + h
+        zm[keys[i]] = z[keys[i]] - h
+        for inst in readers(keys[i]):
+            ep, em = estimate_of(zp, c, inst), estimate_of(zm, c, inst)
+            for r in ep:
+                if r in index:
+                    jac[index[r], i] = _central_difference(ep[r], em[r], h, r, keys[i])
+    return jac
+
+
 def constants_covariance(
     data: CalibrationData, noise: NoiseSpec | None = None
 ) -> tuple[dict[Row, float | None], list[Row], np.ndarray]:
@@ -119,19 +138,7 @@ def constants_covariance(
     steps = np.sqrt(np.maximum(np.diag(cov), 0.0))
     steps = np.where(steps > 0, steps, 1e-9 * np.maximum(np.abs(z0), 1.0))
     rows = [r for r, v in est.items() if v is not None]
-    jac = np.zeros((len(rows), len(keys)))
-    index = {r: n for n, r in enumerate(rows)}
-    for i, h in enumerate(steps):
-        # Only the instruments that read the datum are estimated again: the others' rows
-        # would come out identical, their differences exactly zero.
-        zp, zm = dict(red.values), dict(red.values)
-        zp[keys[i]] = z0[i] + h
-        zm[keys[i]] = z0[i] - h
-        for inst in readers(keys[i]):
-            ep, em = estimate_of(zp, c, inst), estimate_of(zm, c, inst)
-            for r in ep:
-                if r in index:
-                    jac[index[r], i] = _central_difference(ep[r], em[r], h, r, keys[i])
+    jac = estimator_jacobian(red.values, c, keys, rows, steps)
     m = jac @ cov @ jac.T
     for i, (inst, p) in enumerate(rows):  # the turn of O, S about G no position measures
         if inst.startswith("gyro"):

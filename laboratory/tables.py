@@ -46,9 +46,23 @@ def print_fitted(console: Console, title: str, cols: Sequence[Column],
         console.print(whole)
         return
     key_idx = list(range(keys))
+    parts = _parts_by_widths(console, cols, rows, key_idx, everything[keys:])
+    if parts is None:  # the widths did not add up: measure each trial table as it grows
+        parts = _parts_by_trials(console, cols, rows, key_idx, everything[keys:])
+    for n, part in enumerate(parts, 1):
+        console.print(_table(f"{title} ({n}/{len(parts)})", cols, rows, key_idx + part))
+
+
+def _width(console: Console, table: Table) -> int:
+    return Measurement.get(console, console.options.update_width(10_000), table).maximum
+
+
+def _parts_by_trials(console: Console, cols: Sequence[Column], rows: Sequence[Sequence[str]],
+                     key_idx: list[int], rest: list[int]) -> list[list[int]]:
+    """The parts by measuring key columns + the part so far + the next column each time."""
     parts: list[list[int]] = []
     cur: list[int] = []
-    for i in everything[keys:]:
+    for i in rest:
         trial = _table(None, cols, rows, key_idx + cur + [i])
         if cur and not fits(console, trial):
             parts.append(cur)
@@ -56,5 +70,29 @@ def print_fitted(console: Console, title: str, cols: Sequence[Column],
         cur.append(i)
     if cur:
         parts.append(cur)
-    for n, part in enumerate(parts, 1):
-        console.print(_table(f"{title} ({n}/{len(parts)})", cols, rows, key_idx + part))
+    return parts
+
+
+def _parts_by_widths(console: Console, cols: Sequence[Column], rows: Sequence[Sequence[str]],
+                     key_idx: list[int], rest: list[int]) -> list[list[int]] | None:
+    """The same parts from each column's width measured once (a table's natural width is
+    the key columns' plus each added column's); None when a part's real width disagrees."""
+    if not rest:
+        return []
+    base = _width(console, _table(None, cols, rows, key_idx))
+    extra = {i: _width(console, _table(None, cols, rows, key_idx + [i])) - base for i in rest}
+    parts: list[list[int]] = []
+    cur: list[int] = []
+    width = base
+    for i in rest:
+        if cur and width + extra[i] > console.width:
+            parts.append(cur)
+            cur, width = [], base
+        cur.append(i)
+        width += extra[i]
+    parts.append(cur)
+    for part in parts:  # the sum is the width, or fall back to measuring every trial
+        real = _width(console, _table(None, cols, rows, key_idx + part))
+        if real != base + sum(extra[i] for i in part):
+            return None
+    return parts

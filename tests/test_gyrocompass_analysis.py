@@ -155,3 +155,20 @@ def test_monte_carlo_correction_restores_honesty_with_instability():
     # corrected t test keeps its 5 % size when theta is truly zero
     rate = np.mean([r.operating.mean_test.significant for r in reports])
     assert rate < 0.10
+
+
+def test_quantiles_agree_with_scipy():
+    """procedures.quantiles (no scipy at run time) against scipy.special over the dof and
+    levels a gyrocompassing test can ask for, including one-sided extremes."""
+    from scipy.special import fdtri, stdtrit
+
+    from procedures.quantiles import f_quantile, t_quantile
+
+    for dfn in (1, 2, 5, 9, 24, 34, 100, 900, 5000):
+        for dfd in (1, 3, 9, 24, 35, 360, 900, 10_000):
+            for p in (0.1, 0.5, 0.9, 0.95, 0.99, 0.999):
+                assert f_quantile(p, dfn, dfd) == pytest.approx(fdtri(dfn, dfd, p), rel=1e-9)
+    for dof in (1, 2, 5, 10, 24, 34, 360, 10**6):
+        for p in (0.6, 0.95, 0.975, 0.995, 0.9995):
+            assert t_quantile(p, dof) == pytest.approx(stdtrit(dof, p), rel=1e-9)
+            assert t_quantile(1.0 - p, dof) == pytest.approx(stdtrit(dof, 1.0 - p), rel=1e-9)

@@ -10,6 +10,7 @@ import math
 from dataclasses import dataclass
 
 from procedures.cigtf.analysis import PhaseValues
+from procedures.quantiles import f_quantile, t_quantile
 
 ALPHA = 0.05
 
@@ -30,16 +31,12 @@ class TestOutcome:
 
 def t_threshold(dof: int, alpha: float = ALPHA) -> float:
     """Two-sided Student t point; 1.96 for the report's large dof."""
-    from scipy.special import stdtrit
-
-    return float(stdtrit(dof, 1.0 - alpha / 2.0))
+    return t_quantile(1.0 - alpha / 2.0, dof)
 
 
 def f_threshold(dfn: int, dfd: int, alpha: float = ALPHA) -> float:
     """Upper F point: 1.53 (24, 900), 1.91 (9, 360), 2.30 (9, 24) in the report."""
-    from scipy.special import fdtri
-
-    return float(fdtri(dfn, dfd, 1.0 - alpha))
+    return f_quantile(1.0 - alpha, dfn, dfd)
 
 
 def noise_f_test(phase: PhaseValues, alpha: float = ALPHA) -> TestOutcome:

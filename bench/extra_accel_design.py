@@ -22,10 +22,18 @@ from procedures.isu.calibration.compute import constants_covariance
 from procedures.isu.calibration.forward import AccelModel
 from procedures.isu.calibration.geometry import frame_at, setting_for
 from procedures.isu.calibration.inputs import EXTRA_FIRST, ExtraAccelPosition
-from procedures.isu.extra_positions import SET_S, gate_of, tilted_ups
+from procedures.isu.extra_positions import SET_S, tilted_ups
 from station.config.isu import load_config
 
 VERTICAL_S, HORIZONTAL_S, F0 = 600.0, 1800.0, 20000.0
+# the plan's gates per accelerometer (vertical within 45 deg), and the vertical gate for all
+GATES = ((VERTICAL_S, HORIZONTAL_S), (VERTICAL_S, VERTICAL_S))
+
+
+def gate_of(a_up: float, vertical_s: float, horizontal_s: float) -> float:
+    """The vertical gate for an accelerometer nearer vertical than horizontal, else the
+    horizontal one (the manual counts the bisector positions with the horizontal gate)."""
+    return vertical_s if abs(a_up) > math.sqrt(0.5) + 1e-9 else horizontal_s
 
 
 def cone_ups(tilts: list[float]) -> list[np.ndarray]:
@@ -48,7 +56,10 @@ def extend(doc: dict, truth: dict, ups: list[np.ndarray], vertical_s: float,
     t = max(p.t1 for p in data.accel.values()) + SET_S
     extra = {}
     for i, u in enumerate(ups):
-        p3, p4 = setting_for(u, t_bi)
+        if i % 2 == 0:  # the second of each pair: phi3 + 180 deg (as the procedure)
+            p3, p4 = setting_for(u, t_bi)
+        else:
+            p3 += math.pi
         fr = frame_at(t_bi, p3, p4)
         gamma, n1 = {}, {}
         gate = 0.0
@@ -93,7 +104,7 @@ def main() -> None:
         line = [f"{name:8s} manual " + " ".join(
             f"{cf[(f'accel{k}', 'D1')] / b0[(f'accel{k}', 'D1')]:.2f}" for k in (1, 2, 3))]
         for dname, ups in designs.items():
-            for vs, hs in ((VERTICAL_S, HORIZONTAL_S), (VERTICAL_S, VERTICAL_S)):
+            for vs, hs in GATES:
                 ext = extend(doc, truth, ups, vs, hs)
                 crows, crb = cramer_rao(ext, tr, noise, closed=est)
                 s = {r: math.sqrt(crb[i, i]) for i, r in enumerate(crows)}

@@ -8,8 +8,27 @@ levels, as the bisector positions 13, 14 (Chart II-14) do at one.
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
+
+from procedures.isu.accel_static import COUNTERS, accel_kind
+from procedures.isu.calibration.geometry import frame_at, setting_for
+from procedures.isu.calibration.inputs import EXTRA_FIRST
+from procedures.isu.sheets import (
+    CounterOutputs,
+    CounterSettings,
+    PositionSetting,
+    ResolverSettings,
+)
+from procedures.isu.static_positions import Uncorrected, pair_steps, run_static
+from procedures.runner import Run
+
+if TYPE_CHECKING:
+    from station.drivers.isu import IsuDrivers
+
+CHART = "II-14E"  # ours, not the manual's: the extension of Chart II-14
+TITLE = "Accelerometer scale factor and third order, tilted positions (beyond the manual)"
 
 SET_S = 25.0  # setting the table with level corrections, about (a default day's positions)
 E3 = np.eye(3)
@@ -27,8 +46,49 @@ def tilted_ups(tilts_deg: list[float] | tuple[float, ...]) -> list[np.ndarray]:
     return out
 
 
-def gate_of(a_up: float, vertical_s: float, horizontal_s: float) -> float:
-    """An accelerometer's gate at a tilted position: the plan's vertical gate when its input
-    axis is nearer vertical than horizontal (|A.up| > cos 45 deg), else the horizontal gate
-    (the manual counts the bisector positions 13, 14 with the horizontal gate, II-6.2)."""
-    return vertical_s if abs(a_up) > math.sqrt(0.5) + 1e-9 else horizontal_s
+def extra_numbers(tilts_deg: tuple[float, ...]) -> list[int]:
+    """Position numbers of the extra positions: 16 on, in ``tilted_ups`` order."""
+    return list(range(EXTRA_FIRST, EXTRA_FIRST + 6 * len(tilts_deg)))
+
+
+def extra_settings(tilts_deg: tuple[float, ...], t_bi: np.ndarray) -> dict[int, dict]:
+    """Per extra position: resolver setting (phi3, phi4, deg; the second of each pair is
+    the first with phi3 + 180 deg, as positions 8, 10, 12) and the nominal body up and north
+    (Chart I-4 chain from the survey's T^BI)."""
+    out = {}
+    ups = tilted_ups(tilts_deg)
+    for i, m in enumerate(extra_numbers(tilts_deg)):
+        if i % 2 == 0:
+            p3, p4 = setting_for(ups[i], t_bi)
+        else:
+            p3 += math.pi
+        fr = frame_at(t_bi, p3, p4)
+        out[m] = {"setting_deg": (math.degrees(p3) % 360.0, math.degrees(p4)),
+                  "up": tuple(float(x) for x in fr[:, 0]),
+                  "north": tuple(float(x) for x in fr[:, 1])}
+    return out
+
+
+def extra_accel_positions(st: IsuDrivers, run: Run, t_bi: np.ndarray,
+                          tilts_deg: tuple[float, ...], vertical_s: float,
+                          outputs: CounterOutputs, f0: float,
+                          uncorrected: Uncorrected | None = None,
+                          precision_arcsec: float = 0.0) -> dict[int, dict]:
+    """The extra chart (after Chart II-14, as it: bubble corrections, "measure X-Y"): every
+    string counted over the plan's vertical gate, the scale factor's; the outputs go to the
+    Counter Outputs Sheet as rows "accel 16" on; each record carries its setting and the
+    nominal up and north, which the all-positions fit models."""
+    geo = extra_settings(tilts_deg, t_bi)
+    settings = ResolverSettings(positions={
+        str(m): PositionSetting(phi1=0.0, phi2=90.0, phi3=g["setting_deg"][0],
+                                phi4=g["setting_deg"][1], bubble_correction=True)
+        for m, g in geo.items()})
+    preset = int(math.ceil(vertical_s * f0))
+    presets = CounterSettings(
+        presets={f"accel {m}": {str(c): preset for c in COUNTERS} for m in geo},
+        basis={"accelerometer 16 on": f"{vertical_s / 60:g} min, the vertical gate"})
+    run.save_sheet("extra_resolver_settings", settings)
+    steps = pair_steps(list(geo)[::2])
+    data = run_static(st, run, CHART, TITLE, accel_kind(f0), settings, presets, outputs,
+                      steps, uncorrected, precision_arcsec)
+    return {m: {**d, **geo[m]} for m, d in data.items()}

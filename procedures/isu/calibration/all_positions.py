@@ -4,12 +4,13 @@ every reduced datum of the day, beside the manual's closed forms (issue 19).
 Model: the Chart IV-1/IV-2 forward model of ``forward`` (full misaligned axes in every term)
 at the positions of Chart I-4's geometry (``geometry.t_br``); the data are ``reduce_all``'s
 rates of positions 1-15, any extra accelerometer positions (16 on, beyond the manual:
-``[calibration] extra_accel_tilts_deg``) and any supplied (D1 D3) or [(G.B)/DeltaPhi]. The table rate of positions
-1-6 enters the model as measured; its error, correlated with the gyro rates through counter
-1's clock count, is carried into the residuals' covariance. Weights: the full data
-covariance of ``covariance.DataCovariance`` (noise, drift, pier tilt, the table's orientation
-errors as correlated noise). Gauss-Newton iterated (the model is nonlinear in DeltaPhi, the
-axes and D1); the estimate's covariance is (J^T Sigma^-1 J)^-1 carried to the sheet's rows.
+``[calibration] extra_accel_tilts_deg``) and any supplied (D1 D3) or [(G.B)/DeltaPhi]. The
+table rate of positions 1-6 enters the model as measured; its error, correlated with the
+gyro rates through counter 1's clock count, is carried into the residuals' covariance.
+Weights: the full data covariance of ``covariance.DataCovariance`` (noise, drift, pier tilt,
+the table's orientation errors as correlated noise). Gauss-Newton iterated (the model is
+nonlinear in DeltaPhi, the axes and D1); the estimate's covariance is (J^T Sigma^-1 J)^-1
+carried to the sheet's rows.
 
 Parameters (internal): per gyro g = G/DeltaPhi (pulses/deg, three components) and the drift
 coefficients in deg/hr; per accelerometer P = D1 A ((pulses/s)/g) and D1 D0, D1 D2, D1 D3.

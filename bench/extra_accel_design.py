@@ -85,7 +85,8 @@ def main() -> None:
     s2 = 1.0 / math.sqrt(2.0)
     diag = [np.ones(3) / math.sqrt(3.0), -np.ones(3) / math.sqrt(3.0)]
     designs = {"plane 30": tilted_ups([30.0]), "plane 45": tilted_ups([45.0]),
-               "plane 60": tilted_ups([60.0]), "plane 45 2pr": tilted_ups([45.0])[:4],
+               "plane 60": tilted_ups([60.0]),
+               "plane 45 3pr": [*tilted_ups([45.0]), np.array([s2, 0, s2]), -np.array([s2, 0, s2])],
                "plane 30 2pr": tilted_ups([30.0])[:4],
                "diag 1pr": diag, "cone 35": cone_ups([35.0]),
                "plane 30,60": tilted_ups([30.0, 60.0]),

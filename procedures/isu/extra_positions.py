@@ -35,12 +35,14 @@ E3 = np.eye(3)
 
 
 def tilted_ups(tilts_deg: list[float] | tuple[float, ...]) -> list[np.ndarray]:
-    """Body vectors put up: per tilt theta and accelerometer k, +-(cos theta B_k + sin theta
-    B_k+1) (k + 1 cyclic): accelerometer k at cos theta, k + 1 at sin theta (of g)."""
+    """Body vectors put up, in pairs +-u: per tilt theta and accelerometer k,
+    u = cos theta B_k + sin theta B_k+1 (k + 1 cyclic), accelerometer k at cos theta and k + 1
+    at sin theta (of g). At 45 deg a pair tilts both by 45: the pairs of k = 1, 2 then tilt
+    all three accelerometers, and the third pair is left out (four positions, not six)."""
     out = []
     for th in tilts_deg:
         c, s = math.cos(math.radians(th)), math.sin(math.radians(th))
-        for k in range(3):
+        for k in ((0, 1) if math.isclose(th, 45.0) else (0, 1, 2)):
             u = c * E3[k] + s * E3[(k + 1) % 3]
             out += [u, -u]
     return out
@@ -48,7 +50,7 @@ def tilted_ups(tilts_deg: list[float] | tuple[float, ...]) -> list[np.ndarray]:
 
 def extra_numbers(tilts_deg: tuple[float, ...]) -> list[int]:
     """Position numbers of the extra positions: 16 on, in ``tilted_ups`` order."""
-    return list(range(EXTRA_FIRST, EXTRA_FIRST + 6 * len(tilts_deg)))
+    return list(range(EXTRA_FIRST, EXTRA_FIRST + len(tilted_ups(tilts_deg))))
 
 
 def extra_settings(tilts_deg: tuple[float, ...], t_bi: np.ndarray) -> dict[int, dict]:

@@ -8,10 +8,10 @@ from __future__ import annotations
 
 from typing import Annotated, Literal
 
-from pydantic import BaseModel, BeforeValidator, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict, Field
 
-# TOML arrays arrive as lists; the strict model holds tuples
-AsTuple = BeforeValidator(lambda v: tuple(v) if isinstance(v, list) else v)
+from station.config.alignment import AsTuple  # TOML arrays as the strict model's tuples
+
 TiltDeg = Annotated[float, Field(gt=0.0, lt=90.0)]
 
 
@@ -37,9 +37,10 @@ class CalibrationOptions(BaseModel):
     # the laboratory's result on the Calibration Results Sheet (issue 19): the manual's
     # closed forms (II-4.2, II-4.3) or the all-positions least-squares fit shown beside them
     estimator: Literal["closed-form", "all-positions"] = "closed-form"
-    # issue 19, beyond the manual: after Chart II-14, per tilt six static positions with each
-    # accelerometer's input axis that far from vertical, both signs (II-5's positions 7-15
-    # scheme, Chart II-14's bisector generalized); only the all-positions fit takes them
+    # issue 19, beyond the manual: after Chart II-14 (chart II-14E), per tilt six static
+    # positions (four at 45 deg) with each accelerometer's input axis that far from vertical,
+    # both signs (II-5's positions 7-15 scheme, Chart II-14's bisector generalized); only the
+    # all-positions fit takes them
     extra_accel_tilts_deg: Annotated[tuple[TiltDeg, ...], AsTuple,
                                      Field(max_length=4)] = ()
 

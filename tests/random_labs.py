@@ -63,16 +63,16 @@ def random_lab(seed: int) -> StationConfig:
                                              "isu": {"gyros": gyros, "accels": accels}})
 
 
-def calibration_day(cfg: StationConfig, charts: tuple[str, ...] = POSITION_CHARTS
-                    ) -> tuple[dict, dict, dict, dict]:
+def calibration_day(cfg: StationConfig, charts: tuple[str, ...] = POSITION_CHARTS,
+                    plan: DayPlan | None = None) -> tuple[dict, dict, dict, dict]:
     """(CalibrationData as JSON, NoiseSpec as JSON, truth, the II-7 speed series) of the
-    lab's ``charts`` (default the position charts only)."""
+    lab's ``charts`` (default the position charts only) under ``plan`` (default DayPlan())."""
     rack = SimulatedRack(cfg)
     st = open_isu_drivers(cfg, rack)
     try:
         with tempfile.TemporaryDirectory() as tmp:
             run = Run(st.clock, Journal(Path(tmp) / "journal.jsonl"))
-            plan, site, noise = DayPlan(), site_of(cfg), noise_spec(cfg)
+            plan, site, noise = plan or DayPlan(), site_of(cfg), noise_spec(cfg)
             data = measure_day(st, run, plan, site, cfg.isu.accels[0].f0_hz,
                                only=charts, noise=noise)
             cd = calibration_data(data, plan, site)

@@ -28,7 +28,9 @@ TITLE_13_14 = "Accelerometer third order terms, positions 13 and 14"
 COUNTERS = tuple(STRINGS)
 
 
-def _kind(f0: float) -> StaticKind:
+def accel_kind(f0: float) -> StaticKind:
+    """What an accelerometer position counts and records (Charts II-13, II-14)."""
+
     def record(n: dict[int, int], gate: Gate, ps: PositionSet) -> dict:
         return {"gamma": {str(c): n[c] for c in COUNTERS},
                 "n1": {str(c): gate.readings[c] for c in COUNTERS},
@@ -49,7 +51,7 @@ def accel_positions_7_12(st: IsuDrivers, run: Run, settings: ResolverSettings,
                          f0: float, pairs: tuple[int, ...] = (7, 9, 11),
                          uncorrected: Uncorrected | None = None,
                         precision_arcsec: float = 0.0) -> dict[int, dict]:
-    return run_static(st, run, "II-13", TITLE_7_12, _kind(f0), settings, presets, outputs,
+    return run_static(st, run, "II-13", TITLE_7_12, accel_kind(f0), settings, presets, outputs,
                       pair_steps(pairs), uncorrected, precision_arcsec)
 
 
@@ -58,5 +60,5 @@ def accel_positions_13_14(st: IsuDrivers, run: Run, settings: ResolverSettings,
                           f0: float, positions: tuple[int, ...] = (13, 14),
                           uncorrected: Uncorrected | None = None,
                         precision_arcsec: float = 0.0) -> dict[int, dict]:
-    return run_static(st, run, "II-14", TITLE_13_14, _kind(f0), settings, presets, outputs,
+    return run_static(st, run, "II-14", TITLE_13_14, accel_kind(f0), settings, presets, outputs,
                       single_steps(positions), uncorrected, precision_arcsec)

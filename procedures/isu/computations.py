@@ -27,6 +27,7 @@ from procedures.isu.calibration.checks import K_RESULT, check_residuals, check_s
 from procedures.isu.calibration.compute import calibrate_with_correlation, without
 from procedures.isu.calibration.forward import GyroModel
 from procedures.isu.calibration.geometry import FIRST_COLUMN
+from procedures.isu.calibration.inputs import ExtraAccelPosition
 from procedures.isu.calibration.neglected import g_terms
 from procedures.isu.carry_forward import PriorSheet
 from procedures.isu.day import DayData
@@ -88,9 +89,15 @@ def calibration_data(data: DayData, plan: DayPlan, site: Site,
     d1d3, d1d3_sigma = ({}, {}) if prior is None else cf.last_d1d3(prior, set(accel))
     if last_d1d3:
         d1d3, d1d3_sigma = last_d1d3, {}
+    extra = {m: ExtraAccelPosition(
+        gamma={STRING_KEY[int(c)]: v for c, v in d["gamma"].items()},
+        n1={STRING_KEY[int(c)]: v for c, v in d["n1"].items()},
+        t0=d["t0"], t1=d["t1"], t_level=d["t_level"], up=tuple(d["up"]),
+        north=tuple(d["north"]), setting_deg=tuple(d["setting_deg"]))
+        for m, d in data.extra_accel.items()}  # II-14E, beyond the manual: the fit's only
     return CalibrationData(constants=const, gyro=gyro, accel=accel, last_d1d3=d1d3,
                            last_d1d3_sigma=d1d3_sigma, prior_gyro=supplied,
-                           geometry=geometry)
+                           geometry=geometry, extra_accel=extra)
 
 
 def _row(rows: list[ResultRow], inst: str, par: str) -> ResultRow:

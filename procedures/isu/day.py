@@ -1,11 +1,11 @@
 """The full calibration day of report 000, Parts I and II, in the laboratory's order.
 
 Turn-on (I-1), system survey (I-2), resolver and counter settings (II-6), the measurement
-check-sheets (II-6, II-7, II-7Q, II-10, II-11, II-12, II-13, II-14) and the calibration
-computations (II-15). ``only`` restricts the measurements to some charts (turn-on and survey
-always run: everything needs them); the computations then give exactly what Chart II-16
-allows from the positions measured.
-"""
+check-sheets (II-6, II-7, II-7Q, II-10, II-11, II-12, II-13, II-14; II-14E, the extra
+accelerometer positions beyond the manual, when ``[calibration] extra_accel_tilts_deg``
+asks) and the calibration computations (II-15). ``only`` restricts the measurements to some
+charts (turn-on and survey always run: everything needs them); the computations then give
+exactly what Chart II-16 allows from the positions measured."""
 
 from __future__ import annotations
 
@@ -13,10 +13,13 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
+import numpy as np
+
 from procedures.isu import settings as st_settings
 from procedures.isu.accel_static import accel_positions_7_12, accel_positions_13_14
 from procedures.isu.bubble import uncorrected_for
 from procedures.isu.calibration.noise_spec import NoiseSpec
+from procedures.isu.extra_positions import extra_accel_positions
 from procedures.isu.gyro_rotating import scale_factor_positions
 from procedures.isu.gyro_static import gyro_positions_7_12, gyro_positions_13_15
 from procedures.isu.j_term import j_experiment
@@ -32,7 +35,7 @@ from procedures.runner import Run
 if TYPE_CHECKING:
     from station.drivers.isu import IsuDrivers
 
-EXPERIMENTS = ("II-6", "II-7", "II-7Q", "II-10", "II-11", "II-12", "II-13", "II-14")
+EXPERIMENTS = ("II-6", "II-7", "II-7Q", "II-10", "II-11", "II-12", "II-13", "II-14", "II-14E")
 
 
 @dataclass
@@ -47,6 +50,7 @@ class DayData:
     nonlinearity: dict[int, list[dict]] = field(default_factory=dict)
     q_is: dict[int, list[dict]] = field(default_factory=dict)
     j_term: dict[int, list[dict]] = field(default_factory=dict)
+    extra_accel: dict[int, dict] = field(default_factory=dict)  # II-14E: 16 on (issue 19)
 
 
 def _by_position(d: dict) -> dict[int, Any]:
@@ -155,5 +159,10 @@ def measure_day(st: IsuDrivers, run: Run, plan: DayPlan, site: Site, f0: float,
     if "II-14" in wanted and (singles := _singles((13, 14), pos)):
         data.accel.update(chart("II-14", lambda: accel_positions_13_14(
             st, run, settings, presets, outputs, s1, f0, singles, unc["A"], prec["A"])))
+    tilts = plan.options.extra_accel_tilts_deg  # beyond the manual: none by default
+    if "II-14E" in wanted and tilts and pos is None:
+        data.extra_accel = chart("II-14E", lambda: extra_accel_positions(
+            st, run, np.asarray(survey.t_bi, dtype=float), tilts, acc_v_s, outputs, f0,
+            unc["A"], prec["A"]))
     run.save_sheet("counter_outputs", outputs)
     return data

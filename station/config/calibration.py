@@ -6,9 +6,13 @@ cites the section that offers the choice.
 
 from __future__ import annotations
 
-from typing import Literal
+from typing import Annotated, Literal
 
 from pydantic import BaseModel, ConfigDict, Field
+
+from station.config.alignment import AsTuple  # TOML arrays as the strict model's tuples
+
+TiltDeg = Annotated[float, Field(gt=0.0, lt=90.0)]
 
 
 class CalibrationOptions(BaseModel):
@@ -33,6 +37,12 @@ class CalibrationOptions(BaseModel):
     # the laboratory's result on the Calibration Results Sheet (issue 19): the manual's
     # closed forms (II-4.2, II-4.3) or the all-positions least-squares fit shown beside them
     estimator: Literal["closed-form", "all-positions"] = "closed-form"
+    # issue 19, beyond the manual: after Chart II-14 (chart II-14E), per tilt six static
+    # positions (four at 45 deg) with each accelerometer's input axis that far from vertical,
+    # both signs (II-5's positions 7-15 scheme, Chart II-14's bisector generalized); only the
+    # all-positions fit takes them
+    extra_accel_tilts_deg: Annotated[tuple[TiltDeg, ...], AsTuple,
+                                     Field(max_length=4)] = ()
 
     def precisions(self) -> dict[str, float]:
         """Setting precision (arcsec) by setting kind: "R" positions 1-6, "G" gyro and "A"

@@ -2,13 +2,15 @@
 every reduced datum of the day, beside the manual's closed forms (issue 19).
 
 Model: the Chart IV-1/IV-2 forward model of ``forward`` (full misaligned axes in every term)
-at the positions of Chart I-4's geometry (``geometry.t_br``); the data are ``reduce``'s rates
-of positions 1-15 and any supplied (D1 D3) or [(G.B)/DeltaPhi]. The table rate of positions
-1-6 enters the model as measured; its error, correlated with the gyro rates through counter
-1's clock count, is carried into the residuals' covariance. Weights: the full data
-covariance of ``covariance.DataCovariance`` (noise, drift, pier tilt, the table's orientation
-errors as correlated noise). Gauss-Newton iterated (the model is nonlinear in DeltaPhi, the
-axes and D1); the estimate's covariance is (J^T Sigma^-1 J)^-1 carried to the sheet's rows.
+at the positions of Chart I-4's geometry (``geometry.t_br``); the data are ``reduce_all``'s
+rates of positions 1-15, any extra accelerometer positions (16 on, beyond the manual:
+``[calibration] extra_accel_tilts_deg``) and any supplied (D1 D3) or [(G.B)/DeltaPhi]. The
+table rate of positions 1-6 enters the model as measured; its error, correlated with the
+gyro rates through counter 1's clock count, is carried into the residuals' covariance.
+Weights: the full data covariance of ``covariance.DataCovariance`` (noise, drift, pier tilt,
+the table's orientation errors as correlated noise). Gauss-Newton iterated (the model is
+nonlinear in DeltaPhi, the axes and D1); the estimate's covariance is (J^T Sigma^-1 J)^-1
+carried to the sheet's rows.
 
 Parameters (internal): per gyro g = G/DeltaPhi (pulses/deg, three components) and the drift
 coefficients in deg/hr; per accelerometer P = D1 A ((pulses/s)/g) and D1 D0, D1 D2, D1 D3.
@@ -36,10 +38,10 @@ from procedures.isu.calibration.compute import (
     estimate,
 )
 from procedures.isu.calibration.forward import NOMINAL_AXES, AccelModel, GyroModel
-from procedures.isu.calibration.geometry import FIRST_COLUMN, t_br
+from procedures.isu.calibration.geometry import FIRST_COLUMN, extra_t_br, t_br
 from procedures.isu.calibration.inputs import CalibrationData, Constants
 from procedures.isu.calibration.noise_spec import NoiseSpec
-from procedures.isu.calibration.reduce import Key, Reduced, reduce
+from procedures.isu.calibration.reduce import Key, Reduced, reduce_all
 from procedures.isu.sheets import ResultRow
 from sim.frames import cross3, norm3
 
@@ -205,6 +207,7 @@ class Design:
     combos: list[dict[Key, float]]  # each fitted datum as a combination of reduced data
     rows: list[Row]  # Chart II-5 rows the fit determines
     speeds: list[SpeedPoint]  # II-7 data fitted after the combinations
+    extra: dict[int, np.ndarray] = field(default_factory=dict)  # T^BR of positions 16 on
     t_br_cache: dict[int, np.ndarray] = field(default_factory=dict, repr=False, compare=False)
 
     def instruments(self) -> list[str]:
@@ -242,7 +245,7 @@ class Design:
     def _t_br(self, m: int) -> np.ndarray:
         """T^BRm of the day's survey, computed once per design (the constants are fixed)."""
         if m not in self.t_br_cache:
-            self.t_br_cache[m] = t_br(m, self.data.constants)
+            self.t_br_cache[m] = self.extra[m] if m in self.extra else t_br(m, self.data.constants)
         return self.t_br_cache[m]
 
     def model(self, theta: np.ndarray, w: Mapping[int, float] | None = None,
@@ -343,7 +346,7 @@ def design(data: CalibrationData, closed: Mapping[Row, float | None] | None = No
            red: Reduced | None = None, speeds: list[SpeedPoint] | None = None) -> Design:
     """The fit's design for the day's data: the closed forms' constants are the free ones;
     ``speeds`` (II-7) of a gyro the fit has Q_II for."""
-    red = red or reduce(data)
+    red = red or reduce_all(data)
     c: Constants = data.constants
     closed = closed if closed is not None else estimate(red.values, c)
     keys = list(red.values)
@@ -391,7 +394,7 @@ def design(data: CalibrationData, closed: Mapping[Row, float | None] | None = No
         combos += [{key: 1.0} for key in keys if key[0] in ("F", "X") and key[1] == k]
     with_q = {i for i, n in params if n == "Q_II"}
     kept = [sp for sp in (speeds or []) if f"gyro{sp.k}" in with_q]
-    return Design(data, red, keys, params, base, combos, rows, kept)
+    return Design(data, red, keys, params, base, combos, rows, kept, extra_t_br(data))
 
 
 # ------------------------------------------------------------------------------ the fit
@@ -424,7 +427,7 @@ def fit(data: CalibrationData, noise: NoiseSpec | None = None,
     """The all-positions estimate of the day's constants and its full covariance;
     ``series``: the day's II-7 speed series (``DayData.nonlinearity``), fitted too."""
     noise = noise or NoiseSpec()
-    red = reduce(data)
+    red = reduce_all(data)
     closed = closed if closed is not None else estimate(red.values, data.constants)
     d = design(data, closed, red, speed_points(series or {}, data.constants))
     if not d.params:
@@ -464,7 +467,7 @@ def cramer_rao(data: CalibrationData, at: Mapping[Row, float | None],
     information (Gaussian data of covariance Sigma_z) at the constants ``at`` (the truth in a
     simulation, the estimate in a laboratory), carried to the Chart II-5 rows."""
     noise = noise or NoiseSpec()
-    red = reduce(data)
+    red = reduce_all(data)
     closed = closed if closed is not None else estimate(red.values, data.constants)
     d = design(data, closed, red, speed_points(series or {}, data.constants))
     if cov_z is None:
@@ -506,7 +509,7 @@ def side_by_side(rows: list[ResultRow], data: CalibrationData, noise: NoiseSpec 
         raise ValueError(f"estimator: {estimator!r} is not one of {', '.join(ESTIMATORS)}")
     noise = noise or NoiseSpec()
     closed, cf_rows, cf_cov = constants_covariance(data, noise)
-    red = reduce(data)
+    red = reduce_all(data)
     d = design(data, closed, red)
     cov_z = data_covariance(red, d.keys, data, noise, closed)
     try:

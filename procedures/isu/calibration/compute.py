@@ -19,7 +19,13 @@ from procedures.isu.calibration import chart_ii16
 from procedures.isu.calibration.accel_equations import ACCEL_PARAMS, accel_estimates
 from procedures.isu.calibration.covariance import DataCovariance, setting_of
 from procedures.isu.calibration.forward import AccelModel, GyroModel
-from procedures.isu.calibration.geometry import FIRST_COLUMN, TableErrorModel, t_br
+from procedures.isu.calibration.geometry import (
+    FIRST_COLUMN,
+    TableErrorModel,
+    extended_geometry,
+    extra_t_br,
+    t_br,
+)
 from procedures.isu.calibration.gyro_equations import GYRO_PARAMS
 from procedures.isu.calibration.inputs import CalibrationData, Constants
 from procedures.isu.calibration.neglected import corrected_gyro_estimates, spin_axis_variance
@@ -99,8 +105,9 @@ def data_covariance(
     gyros = {k: GyroModel.from_estimates(k, sub(f"gyro{k}")) for k in (1, 2, 3)}
     accels = {k: AccelModel.from_estimates(k, sub(f"accel{k}")) for k in (1, 2, 3)}
     settings = {s for key in keys if (s := setting_of(key)) is not None}
-    tbr = {s: _nominal_t_br(s[1], c) for s in settings}
-    table = TableErrorModel(data.geometry, noise)
+    extra = extra_t_br(data)  # positions beyond the manual (all-positions fit only)
+    tbr = {s: extra[s[1]] if s[1] in extra else _nominal_t_br(s[1], c) for s in settings}
+    table = TableErrorModel(extended_geometry(data), noise)
     return DataCovariance(red, keys, c, noise, gyros, accels, table, tbr).matrix()
 
 

@@ -21,7 +21,7 @@ from collections.abc import Iterable
 
 import numpy as np
 
-from procedures.isu.calibration.inputs import Constants, TableGeometry
+from procedures.isu.calibration.inputs import CalibrationData, Constants, TableGeometry
 from procedures.isu.calibration.noise_spec import ARCSEC, NoiseSpec
 from sim.frames import cross3
 
@@ -79,6 +79,39 @@ def chart_i5_settings(t_bi: np.ndarray) -> dict[int, tuple[float, float]]:
         p4 = math.atan2(float(x[1]), float(x[2])) if math.hypot(x[1], x[2]) > 1e-12 else 0.0
         out[m] = (p3, p4)
     return out
+
+
+def setting_for(up: np.ndarray, t_bi: np.ndarray) -> tuple[float, float]:
+    """Resolver setting (phi3, phi4), rad, that puts the body vector ``up`` along R1 (Chart
+    I-5's relation, for any vector: the extra accelerometer positions of issue 19)."""
+    x = t_bi.T @ (up / np.linalg.norm(up))
+    p3 = math.acos(max(-1.0, min(1.0, float(x[0]))))
+    p4 = math.atan2(float(x[1]), float(x[2])) if math.hypot(x[1], x[2]) > 1e-12 else 0.0
+    return p3, p4
+
+
+def frame_at(t_bi: np.ndarray, phi3: float, phi4: float) -> np.ndarray:
+    """T^BR at a setting (Chart I-4's chain T^BI G(phi4) G(phi3)): columns R1, R2, R3 in
+    body components; with phi1 = 0, phi2 = 90 and level corrections, R1 up and R2 north."""
+    return t_bi @ gimbal(phi4) @ gimbal(phi3)
+
+
+def extra_t_br(data: CalibrationData) -> dict[int, np.ndarray]:
+    """Nominal T^BR of the extra accelerometer positions: their recorded up and north."""
+    out = {}
+    for m, p in data.extra_accel.items():
+        up, north = np.asarray(p.up, dtype=float), np.asarray(p.north, dtype=float)
+        out[m] = np.column_stack((up, north, np.cross(up, north)))
+    return out
+
+
+def extended_geometry(data: CalibrationData) -> TableGeometry | None:
+    """The day's table geometry with the extra positions' resolver settings added."""
+    if not data.extra_accel:
+        return data.geometry
+    g = data.geometry or default_geometry()
+    extra = {m: p.setting_deg for m, p in data.extra_accel.items()}
+    return g.model_copy(update={"settings_deg": {**g.settings_deg, **extra}})
 
 
 DEFAULT_PHI0_DEG = (0.0, 90.0, 90.0, 0.0)  # B1 east, B2 north, B3 up with T^BI = I
@@ -179,7 +212,7 @@ class TableErrorModel:
     # ----- frames at a setting -----
     def angles(self, m: int) -> tuple[float, float]:
         """Commanded (phi3, phi4), rad, of position m (positions 7-12 reuse 1-6)."""
-        src = SURVEY_SOURCE[m]
+        src = SURVEY_SOURCE.get(m, m)  # an extra position (16 on) has its own setting
         if src not in self.settings:
             raise ValueError(f"no resolver setting for position {src} in the table geometry")
         p3, p4 = self.settings[src]
@@ -246,8 +279,8 @@ class TableErrorModel:
             self._source(("s4", kind, m), sn)
             if kind in self.precision:  # II-6.1: phi3, phi4 rounded, shared by the pair
                 q = self.precision[kind] / math.sqrt(12.0)
-                self._source(("q3", kind, PAIR[m]), q)
-                self._source(("q4", kind, PAIR[m]), q)
+                self._source(("q3", kind, PAIR.get(m, m)), q)
+                self._source(("q4", kind, PAIR.get(m, m)), q)
             if kind != "R":
                 self._source(("s2", kind, m), sn)
                 if kind in self.uncorrected:  # one setting of phi1, no reading of its own
@@ -270,8 +303,8 @@ class TableErrorModel:
             self._add(rows, ("s4", kind, m), self.t_bi[:, 0])
             self._add(rows, ("s3", kind, m), t_bo[:, 0])
             if kind in self.precision:
-                self._add(rows, ("q4", kind, PAIR[m]), self.t_bi[:, 0])
-                self._add(rows, ("q3", kind, PAIR[m]), t_bo[:, 0])
+                self._add(rows, ("q4", kind, PAIR.get(m, m)), self.t_bi[:, 0])
+                self._add(rows, ("q3", kind, PAIR.get(m, m)), t_bo[:, 0])
             self._inside(rows, t_bo, t_brg)
             if kind != "R":  # positions 7-15: R = (U, N, -E), so up, east, north are
                 t = nominal[key]  # the first column, minus the third and the second

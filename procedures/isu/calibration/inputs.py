@@ -28,6 +28,7 @@ GYRO_POSITIONS = tuple(range(1, 16))
 TURNING_POSITIONS = (1, 2, 3, 4, 5, 6)
 ACCEL_POSITIONS = tuple(range(7, 16))
 SURVEY_POSITIONS = (1, 3, 5, 13, 14, 15)
+EXTRA_FIRST = 16  # the first extra accelerometer position (beyond the manual's 1-15)
 
 
 class _In(BaseModel):
@@ -109,6 +110,17 @@ class AccelPosition(_In):
         return self
 
 
+class ExtraAccelPosition(AccelPosition):
+    """An accelerometer position beyond the manual (issue 19, ``extra_accel``): the table set
+    as positions 7-15 (phi1 = 0, phi2 = 90, level corrections) at resolver setting
+    ``setting_deg`` (phi3, phi4), which puts the body's ``up`` vertical with ``north`` north
+    (nominal body components, from the survey's T^BI and the gimbal chain of Chart I-4)."""
+
+    up: Vec3
+    north: Vec3
+    setting_deg: tuple[float, float]
+
+
 class TableGeometry(_In):
     """Survey results that fix how table errors turn the body at each position (optional).
 
@@ -143,6 +155,9 @@ class CalibrationData(_In):
         description="gyro k -> j -> ([(G_k.B_j)/DeltaPhi] pulses/deg, its sigma) carried "
         "from an earlier Calibration Results Sheet")
     geometry: TableGeometry | None = None
+    # positions beyond the manual (m >= EXTRA_FIRST): fitted by the all-positions estimator
+    # only, the closed forms ignore them
+    extra_accel: dict[int, ExtraAccelPosition] = Field(default_factory=dict)
 
     @model_validator(mode="after")
     def _positions(self) -> CalibrationData:
@@ -154,6 +169,9 @@ class CalibrationData(_In):
         for m in self.accel:
             if m not in ACCEL_POSITIONS:
                 raise ValueError(f"accelerometer position {m} is not one of 7..15")
+        for m in self.extra_accel:
+            if m < EXTRA_FIRST:
+                raise ValueError(f"extra accelerometer position {m}: numbered from {EXTRA_FIRST}")
         for k in (*self.last_d1d3, *self.last_d1d3_sigma):
             if k not in (1, 2, 3):
                 raise ValueError(f"no accelerometer {k}")

@@ -5,7 +5,8 @@ Keys (kind, k, m):
 * ("w", 0, m): table rate over the whole turns of position m = 1..6, deg/s,
   S^phi (Sigma n^phi) / ((Sigma n1^T) S1^T);
 * ("G", k, m): gyro k's pulse rate at position m, pulses/s, (Sigma delta) / ((Sigma n1^T) S1^T);
-* ("F", k, m): accelerometer k's f2 - f1 at position m, pulses/s, each string's
+* ("F", k, m): accelerometer k's f2 - f1 at position m (7-15; 16 on: the extra positions,
+  ``reduce_all``), pulses/s, each string's
   (Sigma gamma) / ((Sigma n1^T) S1^T) counted separately;
 * ("X", k, 0): the supplied last (D1 D3) of accelerometer k (Chart II-15 step 7);
 * ("P", k, j): a supplied [(G_k.B_j)/DeltaPhi], pulses/deg, from an earlier sheet (the
@@ -16,7 +17,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from procedures.isu.calibration.inputs import TURNING_POSITIONS, CalibrationData
+from procedures.isu.calibration.inputs import TURNING_POSITIONS, AccelPosition, CalibrationData
 
 Key = tuple[str, int, int]
 
@@ -61,20 +62,34 @@ def reduce(data: CalibrationData) -> Reduced:
         for k in (1, 2, 3):
             out.add(Record(("G", k, m), start, t, gp.n1), gp.delta[k - 1] / t)
     for m, p in sorted(data.accel.items()):
-        for k in (1, 2, 3):
-            if (k, 1) not in p.gamma or (k, 2) not in p.gamma:
-                continue
-            strings = []
-            for ell in (1, 2):
-                n1 = p.n1[(k, ell)]
-                strings.append((p.gamma[(k, ell)] / (n1 * s1), n1, n1 * s1))
-            rec = Record(
-                ("F", k, m), p.t0, max(s[2] for s in strings), 0.0, tuple(strings), p.t_level
-            )
-            out.add(rec, strings[1][0] - strings[0][0])
+        _accel(out, m, p, s1)
     for k, x in sorted(data.last_d1d3.items()):
         out.add(Record(("X", k, 0), sigma=data.last_d1d3_sigma.get(k, 0.0)), x)
     for k, js in sorted(data.prior_gyro.items()):
         for j, (v, sig) in sorted(js.items()):
             out.add(Record(("P", k, j), sigma=sig), v)
+    return out
+
+
+def _accel(out: Reduced, m: int, p: AccelPosition, s1: float) -> None:
+    """Each accelerometer's f2 - f1 at position m, its strings counted separately."""
+    for k in (1, 2, 3):
+        if (k, 1) not in p.gamma or (k, 2) not in p.gamma:
+            continue
+        strings = []
+        for ell in (1, 2):
+            n1 = p.n1[(k, ell)]
+            strings.append((p.gamma[(k, ell)] / (n1 * s1), n1, n1 * s1))
+        rec = Record(
+            ("F", k, m), p.t0, max(s[2] for s in strings), 0.0, tuple(strings), p.t_level
+        )
+        out.add(rec, strings[1][0] - strings[0][0])
+
+
+def reduce_all(data: CalibrationData) -> Reduced:
+    """``reduce`` plus the extra accelerometer positions (m >= 16, beyond the manual), which
+    only the all-positions fit takes."""
+    out = reduce(data)
+    for m, p in sorted(data.extra_accel.items()):
+        _accel(out, m, p, data.constants.s1_t)
     return out

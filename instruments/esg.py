@@ -22,12 +22,17 @@ built with three counters, ``EsgParams.counters = 3``, reads all three at once):
 The settings commands and TZERO are refused while a stream runs (ERR 16 busy); queries
 are answered between the lines. A data line (Appendix A) is six 7-digit fields:
 ``time C1(p1) C1(p2) C1(p3) run period_sum``, time in 1e-5 h of the processor clock.
-Dividing head: SPIN <deg> | STEP <deg> | SPIN? | STAT? (HOLD | MOVING).
+Dividing head: SPIN <deg> | STEP <deg> | SPIN? | STAT? (HOLD | MOVING) | SHIM <x> <y>
+(the case re-shimmed on the adapter plate: mirror 1 moved by x, y arcsec on the
+theodolite's axes, |x|, |y| <= 120; ERR 16 while the spindle moves, ERR 19 with the rotor
+spinning).
 Turntable and tilt: AZ <deg> | TILT <deg> | AZ? | TILT? | LOCK | UNLOCK | STAT?
 (HOLD | MOVING | LOCKED).
 Theodolite: READ? -> "<x> <y>" arcsec.
 Gyro control console: SPIN UP|OFF | DAMP ON|OFF | STAT? | SPEED? | LAMP <k> <percent>
-(50..150 of the nominal lamp current) | LAMP? <k>.
+(50..150 of the nominal lamp current) | LAMP? <k> | XLATE <k> <a> <b> (pickoff k translated
+in its fixture: its line of sight moved a, b arcsec along the next two case axes, |a|,
+|b| <= 120).
 """
 
 from __future__ import annotations
@@ -52,6 +57,9 @@ WRAP = 10**7  # seven-digit fields
 REVOLUTIONS = (1, 2, 4, 8, 10)
 MAX_LINES = 1_000_000
 BUSY = 16
+SPINNING = 19  # the head refuses a shim with the rotor spinning
+SHIM_MAX_ARCSEC = 120.0  # the adapter plate's shims: mirror 1 moved at most this far
+XLATE_MAX_ARCSEC = 120.0  # the pickoff fixture's travel (line of sight, arcsec)
 
 # what a garbled line may carry instead of a digit: printable non-digits (never a space,
 # which would change the field count) and bytes a noisy line turns into
@@ -294,6 +302,17 @@ class DividingHead(ByteInstrument):
         self.define("STEP <deg>", self._step)
         self.define("SPIN?", lambda _: f"{world.head_reading_deg() % 360.0:.5f}")
         self.define("STAT?", lambda _: "MOVING" if world.head_moving() else "HOLD")
+        self.define("SHIM <x> <y>", self._shim)
+
+    def _shim(self, args: list[str]) -> str:
+        x = _in_range(args[0], "shim x", -SHIM_MAX_ARCSEC, SHIM_MAX_ARCSEC)
+        y = _in_range(args[1], "shim y", -SHIM_MAX_ARCSEC, SHIM_MAX_ARCSEC)
+        if self.world.head_moving():
+            raise _busy("spindle still moving")
+        if self.world.console_status()["spin_rps"] > 0.0:
+            raise InstrumentError(SPINNING, "rotor spinning: shim the mounting at rest")
+        self.world.shim(x, y)
+        return "OK"
 
     def _move(self, deg: float) -> str:
         if self.world.head_moving():
@@ -391,6 +410,14 @@ class GyroConsole(ByteInstrument):
         self.define("SPEED?", lambda _: f"{world.console_status()['spin_rps']:.2f}")
         self.define("LAMP <k> <percent>", self._lamp)
         self.define("LAMP? <k>", lambda a: f"{100.0 * world.lamp(_pickoff(a[0])):.1f}")
+        self.define("XLATE <k> <a> <b>", self._translate)
+
+    def _translate(self, args: list[str]) -> str:
+        k = _pickoff(args[0])
+        a = _in_range(args[1], "translation a", -XLATE_MAX_ARCSEC, XLATE_MAX_ARCSEC)
+        b = _in_range(args[2], "translation b", -XLATE_MAX_ARCSEC, XLATE_MAX_ARCSEC)
+        self.world.translate_pickoff(k, a, b)
+        return "OK"
 
     def _lamp(self, args: list[str]) -> str:
         k = _pickoff(args[0])

@@ -23,7 +23,7 @@ import uuid
 from collections.abc import Iterator, Mapping
 from contextlib import contextmanager
 from contextvars import ContextVar
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from importlib import metadata
 from pathlib import Path
 from typing import Annotated, Any
@@ -302,6 +302,9 @@ class Identifying:
     section: str
     model: type[Any]  # the section's config model (CigtfConfig, EsgConfig)
     params: Any
+    # sub-tables of the section the params do not hold (the ESG's [esg.procedure]: the
+    # settings the run used), written over the ones read from the params
+    tables: dict[str, dict[str, Any]] = field(default_factory=dict)
 
     def config(self) -> tuple[dict[str, Any], str, dict[str, str]]:
         """The resolved config document, station_id and unit serials."""
@@ -309,8 +312,9 @@ class Identifying:
 
         inv = _INVOCATION.get() or Invocation()
         ident = inv.identity or load_identity(None, self.section.upper())
-        return (section_config(self.section, self.model, self.params, ident),
-                ident.station_id, ident.unit.model_dump())
+        doc = section_config(self.section, self.model, self.params, ident)
+        doc[self.section].update(self.tables)
+        return doc, ident.station_id, ident.unit.model_dump()
 
 
 def _close(ident: RunIdentity, e: BaseException | None) -> None:

@@ -484,7 +484,8 @@ HEAD = Grammar("head", "ESG-LAB,DIVIDING-HEAD,0,1.0", [
     Cmd("STEP", (Real(-360.0, 360.0),)),
     Cmd("SPIN?", reply=r"[0-9]+\.[0-9]{5}"),
     Cmd("STAT?", reply="HOLD|MOVING"),
-], state_codes=frozenset({16}))
+    Cmd("SHIM", (Real(-120.0, 120.0), Real(-120.0, 120.0))),
+], state_codes=frozenset({16, 19}))
 
 TURNTABLE = Grammar("turntable", "ESG-LAB,TURNTABLE-TILT,0,1.0", [
     Cmd("AZ", (Real(0.0, 360.0, hi_open=True),)),
@@ -507,6 +508,7 @@ CONSOLE = Grammar("console", "ESG-LAB,GYRO-CONSOLE,0,1.0", [
     Cmd("SPEED?", reply=r"[0-9]+\.[0-9]{2}"),
     Cmd("LAMP", (Int(1, 3), Real(50.0, 150.0))),
     Cmd("LAMP?", (Int(1, 3),), reply=r"[0-9]+\.[0-9]"),
+    Cmd("XLATE", (Int(1, 3), Real(-120.0, 120.0), Real(-120.0, 120.0))),
 ])
 
 GRAMMARS = {g.name: g for g in (TABLE, PATCH_PANEL, COUNTER, AUTOCOLLIMATOR, BUBBLE_LEVELS,

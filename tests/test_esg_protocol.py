@@ -225,6 +225,8 @@ BAD_ARGUMENTS = [
     ("head", "STEP 400", 12, "spindle step 400 outside [-360, 360]"),
     ("head", "STEP ten", 11, "spindle step must be a number, got 'ten'"),
     ("head", "SPIN? 1", 11, "usage: SPIN?"),
+    ("head", "SHIM 200 0", 12, "shim x 200 outside [-120, 120]"),
+    ("head", "SHIM 1", 11, "usage: SHIM <x> <y>"),
     ("turntable", "AZ 360", 12, "azimuth 360 outside [0, 360)"),
     ("turntable", "AZ", 11, "usage: AZ <deg>"),
     ("turntable", "TILT 91", 12, "tilt 91 outside [-90, 90]"),
@@ -238,6 +240,8 @@ BAD_ARGUMENTS = [
     ("console", "DAMP 1", 12, "DAMP takes ON or OFF, got '1'"),
     ("console", "DAMP ON OFF", 11, "usage: DAMP ON|OFF"),
     ("console", "SPEED? x", 11, "usage: SPEED?"),
+    ("console", "XLATE 4 0 0", 12, "pickoff 4 outside [1, 3]"),
+    ("console", "XLATE 1 0 -121", 12, "translation b -121 outside [-120, 120]"),
 ]
 
 

@@ -48,7 +48,7 @@ from procedures.esg.mechanization import Mechanization
 from procedures.esg.table4 import REPORT_ORDER, order_trials, table4
 from sim.esg.pattern import PatternSpec, nominal_pattern
 from sim.esg.world import EsgParams, EsgWorld
-from station.config.esg import EsgConfig
+from station.config.esg import EsgConfig, ProcedureConfig
 from station.config.limits import EsgLimits
 from station.racks.esg import EsgRack
 
@@ -58,6 +58,7 @@ if TYPE_CHECKING:
 PLOTS = "laboratory.esg.plots"  # the schedules' plot, drawn beside the run
 STUDY = "laboratory.esg.study"  # the strategy study and Figure 2, computed beside the run
 STRATEGY = "procedures.esg.strategy"  # imported by the plot child only (scipy.optimize)
+VARIANTS = "laboratory.esg.variants"  # the strategy variants and Figure 3, beside the run
 
 
 def _rms(values: Iterable[float | None]) -> float:
@@ -168,6 +169,20 @@ def render_tables(console: Console, res: dict) -> None:
                       f"{r['factor']:.3f}", rep[(r["pattern"], r["range_deg"])]
                       if r["strategy"] == "mixed" else "")
         console.print(a)
+    if "strategy_variants" in res:
+        sv = res["strategy_variants"]
+        factor = {(r["pattern"], r["sets"], r["pickoffs"], r["strategy"]): r["factor"]
+                  for r in sv["table"]}
+        arrangements = [(n, p) for n in (1, 2) for p in ("three orthogonal",
+                                                         "four tetrahedral")]
+        print_fitted(console, f"Strategy variants at {sv['range_deg']:g} deg (RMS "
+                     "amplification, mixed / two-pickoff)",
+                     [Column("pattern")] + [Column(f"{n} set{'s' if n > 1 else ''}, {p}")
+                                            for n, p in arrangements],
+                     [[pat] + [f"{factor[(pat, n, p, 'mixed')]:.3f} / "
+                               f"{factor[(pat, n, p, 'two_pickoff')]:.3f}"
+                               for n, p in arrangements]
+                      for pat in dict.fromkeys(r["pattern"] for r in sv["table"])], keys=1)
 
 
 def calibration_plot(results: list[ScheduleResult], path: Path) -> None:
@@ -191,6 +206,19 @@ def mechanization_record(nom: Mechanization) -> dict:
     return {"b": nom.b, "c": nom.c, "dbar": nom.dbar, "inclination_deg": nom.inclination_deg}
 
 
+def procedure_record(plan: EsgPlan, variants_points: int | None) -> dict:
+    """The run's ``[esg.procedure]`` settings as config.toml keeps them: those that differ
+    from the defaults (a default run's table stays empty; absent fields are defaults)."""
+    used = {"extremity_setup": plan.extremity_setup, "counters": plan.counters,
+            "strategy_variants": variants_points is not None,
+            "adjust_alignment": plan.adjust_alignment,
+            "alignment_iterations": plan.alignment_iterations}
+    if variants_points is not None:
+        used["strategy_variants_points"] = variants_points
+    default = ProcedureConfig.model_validate({}).model_dump()
+    return {k: v for k, v in used.items() if v != default[k]}
+
+
 def plain_schedules(results: list[ScheduleResult]) -> list[dict]:
     """What the schedule plot draws of each schedule, as plain data for the plot child."""
     return [{"name": r.name, "calibration": r.calibration, "readout": r.readout}
@@ -202,7 +230,8 @@ def run_esg_calibration(seed: int, out: Path, params: EsgParams | None = None,
                         rack_hook: Callable[[EsgRack], None] | None = None,
                         with_study: bool = True, links: Path | None = None,
                         resume: bool = False, limits: EsgLimits | None = None,
-                        order: int | str = REPORT_ORDER) -> dict:
+                        order: int | str = REPORT_ORDER,
+                        variants_points: int | None = None) -> dict:
     """The whole ESG calibration into ``out``; ``rack_hook`` may inject faults.
 
     ``links``: run against the ESG rack served there instead (see the module doc);
@@ -213,6 +242,8 @@ def run_esg_calibration(seed: int, out: Path, params: EsgParams | None = None,
     ``order``: the eq. 11 polynomial order used (5..9; the report's 7), or "residuals" for
     each schedule's choice by the order trials' residuals; every order from 5 to 9 is
     tried and tabulated whatever is used ("Data Reduction Technique").
+    ``variants_points``: the strategy study's variants and Figure 3 (esg_figure3.png)
+    added to the record, averaged over that many orientations (None: not computed).
     """
     out = Path(out)
     params = params or EsgParams()
@@ -222,14 +253,22 @@ def run_esg_calibration(seed: int, out: Path, params: EsgParams | None = None,
     wall0 = time.perf_counter()
     conn = connect(registry.get("esg"), Seeded(params, seed), links, rack_hook)
     st, served, world = conn.drivers, conn.served, conn.coefficient_world
-    with PlotWorker(PLOTS, STUDY, STRATEGY) as plots, journaled_run(  # matplotlib meanwhile
+    child = (PLOTS, STUDY, STRATEGY) + ((VARIANTS,) if variants_points is not None else ())
+    procedure = procedure_record(plan, variants_points)
+    with PlotWorker(*child) as plots, journaled_run(  # matplotlib meanwhile
             out, conn, resume, renew=RENEW, seed=seed, test="esg-calibration", order=order,
             extremity_setup=plan.extremity_setup, counters=plan.counters,
-            identify=Identifying("esg", "esg-calibration", seed, "esg", EsgConfig, params)) as (
+            **{k: True for k in ("strategy_variants", "adjust_alignment") if procedure.get(k)},
+            identify=Identifying("esg", "esg-calibration", seed, "esg", EsgConfig, params,
+                                 tables={"procedure": procedure})) as (
             run, extra, t_start):
         if with_study:  # the study needs no measurement: computed and drawn during the run
             studied = plots.draw([(f"{STUDY}:study_plot", {"path": out / "esg_strategy.png"})],
                                  more=True)
+        if variants_points is not None:  # the same, for the variants and Figure 3
+            varied = plots.draw([(f"{VARIANTS}:variants_plot",
+                                  {"path": out / "esg_figure3.png", "points": variants_points})],
+                                more=True)
         acq = acquire(st, run, plan)
         points, bud = assign(acq, plan, plan.lines_per_setting)
         times = {(p.scan, p.offset_deg): p.times_s for p in points}
@@ -287,6 +326,10 @@ def run_esg_calibration(seed: int, out: Path, params: EsgParams | None = None,
             res_json["amplification_curve"] = curve
             res_json["edge_resolution"] = edge
             run.save_sheet("esg_strategy", curve)
+        if variants_points is not None:
+            res_json["strategy_variants"] = plots.values(varied)[0]
+            run.save_sheet("esg_strategy_variants", res_json["strategy_variants"]["table"])
+            run.save_sheet("esg_figure3", res_json["strategy_variants"]["figure3"])
         jobs.append((f"{PLOTS}:schedule_plot", {"schedules": plain_schedules(results),
                                                  "path": out / "esg_calibration.png"}))
         plots.draw(jobs)  # drawn beside the rest of the record; waited for before the end

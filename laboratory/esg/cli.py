@@ -55,6 +55,16 @@ def add_commands(app: typer.Typer) -> None:
             "--counters", help="the data processor's counters: 2 (the report's, pickoffs "
             "read two at a time; default, or the config's \\[esg.procedure] counters) or 3 "
             "(the three pickoffs read at once)")] = None,
+        variants: Annotated[bool | None, typer.Option(
+            "--strategy-variants/--no-strategy-variants",
+            help="add the strategy study's variants (pattern types, sets of lines, "
+                 "pickoff arrangements) and Figure 3 to the record (default off, or the "
+                 "config's \\[esg.procedure] strategy_variants)")] = None,
+        adjust: Annotated[bool | None, typer.Option(
+            "--adjust-alignment/--check-alignment",
+            help="shim the mount and translate pickoff 1 when their coning exceeds 3 / 15 "
+                 "arcsec (default: check and stop; or the config's \\[esg.procedure] "
+                 "adjust_alignment)")] = None,
         operator: OperatorOpt = None,
     ) -> None:
         """The strapdown ESG pattern calibration and readout study (report 004)."""
@@ -74,7 +84,9 @@ def add_commands(app: typer.Typer) -> None:
         target, args = new_or_resumed("esg-calibration", out, resume,
                                       {"seed": seed, "order": order_value(order),
                                        "extremity_setup": extremity,
-                                       "counters": counters})
+                                       "counters": counters,
+                                       "strategy_variants": variants,
+                                       "adjust_alignment": adjust})
         run_seed = 1 if args["seed"] is None else args["seed"]
         from station.config.identity import load_identity
 
@@ -83,15 +95,22 @@ def add_commands(app: typer.Typer) -> None:
             unit = load_identity(config, "ESG")
             run_order = (args["order"] if args["order"] is not None
                          else load_esg_reduction(config).order)
-            setup = (args["extremity_setup"] if args["extremity_setup"] is not None
-                     else load_esg_procedure(config).extremity_setup)
+            proc = load_esg_procedure(config)
+        setup = (args["extremity_setup"] if args["extremity_setup"] is not None
+                 else proc.extremity_setup)
+        want_variants = bool(args.get("strategy_variants") if args.get("strategy_variants")
+                             is not None else proc.strategy_variants)
+        adjusting = bool(args.get("adjust_alignment") if args.get("adjust_alignment")
+                         is not None else proc.adjust_alignment)
         from dataclasses import replace
 
         n_counters = args.get("counters")
         from procedures.esg.acquisition import EsgPlan
 
         # the site's latitude comes from the params (run_esg_calibration sets it)
-        plan = EsgPlan(latitude_deg=0.0, extremity_setup=setup)
+        plan = EsgPlan(latitude_deg=0.0, extremity_setup=setup, adjust_alignment=adjusting,
+                       alignment_iterations=proc.alignment_iterations)
+        points = proc.strategy_variants_points if want_variants else None
         with invoked(operator, identity=unit):
             res, target = station_run(
                 load_esg_params, config, "esg", run_seed, target, resume is not None,
@@ -100,7 +119,8 @@ def add_commands(app: typer.Typer) -> None:
                                                           params, counters=n_counters),
                                                       links=links,
                                                       resume=resume is not None, limits=limits,
-                                                      order=run_order, plan=plan))
+                                                      order=run_order, plan=plan,
+                                                      variants_points=points))
         render_tables(console, res)
         if "served" in res:
             console.print(f"served rack (session {res['served']['session']}): "

@@ -24,6 +24,7 @@ from dataclasses import dataclass, field, fields
 
 import numpy as np
 
+from procedures.esg import alignment
 from procedures.esg import geometry as geo
 from procedures.esg.cosine import CosineParams
 from procedures.esg.mechanization import (
@@ -82,6 +83,10 @@ class EsgPlan:
     # the data processor's counters: 2 as the report's (pickoffs read two at a time), 3 for
     # the simultaneous three-pickoff acquisition (docs/esg-options.md)
     counters: int = 2
+    # step 1 and ESG-PA: a coning beyond its limit is adjusted (mount shimmed, pickoff 1
+    # translated; up to alignment_iterations times) instead of stopping the run
+    adjust_alignment: bool = False
+    alignment_iterations: int = 3
     # a scan point whose count ratio is this far from the drawing's at the scan's nominal
     # colatitude is a mis-gated count (the logic gate meeting another line near a cosine
     # pattern's extremity): the scan ends there (docs/esg-options.md)
@@ -299,31 +304,51 @@ def processor_setup(st: EsgDrivers, run: Run, plan: EsgPlan) -> dict:
     return {"t_zero_s": sh.sheet.steps[0].reading["t_zero_s"]}
 
 
+def _mirror_coning(st: EsgDrivers, plan: EsgPlan) -> dict:
+    """One spindle turn in the theodolite: readings and mirror 1's coning radius."""
+    n = plan.coning_positions
+    g = [360.0 * k / n for k in range(n)]
+    xy = []
+    for gamma in g:
+        _move_head(st, plan, gamma)
+        xy.append(st.theodolite.read())
+    _move_head(st, plan, 0.0)
+    x = np.array([p[0] for p in xy])
+    y = np.array([p[1] for p in xy])
+    # a circle about the spindle: first harmonic of x and y over the turn
+    gr = np.radians(g)
+    rx = 2.0 / n * math.hypot(float(x @ np.cos(gr)), float(x @ np.sin(gr)))
+    ry = 2.0 / n * math.hypot(float(y @ np.cos(gr)), float(y @ np.sin(gr)))
+    return {"spindle_deg": g, "theodolite_arcsec": [list(p) for p in xy],
+            "coning_radius_arcsec": 0.5 * (rx + ry),
+            "limit_arcsec": plan.mount_coning_limit_arcsec}
+
+
 def mount_check(st: EsgDrivers, run: Run, plan: EsgPlan, sh: CheckSheetRun) -> float:
-    """Step 1: coning of mirror 1 about the spindle seen in the theodolite."""
+    """Step 1: coning of mirror 1 about the spindle seen in the theodolite; with
+    ``adjust_alignment`` the mount is shimmed and the coning measured again until it is
+    within the limit (procedures.esg.alignment)."""
+    limit = plan.mount_coning_limit_arcsec
     with sh.step("1", "mirror 1 along the spindle: theodolite readings over one spindle "
                  "turn; coning radius") as s:
-        n = plan.coning_positions
-        g = [360.0 * k / n for k in range(n)]
-        xy = []
-        for gamma in g:
-            _move_head(st, plan, gamma)
-            xy.append(st.theodolite.read())
-        _move_head(st, plan, 0.0)
-        x = np.array([p[0] for p in xy])
-        y = np.array([p[1] for p in xy])
-        # a circle about the spindle: first harmonic of x and y over the turn
-        gr = np.radians(g)
-        rx = 2.0 / n * math.hypot(float(x @ np.cos(gr)), float(x @ np.sin(gr)))
-        ry = 2.0 / n * math.hypot(float(y @ np.cos(gr)), float(y @ np.sin(gr)))
-        radius = 0.5 * (rx + ry)
-        s.reading = {"spindle_deg": g, "theodolite_arcsec": [list(p) for p in xy],
-                     "coning_radius_arcsec": radius,
-                     "limit_arcsec": plan.mount_coning_limit_arcsec}
-        if radius > plan.mount_coning_limit_arcsec:
-            raise CheckFailed(f"mirror coning {radius:.1f} arcsec exceeds "
-                              f"{plan.mount_coning_limit_arcsec:g}: re-shim the mount")
-    return radius
+        turn = _mirror_coning(st, plan)
+        s.reading = turn
+        if turn["coning_radius_arcsec"] > limit and not plan.adjust_alignment:
+            raise CheckFailed(f"mirror coning {turn['coning_radius_arcsec']:.1f} arcsec "
+                              f"exceeds {limit:g}: re-shim the mount")
+    for k in range(1, plan.alignment_iterations + 1):
+        if turn["coning_radius_arcsec"] <= limit:
+            break
+        with sh.step(f"1.shim-{k}", "mount shimmed by the coning's first harmonic (spindle "
+                     "at 0); coning measured again") as s:
+            x, y = alignment.shim_arcsec(turn["spindle_deg"], turn["theodolite_arcsec"])
+            st.head.shim(x, y)
+            turn = _mirror_coning(st, plan)
+            s.reading = {"shim_arcsec": [x, y], **turn}
+            if turn["coning_radius_arcsec"] > limit and k == plan.alignment_iterations:
+                raise CheckFailed(f"mirror coning still {turn['coning_radius_arcsec']:.1f} "
+                                  f"arcsec after {k} shims (limit {limit:g})")
+    return float(turn["coning_radius_arcsec"])
 
 
 def start_gyro(st: EsgDrivers, run: Run, plan: EsgPlan, sh: CheckSheetRun) -> None:
@@ -510,41 +535,76 @@ def tilt_to_equator(st: EsgDrivers, plan: EsgPlan, cr_eq: float) -> dict:
     return {"tilt_deg": st.turntable.readings()[1], "cr_pickoff1": r.ratio(1)}
 
 
-def pickoff_check(st: EsgDrivers, run: Run, plan: EsgPlan, acq: Acquisition) -> None:
-    """ESG-PA: pickoff 1 against the spindle by coning, with s across the spindle."""
+def _pickoff_coning(st: EsgDrivers, plan: EsgPlan, acq: Acquisition) -> dict:
+    """One spindle turn (and back to the start) reading pickoff 1: its coning about the
+    spindle from the count ratio's first harmonic, with the harmonic and its sigma."""
     slope = plan_slope_per_deg(90.0, plan)
+    n = plan.coning_positions
+    gs = [acq.gamma_eq_deg + 360.0 * k / n for k in range(n + 1)]
+    rows = []
+    for g in gs:
+        gr = _move_head(st, plan, g)
+        r = _read(st, plan, (1, 2))
+        if r.cr[1] is None:
+            raise CheckFailed("pickoff 1 left the pattern during the coning turn")
+        rows.append((gr, r.t_s, r.cr[1]))
+    a = np.array([[1.0, math.cos(math.radians(g)), math.sin(math.radians(g)),
+                   t - rows[0][1]] for g, t, _ in rows])
+    y = np.array([c for _, _, c in rows])
+    coef, *_ = np.linalg.lstsq(a, y, rcond=None)
+    res = y - a @ coef
+    cov = float(res @ res) / max(1, len(y) - 4) * np.linalg.inv(a.T @ a)
+    amp = math.hypot(coef[1], coef[2])
+    s_amp = math.sqrt(max(0.0, (coef[1] ** 2 * cov[1, 1] + coef[2] ** 2 * cov[2, 2])
+                          / max(amp * amp, 1e-30)))
+    return {"spindle_deg": [r[0] for r in rows], "t_s": [r[1] for r in rows],
+            "cr_pickoff1": [r[2] for r in rows], "coning_arcsec": amp / abs(slope) * 3600.0,
+            "sigma_arcsec": s_amp / abs(slope) * 3600.0,
+            "limit_arcsec": plan.pickoff_coning_limit_arcsec,
+            "harmonic_cr": [float(coef[1]), float(coef[2])]}
+
+
+def pickoff_check(st: EsgDrivers, run: Run, plan: EsgPlan, acq: Acquisition) -> None:
+    """ESG-PA: pickoff 1 against the spindle by coning, with s across the spindle; with
+    ``adjust_alignment`` pickoff 1 is translated and its coning measured again until it is
+    within the limit, and step 8's tilt is made again (procedures.esg.alignment)."""
+    limit = plan.pickoff_coning_limit_arcsec
     with run.sheet("ESG-PA", "Pickoff alignment check by coning") as sh:
         with sh.step("PA.1", "pickoff 1 count ratio over one spindle turn (and back to "
                      "the start); first harmonic = coning of pickoff 1") as s:
-            n = plan.coning_positions
-            gs = [acq.gamma_eq_deg + 360.0 * k / n for k in range(n + 1)]
-            rows = []
-            for g in gs:
-                gr = _move_head(st, plan, g)
-                r = _read(st, plan, (1, 2))
-                if r.cr[1] is None:
-                    raise CheckFailed("pickoff 1 left the pattern during the coning turn")
-                rows.append((gr, r.t_s, r.cr[1]))
-            a = np.array([[1.0, math.cos(math.radians(g)), math.sin(math.radians(g)),
-                           t - rows[0][1]] for g, t, _ in rows])
-            y = np.array([c for _, _, c in rows])
-            coef, *_ = np.linalg.lstsq(a, y, rcond=None)
-            res = y - a @ coef
-            cov = float(res @ res) / max(1, len(y) - 4) * np.linalg.inv(a.T @ a)
-            amp = math.hypot(coef[1], coef[2])
-            s_amp = math.sqrt(max(0.0, (coef[1] ** 2 * cov[1, 1] + coef[2] ** 2 * cov[2, 2])
-                                  / max(amp * amp, 1e-30)))
-            coning = amp / abs(slope) * 3600.0
-            sigma = s_amp / abs(slope) * 3600.0
-            acq.pickoff_coning_arcsec = coning
-            s.reading = {"spindle_deg": [r[0] for r in rows], "t_s": [r[1] for r in rows],
-                         "cr_pickoff1": [r[2] for r in rows], "coning_arcsec": coning,
-                         "sigma_arcsec": sigma,
-                         "limit_arcsec": plan.pickoff_coning_limit_arcsec}
-            # refuse only what exceeds the tolerance beyond the check's own uncertainty
-            if coning - 3.0 * sigma > plan.pickoff_coning_limit_arcsec:
-                raise CheckFailed(f"pickoff 1 cones {coning:.1f} +- {sigma:.1f} arcsec about "
-                                  f"the spindle (limit {plan.pickoff_coning_limit_arcsec:g})")
+            turn = _pickoff_coning(st, plan, acq)
+            s.reading = {k: v for k, v in turn.items() if k != "harmonic_cr"}
+            if not plan.adjust_alignment:
+                _refuse_pickoff_coning(turn, acq, limit)
+        adjusted = 0
+        while (plan.adjust_alignment and turn["coning_arcsec"] > limit
+               and adjusted < plan.alignment_iterations):
+            adjusted += 1
+            with sh.step(f"PA.translate-{adjusted}", "pickoff 1 translated in its fixture by "
+                         "the coning's first harmonic; coning measured again") as s:
+                h = turn["harmonic_cr"]
+                a, b = alignment.pickoff_translation_arcsec(
+                    h[0], h[1], plan_slope_per_deg(90.0, plan), acq.gamma_eq_deg,
+                    acq.colatitude_sign)
+                st.console.translate(1, a, b)
+                turn = _pickoff_coning(st, plan, acq)
+                s.reading = {"translation_arcsec": [a, b],
+                             **{k: v for k, v in turn.items() if k != "harmonic_cr"}}
+        if adjusted:
+            with sh.step("PA.tilt", "tilt made again: pickoff 1 at the equator's ratio") as s:
+                _move_head(st, plan, acq.gamma_eq_deg)
+                s.reading = tilt_to_equator(st, plan, acq.cr_eq)
+        _refuse_pickoff_coning(turn, acq, limit)
+
+
+def _refuse_pickoff_coning(turn: dict, acq: Acquisition, limit: float) -> None:
+    """Pickoff 1's coning recorded; CheckFailed if it exceeds the limit beyond the check's
+    own uncertainty (3 sigma)."""
+    acq.pickoff_coning_arcsec = turn["coning_arcsec"]
+    coning, sigma = turn["coning_arcsec"], turn["sigma_arcsec"]
+    if coning - 3.0 * sigma > limit:
+        raise CheckFailed(f"pickoff 1 cones {coning:.1f} +- {sigma:.1f} arcsec about "
+                          f"the spindle (limit {limit:g})")
 
 
 def baseline_start(st: EsgDrivers, plan: EsgPlan, acq: Acquisition,

@@ -16,6 +16,7 @@ noise per reading, so turning the spindle traces the coning circle.
 
 from __future__ import annotations
 
+import bisect
 import math
 from dataclasses import dataclass
 
@@ -45,6 +46,12 @@ class CaseSpec:
     pickoff_tolerance_arcsec: float = 15.0
     coning_rms_arcsec: float = 1.0
     theodolite_noise_arcsec: float = 0.5
+    # an adjustment made by hand: a shim or a pickoff's translation lands within this
+    # fraction of what was asked (rms) plus a small rms error of its own (arcsec)
+    shim_scale_sd: float = 0.05
+    shim_error_arcsec: float = 0.3
+    translate_scale_sd: float = 0.05
+    translate_error_arcsec: float = 1.0
 
 
 def _tilted(rng: np.random.Generator, n: np.ndarray, max_rad: float) -> np.ndarray:
@@ -78,6 +85,28 @@ class GyroCase:
         self.coning_rad = float(math.acos(min(1.0, self.mounting[0, 0])))
         self._theo_count = 0
         self._seed = seed
+        # the pickoffs in effect from each time on (a translation changes one: ``translate``)
+        self._pickoff_times: list[float] = [-math.inf]
+        self._pickoff_sets: list[np.ndarray] = [self.pickoffs]
+
+    def remount(self, mounting: np.ndarray) -> None:
+        """The mounting after a shim (the truth the coning check is judged by)."""
+        self.mounting = mounting
+        self.coning_rad = float(math.acos(min(1.0, mounting[0, 0])))
+
+    def translate(self, now: float, pickoff: int, move_rad: np.ndarray) -> None:
+        """Pickoff ``pickoff``'s line of sight moved by ``move_rad`` (a case-frame vector
+        across it) from time ``now`` on."""
+        p = self.pickoffs.copy()
+        q = p[pickoff - 1] + move_rad
+        p[pickoff - 1] = q / np.linalg.norm(q)
+        self.pickoffs = p
+        self._pickoff_times.append(now)
+        self._pickoff_sets.append(p)
+
+    def pickoffs_at(self, t: float) -> np.ndarray:
+        """The pickoffs' lines of sight (rows, in C) in effect at time t."""
+        return self._pickoff_sets[bisect.bisect_right(self._pickoff_times, t) - 1]
 
     def theodolite(self, r_lc: np.ndarray, azimuth: float, tilt: float) -> tuple[float, float]:
         """Mirror-1 normal relative to the spindle axis, arcsec on (h, v), with noise."""

@@ -188,11 +188,13 @@ class Mount:
 
     def __init__(self, spec: MountSpec, seed: int, mounting: np.ndarray) -> None:
         self.spec, self.mounting = spec, mounting
+        # the mounting in effect from each time on (a shim changes it: ``reshim``)
+        self._shims: list[tuple[float, np.ndarray]] = [(-math.inf, mounting)]
         self.head = SlewAxis("head", seed, spec.head_setting_arcsec, 5, True,
                              head_scale_error(seed, spec))
         self.azimuth = SlewAxis("azimuth", seed, spec.table_setting_arcsec, 4, True)
         self.tilt = SlewAxis("tilt", seed, spec.table_setting_arcsec, 4, False)
-        self._cache: dict[tuple[int, int, int], np.ndarray] = {}
+        self._cache: dict[tuple[int, int, int, int], np.ndarray] = {}
 
     def head_move(self, now: float, gamma_deg: float) -> float:
         s = self.spec
@@ -216,21 +218,33 @@ class Mount:
     def moving_table(self, now: float) -> bool:
         return self.azimuth.moving(now) or self.tilt.moving(now)
 
+    def reshim(self, now: float, mounting: np.ndarray) -> None:
+        """The case re-shimmed on the spindle plate: ``mounting`` in effect from ``now``."""
+        self._cache.clear()
+        self._shims.append((now, mounting))
+        self.mounting = mounting
+
+    def _shim_index(self, t: float) -> int:
+        return bisect.bisect_right([s[0] for s in self._shims], t) - 1
+
     def angles(self, t: float) -> tuple[float, float, float]:
         """True (A, E, gamma) in radians at t."""
         return self.azimuth.actual_rad(t), self.tilt.actual_rad(t), self.head.actual_rad(t)
 
     def matrix(self, t: float) -> np.ndarray:
         """R_LC at t (the attitude in effect; piecewise constant)."""
-        key = (self.azimuth.index(t), self.tilt.index(t), self.head.index(t))
+        shim = self._shim_index(t)
+        key = (self.azimuth.index(t), self.tilt.index(t), self.head.index(t), shim)
         r = self._cache.get(key)
         if r is None:
             if len(self._cache) > 64:
                 self._cache.clear()
-            r = case_to_lab(*self.angles(t), self.mounting)
+            r = case_to_lab(*self.angles(t), self._shims[shim][1])
             self._cache[key] = r
         return r
 
     def next_change(self, t: float) -> float:
+        shim = self._shim_index(t) + 1
         return min(self.azimuth.next_change(t), self.tilt.next_change(t),
-                   self.head.next_change(t))
+                   self.head.next_change(t),
+                   self._shims[shim][0] if shim < len(self._shims) else math.inf)

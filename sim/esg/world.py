@@ -51,8 +51,8 @@ import numpy as np
 import numpy.typing as npt
 import simpy
 
-from sim.esg.case import CaseSpec, GyroCase
-from sim.esg.mount import Mount, MountSpec, spindle_axis
+from sim.esg.case import CaseSpec, GyroCase, small_rotation
+from sim.esg.mount import Mount, MountSpec, case_to_lab, spindle_axis
 from sim.esg.pattern import Pattern, PatternSpec
 from sim.esg.processor import (
     Channel,
@@ -65,6 +65,7 @@ from sim.esg.processor import (
 from sim.esg.rotor import Rotor, RotorSpec
 from sim.rng import stream
 from sim.timebase import seconds
+from sim.units import ARCSEC
 
 MIN_RPS = 1.0  # below this the processor sees no usable pulses
 _TIME_SLACK = 1e-9  # s
@@ -132,6 +133,8 @@ class EsgWorld:
         # the lamp currents are equalised ("Before data taking"); a stream of its own
         self._lamp_gain = stream(self.seed, "esg", "lamps").uniform(1.0, 1.25, 3)
         self._lamp_current = np.ones(3)  # fraction of the nominal lamp current
+        self._shims = 0  # adjustments made so far (each draws its own error stream)
+        self._translations = 0
 
     @property
     def now(self) -> float:
@@ -172,6 +175,41 @@ class EsgWorld:
         a, e, _ = self.mount.angles(self.now)
         return self.case.theodolite(self.mount.matrix(self.now), a, e)
 
+    # ----- alignment adjustments (report 004, "Mirror and Pickoff Alignment") -----
+    def shim(self, x_arcsec: float, y_arcsec: float) -> None:
+        """Re-shim the case on the spindle plate: mirror 1's normal moves by (x, y) arcsec
+        on the theodolite's axes at the present table and spindle angles, within the
+        shim's own error (CaseSpec), from now on."""
+        spec, now = self.case.spec, self.now
+        self._shims += 1
+        rng = stream(self.seed, "esg", "shim", self._shims)
+        want = np.array([x_arcsec, y_arcsec], float)
+        got = (want * (1.0 + rng.normal(0.0, spec.shim_scale_sd, 2))
+               + rng.normal(0.0, spec.shim_error_arcsec, 2)) * ARCSEC
+        a, e, g = self.mount.angles(now)
+        bare = case_to_lab(a, e, g)  # the spindle's rotation without the mounting
+        u = spindle_axis(a, e)
+        h = np.array([math.cos(a), -math.sin(a), 0.0])  # the theodolite's axes (GyroCase)
+        v = np.cross(h, u)
+        m1 = bare @ self.mount.mounting[:, 0]
+        turn = small_rotation(np.cross(m1, got[0] * h + got[1] * v))
+        mounting = bare.T @ turn @ bare @ self.mount.mounting
+        self.mount.reshim(now, mounting)
+        self.case.remount(mounting)
+
+    def translate_pickoff(self, pickoff: int, a_arcsec: float, b_arcsec: float) -> None:
+        """Translate a pickoff in its fixture: its line of sight moves a arcsec along the
+        next case axis and b along the one after (pickoff 1: c2, c3; 2: c3, c1; 3: c1,
+        c2), within the fixture's own error (CaseSpec), from now on."""
+        spec = self.case.spec
+        self._translations += 1
+        rng = stream(self.seed, "esg", "translate", self._translations)
+        want = np.array([a_arcsec, b_arcsec], float)
+        got = (want * (1.0 + rng.normal(0.0, spec.translate_scale_sd, 2))
+               + rng.normal(0.0, spec.translate_error_arcsec, 2)) * ARCSEC
+        axes = np.eye(3)[[pickoff % 3, (pickoff + 1) % 3]]
+        self.case.translate(self.now, pickoff, got @ axes)
+
     # ----- console -----
     def spin_up(self) -> None:
         self.rotor.spin_up(self.now)
@@ -209,7 +247,7 @@ class EsgWorld:
         alpha = 2.0 * math.pi * ((self.rotor.profile.revolutions(t) + self._phase0) % 1.0)
         channels = []
         for i in chosen:
-            p = self.case.pickoffs[i - 1]
+            p = self.case.pickoffs_at(t)[i - 1]
             th_end = math.acos(max(-1.0, min(1.0, float(p @ s_end))))
             th_start = math.acos(max(-1.0, min(1.0, float(p @ s_start))))
             view = (alpha + _azimuth_about(s_end, p)) % (2.0 * math.pi)
@@ -266,7 +304,8 @@ class EsgWorld:
 
     def true_colatitudes(self, t: float) -> np.ndarray:
         """Angles between each pickoff's line of sight and the spin axis, rad (1..3)."""
-        return np.arccos(np.clip(self.case.pickoffs @ self.spin_axis_case(t), -1.0, 1.0))
+        t = self._past(t)
+        return np.arccos(np.clip(self.case.pickoffs_at(t) @ self.spin_axis_case(t), -1.0, 1.0))
 
     def true_count_ratio(self, pickoff: int, t: float) -> float:
         """Noise-free count ratio from the exact geometry; nan when off the pattern."""

@@ -72,6 +72,14 @@ class ProcedureConfig(BaseModel):
     # the data processor's time-interval counters: 2 as the report's (two pickoffs at a
     # time), 3 for the simultaneous three-pickoff acquisition (docs/esg-options.md)
     counters: Literal[2, 3] = 2
+    # the strategy study's variants and Figure 3 written into the record (report 004,
+    # "Pattern Analysis"; docs/esg-options.md), averaged over this many orientations
+    strategy_variants: bool = False
+    strategy_variants_points: int = Field(5000, ge=500, le=100000)
+    # step 1 and ESG-PA: shim the mount / translate pickoff 1 when the coning check finds
+    # them beyond 3 / 15 arcsec, up to alignment_iterations times, instead of stopping
+    adjust_alignment: bool = False
+    alignment_iterations: int = Field(3, ge=1, le=10)
 
 
 class EsgConfig(BaseModel):

@@ -352,6 +352,11 @@ class HeadDriver(_Positioner):
     def reading(self) -> float:
         return self.ask("SPIN?", HEAD_READING)[0]
 
+    def shim(self, x_arcsec: float, y_arcsec: float) -> None:
+        """Re-shim the case: mirror 1 moved by (x, y) arcsec on the theodolite's axes
+        (refused while the spindle moves or the rotor spins)."""
+        self.command(f"SHIM {float(x_arcsec):.2f} {float(y_arcsec):.2f}")
+
 
 class TurntableDriver(_Positioner):
     """Turntable azimuth and tilt, 1e-4 deg; the azimuth lock."""
@@ -398,6 +403,11 @@ class ConsoleDriver(SerialDriver):
 
     def damping(self, on: bool) -> None:
         self.command("DAMP ON" if on else "DAMP OFF")
+
+    def translate(self, pickoff: int, a_arcsec: float, b_arcsec: float) -> None:
+        """Pickoff ``pickoff``'s line of sight moved (a, b) arcsec along the next two case
+        axes in its fixture (pickoff 1: c2, c3)."""
+        self.command(f"XLATE {int(pickoff)} {float(a_arcsec):.2f} {float(b_arcsec):.2f}")
 
     def status(self) -> dict:
         """``{"suspended": bool, "spin_rps": float, "damping": bool, "pressure_torr": float}``."""

@@ -95,6 +95,7 @@ def measure_day(st: IsuDrivers, run: Run, plan: DayPlan, site: Site, f0: float,
     else:
         run.save_sheet("survey_results", survey)
     unc = uncorrected_for(plan, survey, t_survey)  # II-6.1: bubble corrections or not
+    gate = plan.options.gyro_gate  # II-5.2: clock gate, or the time for a preset of pulses
     prec = {"G": plan.options.precision_gyro_arcsec, "A": plan.options.precision_accel_arcsec}
     s1, _ = oscillator_periods(run)  # as Chart I-1 step 3 read them (twice, agreeing)
     settings = resolver_settings(survey)
@@ -109,7 +110,8 @@ def measure_day(st: IsuDrivers, run: Run, plan: DayPlan, site: Site, f0: float,
         "gyro 1-6": f"{times.turns} whole turns at {plan.table_rate_deg_s:g} deg/s: "
         f"{g['gyro 1-6'].why} (Chart II-18)",
         "gyro 7-15": f"{gyro_gate_s / 60:g} min of S1^T ticks: {g['gyro 7-15'].why} "
-        "(Chart II-19)",
+        "(Chart II-19)" + ("" if gate == "clock" else "; pulse gate (II-5.2): each gyro's "
+        "preset is its rate in a short clock-gated probe at the position times this time"),
         "accelerometer 7-15": f"{acc_v_s / 60:g} min vertical ({g['accel vertical'].why}), "
         f"{acc_h_s / 60:g} min horizontal ({g['accel horizontal'].why}) times the {f0:g} Hz "
         "basic frequency (Charts II-21..II-24)",
@@ -145,10 +147,10 @@ def measure_day(st: IsuDrivers, run: Run, plan: DayPlan, site: Site, f0: float,
         data.j_term = chart("II-10", lambda: j_experiment(st, run, settings, plan, s1))
     if "II-11" in wanted and (pairs := _pairs((7, 9, 11), pos)):
         data.gyro.update(chart("II-11", lambda: gyro_positions_7_12(
-            st, run, settings, presets, outputs, s1, pairs, unc["G"], prec["G"])))
+            st, run, settings, presets, outputs, s1, pairs, unc["G"], prec["G"], gate)))
     if "II-12" in wanted and (singles := _singles((13, 14, 15), pos)):
         data.gyro.update(chart("II-12", lambda: gyro_positions_13_15(
-            st, run, settings, presets, outputs, s1, singles, unc["G"], prec["G"])))
+            st, run, settings, presets, outputs, s1, singles, unc["G"], prec["G"], gate)))
     if "II-13" in wanted and (pairs := _pairs((7, 9, 11), pos)):
         data.accel.update(chart("II-13", lambda: accel_positions_7_12(
             st, run, settings, presets, outputs, s1, f0, pairs, unc["A"], prec["A"])))

@@ -33,6 +33,11 @@ class CalibrationOptions(BaseModel):
     # the laboratory's result on the Calibration Results Sheet (issue 19): the manual's
     # closed forms (II-4.2, II-4.3) or the all-positions least-squares fit shown beside them
     estimator: Literal["closed-form", "all-positions"] = "closed-form"
+    # II-5.2's alternative gyro gate for the static positions 7-15 (Charts II-11, II-12):
+    # "clock" counts gyro pulses over a preset of clock ticks (the manual's choice);
+    # "pulses" counts clock ticks over a preset number of each gyro's pulses (smaller
+    # quantization; the number set at each position, procedures.isu.pulse_gate)
+    gyro_gate: Literal["clock", "pulses"] = "clock"
 
     def precisions(self) -> dict[str, float]:
         """Setting precision (arcsec) by setting kind: "R" positions 1-6, "G" gyro and "A"

@@ -9,7 +9,7 @@ from dataclasses import replace
 
 import pytest
 
-from laboratory.cigtf.gyrocompassing import run_gyrocompass_test
+from laboratory.cigtf.gyrocompassing import analyse_journal, run_gyrocompass_test
 from laboratory.cigtf.variation import true_theta
 from procedures.cigtf.procedure import TestPlan as CigtfPlan
 from sim.cigtf.world import CigtfParams, CigtfWorld
@@ -60,3 +60,7 @@ def test_run_at_32_volts_by_command_has_the_configured_truth(tmp_path):
     assert step["reading"] == {"rotor_voltage_v": 32.0}
     for ph in res["phases"]:
         assert abs(ph["theta_arcsec"] - res["truth"]["theta_arcsec"]) < 4 * ph["sigma_arcsec"]
+    # --analyse rebuilds the truth with the supply the journal recorded, not the params'
+    again = analyse_journal(tmp_path / "r", params=MAGNETIC)
+    assert again["truth"]["theta_arcsec"] == pytest.approx(res["truth"]["theta_arcsec"],
+                                                           abs=1e-9)

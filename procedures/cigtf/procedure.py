@@ -42,6 +42,7 @@ class TestPlan:
 class TestData:
     gsf: float = 0.0
     setup: dict | None = None  # what the pre-test set-up left (b, c, a + d), arcsec
+    rotor_voltage_v: float | None = None  # the supply as step 4.0.0 set it (None: not set)
     runs: dict[str, list[RunValues]] = field(
         default_factory=lambda: {"operating": [], "shutdown": []})
 
@@ -162,6 +163,7 @@ def gyrocompass_test(st: CigtfDrivers, run: Run, plan: TestPlan | None = None) -
     if plan.pretest_setup:
         data.setup = run.block("4.1-S", lambda: pretest_setup(st, run), dict)
     run.block("4.0", lambda: warm_up(st, run, plan), lambda _: None)
+    data.rotor_voltage_v = plan.rotor_voltage_v
     data.gsf = run.block("4.1", lambda: scale_factor(st, run, plan), float)
     for i in range(1, plan.operating_runs + 1):
         chart = f"4.3-R{i:02d}"

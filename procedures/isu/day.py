@@ -14,6 +14,7 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 from procedures.isu import settings as st_settings
+from procedures.isu import simultaneous as sim
 from procedures.isu.accel_static import accel_positions_7_12, accel_positions_13_14
 from procedures.isu.bubble import uncorrected_for
 from procedures.isu.calibration.noise_spec import NoiseSpec
@@ -86,6 +87,11 @@ def measure_day(st: IsuDrivers, run: Run, plan: DayPlan, site: Site, f0: float,
     if pos is not None and not pos <= set(range(1, 16)):
         raise ValueError(f"unknown position(s) {sorted(pos - set(range(1, 16)))}; "
                          "calibration positions are 1 to 15")
+    need = set(range(1, plan.options.counters + 1))
+    if plan.options.simultaneous and not need <= set(st.counters):
+        raise ValueError(f"[calibration] counters = {plan.options.counters}: the station has "
+                         f"counters {', '.join(map(str, sorted(st.counters)))} only (a served "
+                         "rack serves report 000's six)")
     run.block("I-1", lambda: turn_on(st, run, plan.warmup_s), lambda _: None)
     t_survey: float | None = None  # the survey's level reading, as near as the day knows
     if survey is None:
@@ -100,7 +106,11 @@ def measure_day(st: IsuDrivers, run: Run, plan: DayPlan, site: Site, f0: float,
     s1, _ = oscillator_periods(run)  # as Chart I-1 step 3 read them (twice, agreeing)
     settings = resolver_settings(survey)
     run.save_sheet("resolver_settings", settings)
-    run.save_sheet("counter_connections", st_settings.counter_connections())
+    connections = st_settings.counter_connections()
+    if plan.options.simultaneous:  # II-5: the experiment the extra counters allow
+        connections.experiments[st_settings.SIMULTANEOUS] = (
+            st_settings.simultaneous_connections(plan.options.counters))
+    run.save_sheet("counter_connections", connections)
     times, gates = st_settings.collection_times(plan, site, noise or NoiseSpec(), s1, f0,
                                                 survey.t_bi)
     gyro_gate_s, acc_v_s, acc_h_s = times.gyro_s, times.accel_vertical_s, times.accel_horizontal_s
@@ -145,10 +155,27 @@ def measure_day(st: IsuDrivers, run: Run, plan: DayPlan, site: Site, f0: float,
             st, run, survey.t_bi, plan, s1, site.omega_sin_lambda))
     if "II-10" in wanted:
         data.j_term = chart("II-10", lambda: j_experiment(st, run, settings, plan, s1))
+    pos12 = pos
+    together = plan.options.simultaneous  # II-5: gyros and accelerometers in one setting
+    counters = plan.options.counters
+    if together and {"II-11", "II-13"} <= wanted and (pairs := _pairs((7, 9, 11), pos)):
+        both = chart(sim.CHART_7_12, lambda: sim.positions_7_12(
+            st, run, settings, presets, outputs, s1, f0, counters, pairs, unc["A"], prec["A"]))
+        data.gyro.update({m: v["gyro"] for m, v in both.items()})
+        data.accel.update({m: v["accel"] for m, v in both.items()})
+        wanted -= {"II-11", "II-13"}
+    if together and {"II-12", "II-14"} <= wanted and (singles := _singles((13, 14), pos)):
+        both = chart(sim.CHART_13_14, lambda: sim.positions_13_14(
+            st, run, settings, presets, outputs, s1, f0, counters, singles, unc["A"],
+            prec["A"]))
+        data.gyro.update({m: v["gyro"] for m, v in both.items()})
+        data.accel.update({m: v["accel"] for m, v in both.items()})
+        wanted -= {"II-14"}
+        pos12 = {15} if pos is None else pos & {15}  # II-12 keeps position 15 alone
     if "II-11" in wanted and (pairs := _pairs((7, 9, 11), pos)):
         data.gyro.update(chart("II-11", lambda: gyro_positions_7_12(
             st, run, settings, presets, outputs, s1, pairs, unc["G"], prec["G"], gate)))
-    if "II-12" in wanted and (singles := _singles((13, 14, 15), pos)):
+    if "II-12" in wanted and (singles := _singles((13, 14, 15), pos12)):
         data.gyro.update(chart("II-12", lambda: gyro_positions_13_15(
             st, run, settings, presets, outputs, s1, singles, unc["G"], prec["G"], gate)))
     if "II-13" in wanted and (pairs := _pairs((7, 9, 11), pos)):

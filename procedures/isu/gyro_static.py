@@ -45,7 +45,7 @@ def _kind(s1: float, gate: str = "clock") -> StaticKind:
         timeout=lambda n: max(n.values()) * s1 * 1.5 + 60.0, record=record,
         repeats=GYRO_CHECK_COUNTERS, gate_s=lambda n: max(n.values()) * s1,
         measure=None if gate == "clock" else (
-            lambda st, sheet, m, tag, n: pulse_gate.measure(
+            lambda st, sheet, m, tag, n, ps: pulse_gate.measure(
                 st, sheet, m, tag, n, GYRO_CHECK_COUNTERS, s1)),
     )
 

@@ -45,9 +45,11 @@ class StaticKind:
     repeats: dict[int, int] = field(default_factory=dict)  # check counter -> counter
     gate_s: Callable[[dict[int, int]], float] = lambda n: 0.0
     # steps 7-8 done otherwise (II-5.2's pulse gate, procedures.isu.pulse_gate):
-    # (drivers, sheet, position, step tag, clock presets) -> (gate, the position's record)
-    measure: Callable[[IsuDrivers, CheckSheetRun, int, str, dict[int, int]],
+    # (drivers, sheet, position, step tag, presets, the setting) -> (gate, the position's
+    # record; its "outputs", if any, the Counter Outputs rows)
+    measure: Callable[[IsuDrivers, CheckSheetRun, int, str, dict[int, int], PositionSet],
                       tuple[Gate, dict]] | None = None
+    n_counters: int = 6  # the rack's counters (the simultaneous experiment's wiring)
 
 
 def pair_steps(pairs: Iterable[int]) -> list[tuple[int, str, str]]:
@@ -104,7 +106,7 @@ def run_static(st: IsuDrivers, run: Run, chart: str, title: str, kind: StaticKin
         sheet.done("1", "Resolver and counter settings available")
         sheet.done("2", "Turn-on procedures complete (Chart I-1)")
         with sheet.step("3", kind.patch_text):
-            patch(st, wiring(kind.experiment))
+            patch(st, wiring(kind.experiment, kind.n_counters))
         counters = f"{kind.counters[0]}-{kind.counters[-1]}"
         every = (*kind.counters, *kind.repeats)
         also = (f" (and {', '.join(str(c) for c in kind.repeats)} counting again)"
@@ -126,10 +128,11 @@ def run_static(st: IsuDrivers, run: Run, chart: str, title: str, kind: StaticKin
             row = presets.presets[f"{kind.sheet_key} {m}"]
             n = {c: int(row[str(c)]) for c in every}
             if kind.measure is not None:
-                gate, record = kind.measure(st, sheet, m, tag, n)
+                gate, record = kind.measure(st, sheet, m, tag, n, ps)
                 with sheet.step("9" + tag, kind.record_text) as s:
-                    outputs.outputs[f"{kind.sheet_key} {m}"] = {
-                        str(c): v for c, v in gate.readings.items()}
+                    rows = record.pop("outputs", None) or {
+                        f"{kind.sheet_key} {m}": {str(c): v for c, v in gate.readings.items()}}
+                    outputs.outputs.update(rows)
                     data[m] = record
                     s.reading = record
                 continue

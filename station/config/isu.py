@@ -54,7 +54,7 @@ from station.config.file import (
 from station.config.identity import IsuIdentity
 from station.config.limits import IsuLimits
 from station.config.plan import PlanSettings
-from station.drivers.isu import EXTRA_COUNTERS, SERIAL_INSTRUMENTS
+from station.drivers.isu import SERIAL_INSTRUMENTS
 
 __all__ = ["ConfigError", "StationConfig", "default_dict", "load_config", "read_section"]
 
@@ -105,7 +105,7 @@ class Links(BaseModel):
     @classmethod
     def _every_instrument(cls, v: dict[str, str]) -> dict[str, str]:
         missing = [n for n in SERIAL_INSTRUMENTS if n not in v]
-        unknown = [n for n in v if n not in SERIAL_INSTRUMENTS and n not in EXTRA_COUNTERS]
+        unknown = [n for n in v if n not in SERIAL_INSTRUMENTS]
         if missing or unknown:
             parts = []
             if missing:

@@ -77,10 +77,11 @@ def config_links(cfg: StationConfig, rack: Rack | None = None) -> dict[str, Any]
     simulated = all(u.startswith("sim://") for u in cfg.links.serial.values())
     for i in range(7, rack_counters(cfg) + 1):  # counters the [calibration] table adds
         name = f"counter{i}"
-        if name not in links:
-            if not simulated:
-                raise ValueError(f"links.serial.{name}: [calibration] counters = "
-                                 f"{rack_counters(cfg)} needs a link for each counter")
+        if name not in links:  # never given: [links.serial] refuses it
+            if not simulated:  # [links.serial] names report 000's six counters only
+                raise ValueError(f"[calibration] counters = {rack_counters(cfg)}: counters "
+                                 "beyond six exist on a simulated rack only (no link for "
+                                 f"{name} in [links.serial])")
             links[name] = pin(f"sim://{name}", rid)
     links["ieu"] = can_config(cfg, rid)
     return links

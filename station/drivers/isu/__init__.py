@@ -68,7 +68,7 @@ DRIVERS: dict[str, DriverFactory] = {
 }
 SERIAL_INSTRUMENTS = tuple(n for n in DRIVERS if n != "ieu")
 # counters beyond report 000's six, when the config's [calibration] counters asks for them
-# (II-5: gyro and accelerometer positions measured together); their links are optional
+# (II-5: gyro and accelerometer positions measured together); sim:// links only
 MAX_COUNTERS = 12
 EXTRA_COUNTERS = tuple(f"counter{i}" for i in range(7, MAX_COUNTERS + 1))
 

@@ -9,9 +9,13 @@ from dataclasses import replace
 
 import pytest
 
-from laboratory.cigtf.gyrocompassing import analyse_journal, run_gyrocompass_test
+from laboratory.cigtf.gyrocompassing import data_from_records
 from laboratory.cigtf.variation import true_theta
 from procedures.cigtf.procedure import TestPlan as CigtfPlan
+from procedures.cigtf.procedure import warm_up
+from procedures.journal import Journal
+from procedures.runner import Run
+from sim.cigtf.sdf_gyro import steady_current
 from sim.cigtf.world import CigtfParams, CigtfWorld
 from station.errors import DriverError
 from station.racks.cigtf import CigtfRack, open_cigtf_drivers
@@ -44,23 +48,27 @@ def test_volt_refused_with_the_gyro_on_and_out_of_range():
         assert st.power.rotor_voltage() == 26.0
 
 
-def test_run_at_32_volts_by_command_has_the_configured_truth(tmp_path):
-    """A whole test whose plan sets 32 V through the supply: the step records the supply's
-    reading, and the run's truth is that of the gyro configured at 32 V; its theta lies
-    within 4 sigma of it in each phase."""
-    plan = CigtfPlan(pretest_setup=False, rotor_voltage_v=32.0, operating_runs=3,
-                     shutdown_runs=2)  # a short test: the truth is the point
-    res = run_gyrocompass_test(4, tmp_path / "r", params=MAGNETIC, plan=plan)
-    truth = true_theta(4, replace(MAGNETIC, rotor_voltage_v=32.0), 0)
-    assert res["truth"]["theta_arcsec"] == pytest.approx(
-        CigtfWorld(4, replace(MAGNETIC, rotor_voltage_v=32.0)).truth_theta_arcsec(), abs=1e-9)
-    assert abs(truth - res["truth"]["theta_arcsec"]) < 0.5  # eq. 26 against the exact sum
-    sheet = json.loads((tmp_path / "r" / "sheets" / "check_4.0.json").read_text())
-    step = next(s for s in sheet["steps"] if s["number"] == "4.0.0")
+def test_turn_on_at_32_volts_by_command_has_the_configured_truth(tmp_path):
+    """The procedure's step 4.0.0 sets 32 V through the supply before turn-on: the gyro then
+    running is the one configured at 32 V (same eq. 26 truth and steady current), the step
+    records the supply's reading, and a journal's analysis takes the voltage from it. (The
+    whole test by command: tests/test_gyrocompass_variation.py's rotor-voltage study.)"""
+    plan = CigtfPlan(pretest_setup=False, rotor_voltage_v=32.0, initial_warmup_s=60.0)
+    configured = CigtfWorld(4, replace(MAGNETIC, rotor_voltage_v=32.0))
+    rack = CigtfRack(4, MAGNETIC)
+    with rack:
+        st = open_cigtf_drivers(rack)
+        journal = tmp_path / "journal.jsonl"
+        warm_up(st, Run(st.clock, Journal(journal)), plan)
+        w = rack.world
+        assert w.truth_theta_arcsec() == pytest.approx(configured.truth_theta_arcsec(),
+                                                       abs=1e-12)
+        q = w.fixture.q_ge()
+        assert w.gyro._steady(q) == steady_current(configured.model, q, w.latitude)
+    assert abs(true_theta(4, replace(MAGNETIC, rotor_voltage_v=32.0), 0)
+               - configured.truth_theta_arcsec()) < 0.5  # eq. 26 against the exact sum
+    records = [json.loads(x) for x in journal.read_text().splitlines()]
+    step = next(r for r in records if r.get("step") == "4.0.0")
     assert step["reading"] == {"rotor_voltage_v": 32.0}
-    for ph in res["phases"]:
-        assert abs(ph["theta_arcsec"] - res["truth"]["theta_arcsec"]) < 4 * ph["sigma_arcsec"]
-    # --analyse rebuilds the truth with the supply the journal recorded, not the params'
-    again = analyse_journal(tmp_path / "r", params=MAGNETIC)
-    assert again["truth"]["theta_arcsec"] == pytest.approx(res["truth"]["theta_arcsec"],
-                                                           abs=1e-9)
+    data, _ = data_from_records(records)
+    assert data.rotor_voltage_v == 32.0

@@ -83,8 +83,14 @@ def with_gyro_gate(cfg: StationConfig, gate: str | None) -> StationConfig:
         return cfg
     if gate not in ("clock", "pulses"):
         raise ValueError(f"--gyro-gate {gate!r}: choose clock or pulses")
+    from pydantic import ValidationError
+
     opts = cfg.calibration or CalibrationOptions()
-    return cfg.model_copy(update={"calibration": opts.model_copy(update={"gyro_gate": gate})})
+    try:  # validated again: the config's other [calibration] choices may exclude it
+        new = CalibrationOptions.model_validate({**opts.model_dump(), "gyro_gate": gate})
+    except ValidationError as e:
+        raise ValueError(f"--gyro-gate {gate}: {e.errors()[0]['msg']}") from None
+    return cfg.model_copy(update={"calibration": new})
 
 
 def add_commands(app: typer.Typer) -> None:

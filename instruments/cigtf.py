@@ -13,6 +13,9 @@ DVM / averager:
 Gyro power control:
   PWR ON | PWR OFF    -> OK
   PWR?                ON <seconds since turn-on> | OFF
+  VOLT <volts>        the spin motor's supply, 10..40 V (error 12 outside), set with the
+                      gyro off (error 18 while on)                      -> OK
+  VOLT?               the supply's setting, volts, 2 decimals
 Set-up aids (section 4.1, sim/cigtf/setup.py; refused while an axis moves, error 16):
   LEVEL?              the EW and NS bubble levels on the vertical axis, "<ew> <ns>" arcsec
   TILT <EW|NS> <arcsec>  levelling screws: that level at vertical 0 to read so much more
@@ -41,6 +44,8 @@ from instruments.base import (
 from sim.cigtf.setup import SetupAids
 from sim.cigtf.world import CigtfWorld
 from sim.timebase import ticks
+
+ROTOR_V_MIN, ROTOR_V_MAX = 10.0, 40.0  # the spin motor supply's range (nominal 26 V)
 
 
 def _axis(x: str) -> str:
@@ -130,6 +135,15 @@ class GyroPower(ByteInstrument):
         self.world = world
         self.define("PWR ON|OFF", self._pwr)
         self.define("PWR?", self._pwr_q)
+        self.define("VOLT <volts>", self._volt)
+        self.define("VOLT?", lambda _: f"{self.world.p.rotor_voltage_v:.2f}")
+
+    def _volt(self, args: list[str]) -> str:
+        v = as_real_in(args[0], "rotor voltage, V", ROTOR_V_MIN, ROTOR_V_MAX)
+        if self.world.gyro.on_since is not None:
+            raise InstrumentError(18, "rotor voltage: turn the gyro power off first")
+        self.world.set_rotor_voltage(v)
+        return "OK"
 
     def _pwr(self, args: list[str]) -> str:
         what = args[0].upper()

@@ -452,7 +452,9 @@ DVM = Grammar("dvm", "CIGTF,DVM-AVERAGER,0,1.0", [
 GYRO_POWER = Grammar("gyro_power", "CIGTF,GYRO-POWER,0,1.0", [
     Cmd("PWR", (Word(("ON", "OFF")),)),
     Cmd("PWR?", reply=r"OFF|ON [0-9]+\.[0-9]"),
-])
+    Cmd("VOLT", (Real(10.0, 40.0),)),
+    Cmd("VOLT?", reply=r"[0-9]+\.[0-9]{2}"),
+], state_codes=frozenset({18}))
 
 SETUP_AIDS = Grammar("setup_aids", "CIGTF,SETUP-AIDS,0,1.0", [
     Cmd("LEVEL?", reply=NUM + " " + NUM),

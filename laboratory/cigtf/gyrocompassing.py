@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
-from dataclasses import asdict
+from dataclasses import asdict, replace
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -162,6 +162,8 @@ def data_from_records(records: list[dict]) -> tuple[TestData, dict | None]:
         reading = reading if isinstance(reading, dict) else {}
         if "gsf_arcsec_per_ma" in reading:
             data.gsf = float(reading["gsf_arcsec_per_ma"])
+        if step == "4.0.0" and "rotor_voltage_v" in reading:  # the supply set by command
+            data.rotor_voltage_v = float(reading["rotor_voltage_v"])
         if "orientation" in reading and "-R" in chart:
             if step == "4.2.1":  # a run (re)started: earlier partial orientations are void
                 currents[chart] = {}
@@ -216,6 +218,8 @@ def analyse_journal(d: Path, params: CigtfParams | None = None,
     runs, phases, tests, conclusions = analyse(data)
     truth = budget = None
     if truthful and isinstance(seed, int):
+        if data.rotor_voltage_v is not None:  # the run set its supply (step 4.0.0)
+            params = replace(params, rotor_voltage_v=data.rotor_voltage_v)
         twin = CigtfRack(seed, params)
         with twin:
             if params.pretest_setup:

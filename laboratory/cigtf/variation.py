@@ -13,7 +13,9 @@ theta: theta * sigma(I1 - I1') / (I1 - I1'). The
 simulator's sensitivity is the same fit of its noise-free theta at each setting
 (``CigtfWorld.exact_theta_arcsec``).
 
-* ``rotor-voltage``: the spin motor's excitation, volts (``rotor_voltage_v``). In the
+* ``rotor-voltage``: the spin motor's excitation, volts, set by the procedure through the
+  gyro power supply's ``VOLT`` command before turn-on (``TestPlan.rotor_voltage_v``, so
+  the study runs against a served rack too; the truth takes ``rotor_voltage_v``). In the
   Appendix I model nothing of the gyro survives the four-orientation sum but b D_I and
   c D_OS; the report names no mechanism for a voltage sensitivity. The simulator's is a
   magnetic drift: the spin motor's stray moment, proportional to its excitation, in the
@@ -111,14 +113,18 @@ def run_variation(seed: int, out: Path, name: str, values: list[float],
     sds: list[float] = []
     truths: list[float] = []
     for k, v in enumerate(values):
-        p, plan = params, TestPlan(pretest_setup=params.pretest_setup)
-        if name == "rotor-voltage":
-            p = replace(params, rotor_voltage_v=v)
+        plan = TestPlan(pretest_setup=params.pretest_setup)
+        if name == "rotor-voltage":  # set through the power supply (VOLT), not the params
+            plan = replace(plan, rotor_voltage_v=v)
         else:
             plan = replace(plan, azimuth_deg=int(v))
         d = out / f"{name}-{v:g}"
-        res = run_gyrocompass_test(seed + k, d, params=p, plan=plan, limits=limits, eq27=eq27)
+        res = run_gyrocompass_test(seed + k, d, params=params, plan=plan, limits=limits,
+                                   eq27=eq27)
         rel = gsf_relative_error(d)
+        # the simulator's truth of the same voltage, configured in its params
+        p = params if plan.rotor_voltage_v is None else replace(
+            params, rotor_voltage_v=plan.rotor_voltage_v)
         truth = true_theta(seed + k, p, plan.azimuth_deg)
         conclusions = json.loads((d / "sheets" / "gyrocompass_conclusions.json").read_text())
         phases = [(ph["phase"], ph["theta_arcsec"],

@@ -74,6 +74,25 @@ def without_bubble(cfg: StationConfig, kinds: list[str] | None) -> StationConfig
         update={field[k]: False for k in kinds})})
 
 
+def with_gyro_gate(cfg: StationConfig, gate: str | None) -> StationConfig:
+    """The config with ``--gyro-gate clock|pulses`` over its ``[calibration]`` (ValueError
+    naming an unknown gate)."""
+    from station.config.calibration import CalibrationOptions
+
+    if gate is None:
+        return cfg
+    if gate not in ("clock", "pulses"):
+        raise ValueError(f"--gyro-gate {gate!r}: choose clock or pulses")
+    from pydantic import ValidationError
+
+    opts = cfg.calibration or CalibrationOptions()
+    try:  # validated again: the config's other [calibration] choices may exclude it
+        new = CalibrationOptions.model_validate({**opts.model_dump(), "gyro_gate": gate})
+    except ValidationError as e:
+        raise ValueError(f"--gyro-gate {gate}: {e.errors()[0]['msg']}") from None
+    return cfg.model_copy(update={"calibration": new})
+
+
 def add_commands(app: typer.Typer) -> None:
     """Register this laboratory's commands on the station's command line."""
 
@@ -106,6 +125,10 @@ def add_commands(app: typer.Typer) -> None:
                              "positions 7-15 without bubble-level corrections, keeping the "
                              "survey's (II-6.1): gyro, accel; over the config's "
                              "\\[calibration]; repeatable")] = None,
+        gyro_gate: Annotated[str | None, typer.Option("--gyro-gate", help="static gyro "
+                             "positions 7-15: clock (counts over a clock preset) or pulses "
+                             "(the time for a preset of pulses, II-5.2); over the config's "
+                             "\\[calibration]")] = None,
         quiet: QuietOpt = False,
         operator: OperatorOpt = None,
     ) -> None:
@@ -123,7 +146,8 @@ def add_commands(app: typer.Typer) -> None:
             "prior": None if prior is None else str(prior),
             "survey": None if survey is None else str(survey),
             "tape_library": None if tape_library is None else str(tape_library),
-            "require": require or None, **({"no_bubble": no_bubble} if no_bubble else {})})
+            "require": require or None, **({"no_bubble": no_bubble} if no_bubble else {}),
+            **({"gyro_gate": gyro_gate} if gyro_gate else {})})
         sel_only = tuple(args["only"]) if args["only"] else None
         sel_pos = tuple(args["positions"]) if args["positions"] else None
         with reported(lambda: None):
@@ -132,6 +156,7 @@ def add_commands(app: typer.Typer) -> None:
         with reported(lambda: None):
             cfg = required(cfg, args.get("require"))
             cfg = without_bubble(cfg, args.get("no_bubble"))
+            cfg = with_gyro_gate(cfg, args.get("gyro_gate"))
         fresh_dir = target is None
         target = target_dir(target, "day", cfg.seed)
         try:

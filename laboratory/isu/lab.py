@@ -62,9 +62,14 @@ def shown_links(links: dict[str, Any]) -> dict[str, str]:
 
 
 def _assemble(clock: Clock, opened: dict[str, Driver], links: dict[str, Any]) -> IsuDrivers:
-    from station.drivers.isu import IsuDrivers
+    """The driver set; counters beyond the six (``[calibration] counters``, whose links
+    ``config_links`` adds) are opened here, the registry's list being report 000's rack."""
+    from station.drivers.isu import EXTRA_COUNTERS, IsuDrivers
+    from station.drivers.isu.counter import CounterDriver
 
-    return IsuDrivers.from_opened(clock, opened, shown_links(links))
+    extra = {n: CounterDriver(n, links[n], clock) for n in EXTRA_COUNTERS
+             if n in links and n not in opened}
+    return IsuDrivers.from_opened(clock, {**opened, **extra}, shown_links(links))
 
 
 def simulated(cfg: StationConfig) -> bool:

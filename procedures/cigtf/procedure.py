@@ -33,12 +33,16 @@ class TestPlan:
     # orientation 1's vertical null, whole degrees: the input axis that far from west
     # (section 1's input-axis azimuth variation; 0 in the standard test)
     azimuth_deg: int = 0
+    # the spin motor's supply, volts, set through the power supply before turn-on
+    # (section 1's parameter variation); None: left as the supply is (the nominal 26 V)
+    rotor_voltage_v: float | None = None
 
 
 @dataclass
 class TestData:
     gsf: float = 0.0
     setup: dict | None = None  # what the pre-test set-up left (b, c, a + d), arcsec
+    rotor_voltage_v: float | None = None  # the supply as step 4.0.0 set it (None: not set)
     runs: dict[str, list[RunValues]] = field(
         default_factory=lambda: {"operating": [], "shutdown": []})
 
@@ -110,6 +114,15 @@ def north_determination(st: CigtfDrivers, run: Run, plan: TestPlan, chart: str, 
 def warm_up(st: CigtfDrivers, run: Run, plan: TestPlan) -> None:
     """Section 4.0: gyro power on in torque-to-balance and the initial warm-up."""
     with run.sheet("4.0", "Gyro turn-on and warm-up") as sh:
+        if plan.rotor_voltage_v is not None:
+            v = plan.rotor_voltage_v
+            with sh.step("4.0.0", f"set the rotor supply to {v:g} V (gyro off)") as s:
+                st.power.off()
+                st.power.set_rotor_voltage(v)
+                got = st.power.rotor_voltage()
+                if abs(got - v) > 0.005:
+                    raise CheckFailed(f"rotor supply reads {got:g} V, set to {v:g} V")
+                s.reading = {"rotor_voltage_v": got}
         with sh.step("4.0.1", "gyro power on in torque-to-balance") as s:
             st.power.on()
             s.reading = {"power": "ON"}
@@ -150,6 +163,7 @@ def gyrocompass_test(st: CigtfDrivers, run: Run, plan: TestPlan | None = None) -
     if plan.pretest_setup:
         data.setup = run.block("4.1-S", lambda: pretest_setup(st, run), dict)
     run.block("4.0", lambda: warm_up(st, run, plan), lambda _: None)
+    data.rotor_voltage_v = plan.rotor_voltage_v
     data.gsf = run.block("4.1", lambda: scale_factor(st, run, plan), float)
     for i in range(1, plan.operating_runs + 1):
         chart = f"4.3-R{i:02d}"

@@ -16,6 +16,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from procedures.isu import settings as st_settings
+from procedures.isu import simultaneous as sim
 from procedures.isu.accel_static import accel_positions_7_12, accel_positions_13_14
 from procedures.isu.bubble import uncorrected_for
 from procedures.isu.calibration.noise_spec import NoiseSpec
@@ -90,6 +91,11 @@ def measure_day(st: IsuDrivers, run: Run, plan: DayPlan, site: Site, f0: float,
     if pos is not None and not pos <= set(range(1, 16)):
         raise ValueError(f"unknown position(s) {sorted(pos - set(range(1, 16)))}; "
                          "calibration positions are 1 to 15")
+    need = set(range(1, plan.options.counters + 1))
+    if plan.options.simultaneous and not need <= set(st.counters):
+        raise ValueError(f"[calibration] counters = {plan.options.counters}: the station has "
+                         f"counters {', '.join(map(str, sorted(st.counters)))} only (a served "
+                         "rack serves report 000's six)")
     run.block("I-1", lambda: turn_on(st, run, plan.warmup_s), lambda _: None)
     t_survey: float | None = None  # the survey's level reading, as near as the day knows
     if survey is None:
@@ -99,11 +105,16 @@ def measure_day(st: IsuDrivers, run: Run, plan: DayPlan, site: Site, f0: float,
     else:
         run.save_sheet("survey_results", survey)
     unc = uncorrected_for(plan, survey, t_survey)  # II-6.1: bubble corrections or not
+    gate = plan.options.gyro_gate  # II-5.2: clock gate, or the time for a preset of pulses
     prec = {"G": plan.options.precision_gyro_arcsec, "A": plan.options.precision_accel_arcsec}
     s1, _ = oscillator_periods(run)  # as Chart I-1 step 3 read them (twice, agreeing)
     settings = resolver_settings(survey)
     run.save_sheet("resolver_settings", settings)
-    run.save_sheet("counter_connections", st_settings.counter_connections())
+    connections = st_settings.counter_connections()
+    if plan.options.simultaneous:  # II-5: the experiment the extra counters allow
+        connections.experiments[st_settings.SIMULTANEOUS] = (
+            st_settings.simultaneous_connections(plan.options.counters))
+    run.save_sheet("counter_connections", connections)
     times, gates = st_settings.collection_times(plan, site, noise or NoiseSpec(), s1, f0,
                                                 survey.t_bi)
     gyro_gate_s, acc_v_s, acc_h_s = times.gyro_s, times.accel_vertical_s, times.accel_horizontal_s
@@ -113,7 +124,8 @@ def measure_day(st: IsuDrivers, run: Run, plan: DayPlan, site: Site, f0: float,
         "gyro 1-6": f"{times.turns} whole turns at {plan.table_rate_deg_s:g} deg/s: "
         f"{g['gyro 1-6'].why} (Chart II-18)",
         "gyro 7-15": f"{gyro_gate_s / 60:g} min of S1^T ticks: {g['gyro 7-15'].why} "
-        "(Chart II-19)",
+        "(Chart II-19)" + ("" if gate == "clock" else "; pulse gate (II-5.2): each gyro's "
+        "preset is its rate in a short clock-gated probe at the position times this time"),
         "accelerometer 7-15": f"{acc_v_s / 60:g} min vertical ({g['accel vertical'].why}), "
         f"{acc_h_s / 60:g} min horizontal ({g['accel horizontal'].why}) times the {f0:g} Hz "
         "basic frequency (Charts II-21..II-24)",
@@ -147,12 +159,29 @@ def measure_day(st: IsuDrivers, run: Run, plan: DayPlan, site: Site, f0: float,
             st, run, survey.t_bi, plan, s1, site.omega_sin_lambda))
     if "II-10" in wanted:
         data.j_term = chart("II-10", lambda: j_experiment(st, run, settings, plan, s1))
+    pos12 = pos
+    together = plan.options.simultaneous  # II-5: gyros and accelerometers in one setting
+    counters = plan.options.counters
+    if together and {"II-11", "II-13"} <= wanted and (pairs := _pairs((7, 9, 11), pos)):
+        both = chart(sim.CHART_7_12, lambda: sim.positions_7_12(
+            st, run, settings, presets, outputs, s1, f0, counters, pairs, unc["A"], prec["A"]))
+        data.gyro.update({m: v["gyro"] for m, v in both.items()})
+        data.accel.update({m: v["accel"] for m, v in both.items()})
+        wanted -= {"II-11", "II-13"}
+    if together and {"II-12", "II-14"} <= wanted and (singles := _singles((13, 14), pos)):
+        both = chart(sim.CHART_13_14, lambda: sim.positions_13_14(
+            st, run, settings, presets, outputs, s1, f0, counters, singles, unc["A"],
+            prec["A"]))
+        data.gyro.update({m: v["gyro"] for m, v in both.items()})
+        data.accel.update({m: v["accel"] for m, v in both.items()})
+        wanted -= {"II-14"}
+        pos12 = {15} if pos is None else pos & {15}  # II-12 keeps position 15 alone
     if "II-11" in wanted and (pairs := _pairs((7, 9, 11), pos)):
         data.gyro.update(chart("II-11", lambda: gyro_positions_7_12(
-            st, run, settings, presets, outputs, s1, pairs, unc["G"], prec["G"])))
-    if "II-12" in wanted and (singles := _singles((13, 14, 15), pos)):
+            st, run, settings, presets, outputs, s1, pairs, unc["G"], prec["G"], gate)))
+    if "II-12" in wanted and (singles := _singles((13, 14, 15), pos12)):
         data.gyro.update(chart("II-12", lambda: gyro_positions_13_15(
-            st, run, settings, presets, outputs, s1, singles, unc["G"], prec["G"])))
+            st, run, settings, presets, outputs, s1, singles, unc["G"], prec["G"], gate)))
     if "II-13" in wanted and (pairs := _pairs((7, 9, 11), pos)):
         data.accel.update(chart("II-13", lambda: accel_positions_7_12(
             st, run, settings, presets, outputs, s1, f0, pairs, unc["A"], prec["A"])))

@@ -3,13 +3,15 @@
 Counters 2-4 count each gyro's net pulses over a preset number of master-oscillator ticks
 ("measure Z", Z = S1^T) with the rotary axis up, in positions 7-12 (each body axis up and
 down) and 13-15 (bisectors up). Bubble-level corrections are applied in every position
-(II-6.1 recommends the habit).
+(II-6.1 recommends the habit). ``gate`` "pulses": II-5.2's alternative, each counter timing
+a preset number of its gyro's pulses (procedures.isu.pulse_gate).
 """
 
 from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
+from procedures.isu import pulse_gate
 from procedures.isu.common import Gate, PositionSet
 from procedures.isu.settings import GYRO_CHECK_COUNTERS, GYRO_STATIC
 from procedures.isu.sheets import CounterOutputs, CounterSettings, ResolverSettings
@@ -29,7 +31,7 @@ TITLE_7_12 = "Gyro bias, unbalance and square compliance, positions 7 to 12"
 TITLE_13_15 = "Gyro product compliance, positions 13 to 15"
 
 
-def _kind(s1: float) -> StaticKind:
+def _kind(s1: float, gate: str = "clock") -> StaticKind:
     def record(n: dict[int, int], gate: Gate, ps: PositionSet) -> dict:
         return {"n1": n[2], "delta": tuple(gate.readings[c] for c in (2, 3, 4)),
                 "t0": gate.t_oper, "t1": gate.t_done}
@@ -42,6 +44,9 @@ def _kind(s1: float) -> StaticKind:
         record_text="Record the gyro counts on the Counter Outputs Sheet",
         timeout=lambda n: max(n.values()) * s1 * 1.5 + 60.0, record=record,
         repeats=GYRO_CHECK_COUNTERS, gate_s=lambda n: max(n.values()) * s1,
+        measure=None if gate == "clock" else (
+            lambda st, sheet, m, tag, n, ps: pulse_gate.measure(
+                st, sheet, m, tag, n, GYRO_CHECK_COUNTERS, s1)),
     )
 
 
@@ -49,8 +54,8 @@ def gyro_positions_7_12(st: IsuDrivers, run: Run, settings: ResolverSettings,
                         presets: CounterSettings, outputs: CounterOutputs, s1: float,
                         pairs: tuple[int, ...] = (7, 9, 11),
                         uncorrected: Uncorrected | None = None,
-                        precision_arcsec: float = 0.0) -> dict[int, dict]:
-    return run_static(st, run, "II-11", TITLE_7_12, _kind(s1), settings, presets, outputs,
+                        precision_arcsec: float = 0.0, gate: str = "clock") -> dict[int, dict]:
+    return run_static(st, run, "II-11", TITLE_7_12, _kind(s1, gate), settings, presets, outputs,
                       pair_steps(pairs), uncorrected, precision_arcsec)
 
 
@@ -58,6 +63,6 @@ def gyro_positions_13_15(st: IsuDrivers, run: Run, settings: ResolverSettings,
                          presets: CounterSettings, outputs: CounterOutputs, s1: float,
                          positions: tuple[int, ...] = (13, 14, 15),
                          uncorrected: Uncorrected | None = None,
-                        precision_arcsec: float = 0.0) -> dict[int, dict]:
-    return run_static(st, run, "II-12", TITLE_13_15, _kind(s1), settings, presets, outputs,
+                         precision_arcsec: float = 0.0, gate: str = "clock") -> dict[int, dict]:
+    return run_static(st, run, "II-12", TITLE_13_15, _kind(s1, gate), settings, presets, outputs,
                       single_steps(positions), uncorrected, precision_arcsec)

@@ -28,6 +28,7 @@ from procedures.isu.site import Site
 GYRO_ROTATING = "gyro 1-6"
 GYRO_STATIC = "gyro 7-15"
 ACCEL = "accelerometer 7-15"
+SIMULTANEOUS = "gyro and accelerometer 7-14"  # II-5: with nine or twelve counters
 
 STRINGS = {1: "A1S1", 2: "A1S2", 3: "A2S1", 4: "A2S2", 5: "A3S1", 6: "A3S2"}
 # Positions 7-15 leave counters 5, 6 and 1 free: each counts a gyro again over the same
@@ -65,10 +66,24 @@ def counter_connections() -> CounterConnections:
     return CounterConnections(experiments={GYRO_ROTATING: g, GYRO_STATIC: s, ACCEL: a})
 
 
-def wiring(experiment: str) -> dict[int, tuple[str | None, str | None, str]]:
+def simultaneous_connections(counters: int) -> dict[str, CounterConnection]:
+    """II-5's remark: gyro and accelerometer positions 7-14 in one setting. Counters 1-6 the
+    accelerometer strings as Chart II-2, 7-9 gyros 1-3 over the clock, and (with 12
+    counters) 10-12 the same gyros again, the count read twice as counters 5, 6, 1 do."""
+    out = {str(c): CounterConnection(xy=line, z="OSC1", mode="measure X-Y")
+           for c, line in STRINGS.items()}
+    for k in (1, 2, 3):
+        for c in (6 + k, 9 + k) if counters >= 12 else (6 + k,):
+            out[str(c)] = CounterConnection(xy=f"G{k}+/G{k}-", z="OSC1", mode="measure Z")
+    return out
+
+
+def wiring(experiment: str, counters: int = 6) -> dict[int, tuple[str | None, str | None, str]]:
     """Patch-panel wiring of an experiment: counter -> (X, Y, Z)."""
     out: dict[int, tuple[str | None, str | None, str]] = {}
-    for c, conn in counter_connections().experiments[experiment].items():
+    conns = (simultaneous_connections(counters) if experiment == SIMULTANEOUS
+             else counter_connections().experiments[experiment])
+    for c, conn in conns.items():
         x, _, y = conn.xy.partition("/")
         out[int(c)] = (x, y or None, conn.z)
     return out

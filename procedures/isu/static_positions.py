@@ -23,7 +23,7 @@ from procedures.isu.common import (
 from procedures.isu.readings import resolver
 from procedures.isu.settings import wiring
 from procedures.isu.sheets import CounterOutputs, CounterSettings, ResolverSettings
-from procedures.runner import Run
+from procedures.runner import CheckSheetRun, Run
 from station.config.calibration import set_to
 
 if TYPE_CHECKING:
@@ -44,6 +44,12 @@ class StaticKind:
     record: Callable[[dict[int, int], Gate, PositionSet], dict]
     repeats: dict[int, int] = field(default_factory=dict)  # check counter -> counter
     gate_s: Callable[[dict[int, int]], float] = lambda n: 0.0
+    # steps 7-8 done otherwise (II-5.2's pulse gate, procedures.isu.pulse_gate):
+    # (drivers, sheet, position, step tag, presets, the setting) -> (gate, the position's
+    # record; its "outputs", if any, the Counter Outputs rows)
+    measure: Callable[[IsuDrivers, CheckSheetRun, int, str, dict[int, int], PositionSet],
+                      tuple[Gate, dict]] | None = None
+    n_counters: int = 6  # the rack's counters (the simultaneous experiment's wiring)
 
 
 def pair_steps(pairs: Iterable[int]) -> list[tuple[int, str, str]]:
@@ -100,7 +106,7 @@ def run_static(st: IsuDrivers, run: Run, chart: str, title: str, kind: StaticKin
         sheet.done("1", "Resolver and counter settings available")
         sheet.done("2", "Turn-on procedures complete (Chart I-1)")
         with sheet.step("3", kind.patch_text):
-            patch(st, wiring(kind.experiment))
+            patch(st, wiring(kind.experiment, kind.n_counters))
         counters = f"{kind.counters[0]}-{kind.counters[-1]}"
         every = (*kind.counters, *kind.repeats)
         also = (f" (and {', '.join(str(c) for c in kind.repeats)} counting again)"
@@ -121,6 +127,15 @@ def run_static(st: IsuDrivers, run: Run, chart: str, title: str, kind: StaticKin
                              **ps.reading()}
             row = presets.presets[f"{kind.sheet_key} {m}"]
             n = {c: int(row[str(c)]) for c in every}
+            if kind.measure is not None:
+                gate, record = kind.measure(st, sheet, m, tag, n, ps)
+                with sheet.step("9" + tag, kind.record_text) as s:
+                    rows = record.pop("outputs", None) or {
+                        f"{kind.sheet_key} {m}": {str(c): v for c, v in gate.readings.items()}}
+                    outputs.outputs.update(rows)
+                    data[m] = record
+                    s.reading = record
+                continue
             with sheet.step("7" + tag, kind.preset_text) as s:
                 s.reading = {str(c): v for c, v in n.items()}
             with sheet.step("8" + tag, kind.operate_text) as s:

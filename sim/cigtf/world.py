@@ -150,6 +150,15 @@ class CigtfWorld:
     def power_off(self) -> None:
         self.gyro.power_off()
 
+    def set_rotor_voltage(self, volts: float) -> None:
+        """The spin motor's supply set to ``volts`` (gyro off): the model the next turn-on
+        runs with, as if ``rotor_voltage_v`` had been configured (section 1's variation)."""
+        if self.gyro.on_since is not None:
+            raise RuntimeError("rotor voltage changed with the gyro running")
+        self.p = replace(self.p, rotor_voltage_v=float(volts))
+        self.model = effective_model(self.p)
+        self.gyro.model = self.model
+
     def average_current_ma(self, t0: float, t1: float) -> float:
         """Mean torquer current over [t0, t1] (Simpson, 21 nodes) plus the DVM's noise, mA."""
         tt = np.linspace(t0, t1, 21)

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from typing import Annotated, Literal
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from station.config.alignment import AsTuple  # TOML arrays as the strict model's tuples
 
@@ -43,6 +43,32 @@ class CalibrationOptions(BaseModel):
     # all-positions fit takes them
     extra_accel_tilts_deg: Annotated[tuple[TiltDeg, ...], AsTuple,
                                      Field(max_length=4)] = ()
+    # II-5.2's alternative gyro gate for the static positions 7-15 (Charts II-11, II-12):
+    # "clock" counts gyro pulses over a preset of clock ticks (the manual's choice);
+    # "pulses" counts clock ticks over a preset number of each gyro's pulses (smaller
+    # quantization; the number set at each position, procedures.isu.pulse_gate)
+    gyro_gate: Literal["clock", "pulses"] = "clock"
+    # II-5: with enough counters the gyro and accelerometer readings of positions 7-14 are
+    # taken in one setting of the table (counters 1-6 the strings, 7-9 the gyros, 10-12 the
+    # gyros again when there are 12); ``counters``: the rack's frequency counters (6 as
+    # report 000's laboratory; more only when asked)
+    simultaneous: bool = False
+    counters: int = Field(6, ge=6, le=12)
+
+    @model_validator(mode="after")
+    def _enough_counters(self) -> CalibrationOptions:
+        if self.simultaneous and self.counters < 9:
+            raise ValueError(f"simultaneous = true needs counters >= 9 (6 accelerometer strings "
+                             f"and 3 gyros), got counters = {self.counters}")
+        if self.simultaneous and self.gyro_gate != "clock":
+            raise ValueError("simultaneous = true takes gyro_gate = \"clock\" (the gyros' "
+                             "gates run inside the accelerometers')")
+        if self.simultaneous and (self.bubble_gyro != self.bubble_accel
+                                  or self.precision_gyro_arcsec != self.precision_accel_arcsec):
+            raise ValueError("simultaneous = true: gyros and accelerometers share each "
+                             "setting, so bubble_gyro = bubble_accel and precision_gyro_arcsec "
+                             "= precision_accel_arcsec")
+        return self
 
     def precisions(self) -> dict[str, float]:
         """Setting precision (arcsec) by setting kind: "R" positions 1-6, "G" gyro and "A"

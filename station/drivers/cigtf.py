@@ -21,6 +21,8 @@ APERTURE = Form([general("averaging time, s", 0.001, 3600.0)])
 LEVELS = Form([fixed("EW level, arcsec", 1, -3600.0, 3600.0),
                fixed("NS level, arcsec", 1, -3600.0, 3600.0)])
 AZIMUTH = Form([fixed("horizontal axis azimuth, arcsec", 1, -3600.0, 3600.0)])
+ROTOR_V_RANGE = (10.0, 40.0)  # the spin motor supply's settings (nominal 26 V)
+ROTOR_VOLTAGE = Form([fixed("rotor voltage, V", 2, *ROTOR_V_RANGE)])
 POWER = OneOf(Form([literal("OFF")]),
               Form([literal("ON"), fixed("seconds since turn-on", 1, 0.0, 1e9)]))
 
@@ -80,6 +82,18 @@ class GyroPowerDriver(SerialDriver):
         """(on, seconds since turn-on)."""
         which, values = self.ask("PWR?", POWER)
         return (False, 0.0) if which == 0 else (True, values[0])
+
+    def set_rotor_voltage(self, volts: float) -> None:
+        """The spin motor's supply, volts (10..40; the gyro must be off): section 1's
+        rotor-voltage variation."""
+        lo, hi = ROTOR_V_RANGE
+        if not lo <= volts <= hi:
+            raise DriverError(self.name, self.url, f"rotor voltage {volts!r}: {lo:g}..{hi:g} V")
+        self.command(f"VOLT {volts:.2f}")
+
+    def rotor_voltage(self) -> float:
+        """The supply's setting, volts."""
+        return self.ask("VOLT?", ROTOR_VOLTAGE)[0]
 
 
 class SetupAidsDriver(SerialDriver):

@@ -23,7 +23,7 @@ from instruments.isu.table_controller import TableController
 from sim.isu.world import World
 from station.clock import Clock, VirtualClock, WallClock
 from station.config.isu import StationConfig
-from station.drivers.isu import DRIVERS, IsuDrivers
+from station.drivers.isu import IsuDrivers, drivers_for
 from station.racks.base import Rack, SimRack, open_drivers, pin
 
 
@@ -37,12 +37,13 @@ class SimulatedRack(SimRack):
         w = World(cfg.world_params(), cfg.seed, env)
         ip = cfg.instruments
         lat = ip.serial.latency_s
-        panel = PatchPanel("patch_panel", w, 6, lat)
+        n_counters = rack_counters(cfg)
+        panel = PatchPanel("patch_panel", w, n_counters, lat)
         serial: dict[str, ByteInstrument] = {
             "table": TableController("table", w, lat),
             "patch_panel": panel,
         }
-        for i in range(1, 7):
+        for i in range(1, n_counters + 1):
             serial[f"counter{i}"] = FrequencyCounter(f"counter{i}", f"C{i}", w, panel, lat)
         for i in (1, 2):
             serial[f"autocollimator{i}"] = Autocollimator(
@@ -53,6 +54,11 @@ class SimulatedRack(SimRack):
         self.ieu = Ieu("ieu", w, ip.ieu)
         super().__init__(w, serial, {"ieu": self.ieu})
         apply_faults(self.serial, self.ieu, cfg.faults, cfg.seed)
+
+
+def rack_counters(cfg: StationConfig) -> int:
+    """The rack's frequency counters: six, or the config's ``[calibration] counters``."""
+    return 6 if cfg.calibration is None else cfg.calibration.counters
 
 
 def can_config(cfg: StationConfig, rack_id: str | None) -> dict:
@@ -68,6 +74,15 @@ def config_links(cfg: StationConfig, rack: Rack | None = None) -> dict[str, Any]
     and python-can's bus configuration for the IEU."""
     rid = rack.rack_id if rack else None
     links: dict[str, Any] = {n: pin(u, rid) for n, u in cfg.links.serial.items()}
+    simulated = all(u.startswith("sim://") for u in cfg.links.serial.values())
+    for i in range(7, rack_counters(cfg) + 1):  # counters the [calibration] table adds
+        name = f"counter{i}"
+        if name not in links:  # never given: [links.serial] refuses it
+            if not simulated:  # [links.serial] names report 000's six counters only
+                raise ValueError(f"[calibration] counters = {rack_counters(cfg)}: counters "
+                                 "beyond six exist on a simulated rack only (no link for "
+                                 f"{name} in [links.serial])")
+            links[name] = pin(f"sim://{name}", rid)
     links["ieu"] = can_config(cfg, rid)
     return links
 
@@ -82,7 +97,7 @@ def open_isu_drivers(
     if clock is None:
         clock = VirtualClock(rack.env) if rack else WallClock()
     links = config_links(cfg, rack)
-    opened = open_drivers(DRIVERS, links, clock, timeout)
+    opened = open_drivers(drivers_for(rack_counters(cfg)), links, clock, timeout)
     shown = {n: u for n, u in links.items() if n != "ieu"}
     shown["ieu"] = f"{links['ieu']['interface']}:{links['ieu']['channel']}"
     return IsuDrivers.from_opened(clock, opened, shown)

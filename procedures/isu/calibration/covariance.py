@@ -2,7 +2,10 @@
 
 Per datum (rates in pulses/s; gate T = n1 S1^T):
 * gyro counts: quantization q (1 + (rho/f_s)^2) / T^2, the count being a difference of two
-  floors read at the rebalance loop's sampling instants (f_s the sampling rate); angle
+  floors read at the rebalance loop's sampling instants (f_s the sampling rate); with
+  II-5.2's pulse gate (a preset of gyro pulses, the clock counted) the count is exact and
+  the gate's two edges fall on sampling instants: rho^2 (q_clk / n1^2 + 1 / (6 f_s^2 T^2));
+  angle
   random walk N^2 (T/3600) / (DeltaPhi^2 T^2); random drift: gate means of a Gauss-Markov
   process, correlated between the positions of one gyro through exp(-|dt|/tau);
 * table rate and turning gyro rates share counter 1's clock count n1 (quantization q_clk):
@@ -38,10 +41,21 @@ from procedures.isu.calibration.kernels import (
     exp_gram,
 )
 from procedures.isu.calibration.noise_spec import ARCSEC, DAY, NoiseSpec
-from procedures.isu.calibration.reduce import Key, Reduced
+from procedures.isu.calibration.reduce import Key, Record, Reduced
 from sim.frames import cross3
 
 RAD2DEG = 180.0 / math.pi
+
+
+def gyro_quantization_var(rate: float, rec: Record, nz: NoiseSpec) -> float:
+    """Variance (pulses/s)^2 of a gyro rate from the counter's quantization: a clock gate
+    reads the count to a pulse; a pulse gate (II-5.2) reads the time to a clock tick and
+    to a sampling period at each edge."""
+    tau_s = 1.0 / nz.gyro_sample_rate_hz
+    T = rec.length
+    if rec.pulse_gate:
+        return rate**2 * (nz.clock_quantization_var / rec.n1**2 + tau_s**2 / (6.0 * T**2))
+    return nz.count_quantization_var * (1.0 + (rate * tau_s) ** 2) / T**2
 
 
 def setting_of(key: Key) -> SettingKey | None:
@@ -89,8 +103,7 @@ class DataCovariance:
             elif kind == "G":
                 T = rec.length
                 dphi = self.gyros[k].dphi_deg
-                tau_s = 1.0 / nz.gyro_sample_rate_hz
-                out[i, i] += nz.count_quantization_var * (1.0 + (val * tau_s) ** 2) / T**2
+                out[i, i] += gyro_quantization_var(val, rec, nz)
                 out[i, i] += nz.gyro_arw_deg_rt_hr**2 * (T / 3600.0) / (dphi * T) ** 2
                 if m <= 6:
                     by_position.setdefault(m, []).append(i)

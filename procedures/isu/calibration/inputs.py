@@ -62,7 +62,10 @@ class GyroPosition(_In):
     Positions 1-6 (Chart II-6, "measure Z" on the rotation pulses): ``n_phi`` rotation pulses
     (the preset), ``n1`` clock ticks on counter 1 over them, ``delta`` net gyro counts on
     counters 2-4. Positions 7-15 (Charts II-11, II-12, "measure Z" on the clock): ``n1`` clock
-    ticks (the preset) and ``delta`` the gyro counts over them.
+    ticks (the preset) and ``delta`` the gyro counts over them. With II-5.2's pulse gate
+    ("measure X-Y" on each gyro's net train), gyro k's own gate is ``n1_each[k - 1]`` clock
+    ticks for the ``delta[k - 1]`` pulses preset (``pulse_gated``); a gyro counted over the
+    clock gate instead has ``n1_each`` = ``n1``.
     """
 
     n1: float = Field(gt=0, description="clock ticks in the gate")
@@ -70,6 +73,16 @@ class GyroPosition(_In):
     delta: Vec3 = Field(description="net counts of gyros 1, 2, 3")
     t0: float = Field(description="gate start, s")
     t1: float = Field(description="gate end, s")
+    n1_each: Vec3 | None = Field(default=None, description="clock ticks of each gyro's gate")
+    pulse_gated: tuple[bool, bool, bool] = (False, False, False)
+
+    @model_validator(mode="after")
+    def _own_gates(self) -> GyroPosition:
+        if any(self.pulse_gated) and self.n1_each is None:
+            raise ValueError("a pulse-gated gyro position needs n1_each (clock ticks per gyro)")
+        if self.n1_each is not None and min(self.n1_each) <= 0:
+            raise ValueError("n1_each: every gyro's gate must hold clock ticks")
+        return self
 
 
 class AccelPosition(_In):

@@ -33,6 +33,7 @@ class Record:
     strings: tuple[tuple[float, float, float], ...] = ()  # (f, n1, gate s) of strings 1, 2
     t_level: float = 0.0
     sigma: float = 0.0  # supplied data only
+    pulse_gate: bool = False  # a gyro's gate of preset pulses (II-5.2): n1 is its clock count
 
 
 @dataclass
@@ -60,7 +61,14 @@ def reduce(data: CalibrationData) -> Reduced:
             rec = Record(("w", 0, m), start, t, gp.n1)
             out.add(rec, data.constants.s_phi * float(gp.n_phi) / t)
         for k in (1, 2, 3):
-            out.add(Record(("G", k, m), start, t, gp.n1), gp.delta[k - 1] / t)
+            if gp.n1_each is None:
+                out.add(Record(("G", k, m), start, t, gp.n1), gp.delta[k - 1] / t)
+                continue
+            # II-5.2's pulse gate: each gyro's own gate, opened on its first pulse after
+            # the switch to operate (placed at the switch: within one pulse period)
+            n1 = gp.n1_each[k - 1]
+            rec = Record(("G", k, m), gp.t0, n1 * s1, n1, pulse_gate=gp.pulse_gated[k - 1])
+            out.add(rec, gp.delta[k - 1] / (n1 * s1))
     for m, p in sorted(data.accel.items()):
         _accel(out, m, p, s1)
     for k, x in sorted(data.last_d1d3.items()):

@@ -49,7 +49,8 @@ class IsuDrivers(DriverSet):
                     links: dict[str, str]) -> IsuDrivers:
         """The set from the drivers opened by instrument name (``DRIVERS``)."""
         return cls(clock, opened["table"], opened["patch_panel"],
-                   {i: opened[f"counter{i}"] for i in range(1, 7)},
+                   {i: opened[f"counter{i}"] for i in range(1, MAX_COUNTERS + 1)
+                    if f"counter{i}" in opened},
                    {i: opened[f"autocollimator{i}"] for i in (1, 2)},
                    opened["bubble_levels"], opened["oscillator"], opened["ieu"], links)
 
@@ -66,3 +67,13 @@ DRIVERS: dict[str, DriverFactory] = {
     "ieu": IeuDriver,
 }
 SERIAL_INSTRUMENTS = tuple(n for n in DRIVERS if n != "ieu")
+# counters beyond report 000's six, when the config's [calibration] counters asks for them
+# (II-5: gyro and accelerometer positions measured together); sim:// links only
+MAX_COUNTERS = 12
+EXTRA_COUNTERS = tuple(f"counter{i}" for i in range(7, MAX_COUNTERS + 1))
+
+
+def drivers_for(counters: int) -> dict[str, DriverFactory]:
+    """``DRIVERS`` with counters 7..``counters`` (6: ``DRIVERS`` itself)."""
+    extra = {f"counter{i}": CounterDriver for i in range(7, counters + 1)}
+    return {**DRIVERS, **extra} if extra else DRIVERS

@@ -50,11 +50,12 @@ class RandomLab:
 
 
 def draw(rng: np.random.Generator, base: dict[str, Any], *, redraw_isu: bool = True,
-         noise: float | None = None) -> RandomLab:
+         noise: float | None = None, extras: bool = True) -> RandomLab:
     """A random admissible laboratory over the config document ``base`` (its ISU, site and
     environment sections, returned whole in the overrides); ``noise``: every noise factor
     (gyro, accelerometer, pier) fixed instead of drawn; ``redraw_isu`` False keeps the
-    base's coefficients."""
+    base's coefficients; ``extras`` False draws but does not apply the pier factor and the
+    spin-axis rotations (the former tests/random_labs.py's laboratories exactly)."""
     isu = base["isu"]
 
     def redraw(v: float) -> float:
@@ -87,9 +88,12 @@ def draw(rng: np.random.Generator, base: dict[str, Any], *, redraw_isu: bool = T
     lat = float(rng.uniform(*LATITUDE) * rng.choice([-1.0, 1.0]))
     lon = float(rng.uniform(-180.0, 180.0))
     pier = float(rng.uniform(*FACTOR)) if noise is None else float(noise)
-    if redraw_isu:
-        for g in gyros:
-            g["spin_axis_rotation_arcsec"] = redraw(g["spin_axis_rotation_arcsec"])
+    spin = [redraw(g["spin_axis_rotation_arcsec"]) for g in gyros] if redraw_isu else []
+    if extras:
+        for g, x in zip(gyros, spin, strict=False):
+            g["spin_axis_rotation_arcsec"] = x
+    else:
+        pier = 1.0
     env = base["environment"]
     environment = {**env,
                    "wobble": {**env["wobble"], "amplitude_arcsec":
@@ -121,12 +125,13 @@ def reachable_plan(cfg: StationConfig) -> dict[str, float]:
 
 def random_config(rng: np.random.Generator, seed: int, base: StationConfig | None = None,
                   *, redraw_isu: bool = True, noise: float | None = None,
-                  reachable: bool = True) -> tuple[StationConfig, RandomLab]:
+                  reachable: bool = True, extras: bool = True
+                  ) -> tuple[StationConfig, RandomLab]:
     """The station config of one random laboratory drawn from ``rng`` over ``base`` (the
     default when None), run seed ``seed``, its ``[plan]`` reachable (``reachable_plan``;
     ``reachable`` False skips it, about 1 s, for callers that plan no day)."""
     doc = (base or load_config()).model_dump(mode="json")
-    lab = draw(rng, doc, redraw_isu=redraw_isu, noise=noise)
+    lab = draw(rng, doc, redraw_isu=redraw_isu, noise=noise, extras=extras)
     cfg = load_config(seed=seed, overrides={**doc, **lab.overrides})
     plan = reachable_plan(cfg) if reachable else cfg.plan.requirements()
     if plan != cfg.plan.requirements():
@@ -135,7 +140,7 @@ def random_config(rng: np.random.Generator, seed: int, base: StationConfig | Non
 
 
 def random_station(seed: int, *, redraw_isu: bool = True, noise: float | None = None,
-                   reachable: bool = True) -> StationConfig:
+                   reachable: bool = True, extras: bool = True) -> StationConfig:
     """Laboratory ``seed`` of the tests and bench scripts (its own rng; the run seed too)."""
     return random_config(np.random.default_rng(10_000 + seed), seed, redraw_isu=redraw_isu,
-                         noise=noise, reachable=reachable)[0]
+                         noise=noise, reachable=reachable, extras=extras)[0]

@@ -42,7 +42,7 @@ from station.config.alignment import AlignPlan
 from station.config.isu import load_config
 from station.racks.isu import SimulatedRack, open_isu_drivers
 
-SEEDS = (201, 202, 203, 204, 205)
+SEEDS = (201, 202, 203, 204)
 SHORT = AlignPlan(level_K=20, gyro_K=24)  # 40 s level, 120 s gyrocompass records
 
 

@@ -19,6 +19,7 @@ from random_labs import POSITION_CHARTS, calibration_day, random_lab
 from scipy.stats import chi2
 
 from laboratory.calfile import load
+from procedures.isu.alignment.preprocess import Constants
 from procedures.isu.calibration import CalibrationData, NoiseSpec, calibrate
 from procedures.isu.calibration.all_positions import (
     cramer_rao,
@@ -29,6 +30,7 @@ from procedures.isu.calibration.all_positions import (
     sigma_ratios,
 )
 from procedures.isu.calibration.compute import constants_covariance
+from procedures.isu.sheets import CalibrationResults
 from station.config.calibration import CalibrationOptions
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -211,3 +213,18 @@ def test_day_with_the_all_positions_estimator(tmp_path: Path) -> None:
         i = cov["order"].index([inst, par])
         assert math.isclose(math.sqrt(row[i]), sig[(inst, par)], rel_tol=1e-9)
     assert load(out / "calibration.json").covariance.shape == (60, 60)
+    # the alignments take the fit's correlation (the sheet's), the one calibration.json holds
+    corr = json.loads((out / "sheets" / "calibration_results.json").read_text())["correlation"]
+    m = np.array(cov["matrix"])
+    d = np.sqrt(np.diag(m))
+    index = {f"{i} {p}": k for k, (i, p) in enumerate(cov["order"])}
+    assert set(corr["rows"]) == set(cov["correlated_rows"]) and len(corr["rows"]) == 60
+    ks = [index[r] for r in corr["rows"]]
+    expect = m[np.ix_(ks, ks)] / np.outer(d[ks], d[ks])
+    assert np.allclose(np.array(corr["matrix"]), expect, atol=6e-5)
+    sheet_model = CalibrationResults.model_validate(
+        json.loads((out / "sheets" / "calibration_results.json").read_text()))
+    rho = Constants.from_sheet(sheet_model, gyros=False).rho
+    a, b = ("accel1", "D0"), ("accel1", "A.B3")
+    assert rho(a, b) == pytest.approx(expect[corr["rows"].index("accel1 D0"),
+                                             corr["rows"].index("accel1 A.B3")], abs=6e-5)

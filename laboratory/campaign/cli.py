@@ -80,17 +80,22 @@ def show(summary: object) -> None:
     rows = summary[summary["ratio"].notna()] if not summary.empty else summary
     if rows.empty:
         return
+    from laboratory.campaign.summary import ESTIMATORS
+
+    per = [e for e in ESTIMATORS if f"ratio_{e}" in rows.columns]
     lead = [c for c in rows.columns if c not in (
         "instrument", "parameter", "units", "n", "rms_error", "rms_sigma", "ratio", "low",
-        "high", "inside", "max_abs_z")]
+        "high", "inside", "max_abs_z") and not c.endswith(tuple(f"_{e}" for e in per))]
     t = Table(title="observed rms error / predicted sigma (99 % chi-square interval)")
     for c in [*lead, "constant", "n", "rms error", "rms sigma", "ratio", "interval",
-              "max |z|"]:
+              "max |z|", *(f"ratio {e.replace('_', '-')}" for e in per)]:
         t.add_column(c)
     for r in rows.to_dict("records"):
         mark = "" if r["inside"] else " [red]outside[/red]"
         t.add_row(*[one_line(r[c]) for c in lead], f"{r['instrument']} {r['parameter']}",
                   str(r["n"]), _g(r["rms_error"]), _g(r["rms_sigma"]),
                   _g(r["ratio"]) + mark, f"{_g(r['low'])}..{_g(r['high'])}",
-                  _g(r["max_abs_z"]))
+                  _g(r["max_abs_z"]), *(_g(r[f"ratio_{e}"]) + (
+                      "" if r[f"inside_{e}"] in (True, None) else " [red]outside[/red]")
+                      for e in per))
     console.print(t)

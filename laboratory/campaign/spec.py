@@ -18,7 +18,14 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
+from pydantic import (
+    BaseModel,
+    ConfigDict,
+    Field,
+    ValidationError,
+    field_validator,
+    model_validator,
+)
 
 from station.errors import UseError
 
@@ -26,12 +33,26 @@ from station.errors import UseError
 COMMANDS = {"day": "isu", "align": "isu", "gyrocompass-test": "cigtf",
             "esg-calibration": "esg"}
 PLAN_PREFIX = "plan."  # sweep paths into the day plan (procedures/isu/plan.py), not the config
+LAB_PREFIX = "lab."  # a random laboratory's draws (columns only, not overrides)
+LAB_COLUMNS = tuple(LAB_PREFIX + n for n in ("latitude_deg", "longitude_deg", "gyro_noise",
+                                             "accel_noise", "pier_noise"))
 
 Scalar = float | int | bool | str
 
 
 class SpecError(UseError, ValueError):
     """A campaign spec that cannot be run (one line naming the file and field)."""
+
+
+class LaboratorySpec(BaseModel):
+    """``[laboratory]``: each task on a random admissible laboratory (issue 19;
+    laboratory/isu/random_lab.py), drawn from the task's own SeedSequence."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+    random: bool = False
+    redraw_isu: bool = True  # every ISU coefficient at 0.3-3x with random sign
+    noise: float | None = Field(None, gt=0, le=10.0)  # fix every noise factor (None: drawn)
 
 
 class CampaignSpec(BaseModel):
@@ -46,6 +67,7 @@ class CampaignSpec(BaseModel):
     options: dict[str, Any] = {}  # the command's options (day: only, positions, align, ...)
     grid: dict[str, list[Scalar]] = {}  # every combination of these values
     random: dict[str, tuple[float, float]] = {}  # uniform draws per task in [low, high]
+    laboratory: LaboratorySpec = LaboratorySpec()  # [laboratory] random = true (issue 19)
 
     @field_validator("command")
     @classmethod
@@ -70,13 +92,29 @@ class CampaignSpec(BaseModel):
                 raise ValueError(f"random {path!r}: [{lo}, {hi}] is not a range")
         return v
 
+    @model_validator(mode="after")
+    def _random_lab(self) -> CampaignSpec:
+        if self.laboratory.random and COMMANDS[self.command] != "isu":
+            raise ValueError(f"laboratory.random: a random laboratory is the isu "
+                             f"laboratory's (day, align), not {self.command}'s")
+        return self
+
     @property
     def lab(self) -> str:
         return COMMANDS[self.command]
 
+    def document(self) -> dict[str, Any]:
+        """The spec as JSON (``[laboratory]`` only when set: older specs keep their digest)."""
+        doc = self.model_dump(mode="json")
+        if self.laboratory == LaboratorySpec():
+            del doc["laboratory"]
+        return doc
+
     def sweep_paths(self) -> list[str]:
-        """The sweep's dotted paths: grid first, then random (the Parquet's setting columns)."""
-        return list(self.grid) + [p for p in self.random if p not in self.grid]
+        """The sweep's dotted paths: grid first, then random (the Parquet's setting columns),
+        then a random laboratory's draws (``lab.*``)."""
+        paths = list(self.grid) + [p for p in self.random if p not in self.grid]
+        return paths + list(LAB_COLUMNS) if self.laboratory.random else paths
 
     def points(self) -> list[dict[str, Scalar]]:
         """The grid's points (one empty point without a grid)."""
@@ -89,7 +127,7 @@ class CampaignSpec(BaseModel):
 
     def digest(self) -> str:
         """Of the spec's content: a resume runs only the campaign it started."""
-        blob = json.dumps(self.model_dump(mode="json"), sort_keys=True).encode()
+        blob = json.dumps(self.document(), sort_keys=True).encode()
         return hashlib.sha256(blob).hexdigest()[:16]
 
 
@@ -100,6 +138,24 @@ class Task:
     index: int
     seed: int
     values: dict[str, Scalar]
+
+
+def lab_rng(spec: CampaignSpec, index: int) -> np.random.Generator:
+    """Task ``index``'s random laboratory stream: child 1 of the task's SeedSequence (child
+    0 is its ``[random]`` draws), whatever the worker and the number of tasks."""
+    return np.random.default_rng(np.random.SeedSequence(spec.seed, spawn_key=(index, 1)))
+
+
+def lab_columns(spec: CampaignSpec, index: int) -> dict[str, Scalar]:
+    """Task ``index``'s random laboratory as ``lab.*`` columns (empty without one)."""
+    if not spec.laboratory.random:
+        return {}
+    from laboratory.isu.random_lab import draw
+    from station.config.isu import default_dict
+
+    lab = draw(lab_rng(spec, index), default_dict(), redraw_isu=spec.laboratory.redraw_isu,
+               noise=spec.laboratory.noise)
+    return {LAB_PREFIX + k: v for k, v in lab.describe().items()}
 
 
 def tasks(spec: CampaignSpec) -> list[Task]:
@@ -115,6 +171,7 @@ def tasks(spec: CampaignSpec) -> list[Task]:
             rng = np.random.default_rng(child.spawn(1)[0])
             for path, (lo, hi) in spec.random.items():
                 values[path] = float(rng.uniform(lo, hi))
+        values.update(lab_columns(spec, i))
         out.append(Task(i, run_seed, values))
     return out
 

@@ -50,7 +50,7 @@ class CampaignStore:
         for t in TABLES:
             (self.out / t).mkdir(parents=True, exist_ok=True)
         self._write_text(self.meta_file, json.dumps(
-            {"spec": spec.model_dump(mode="json"), "digest": spec.digest(),
+            {"spec": spec.document(), "digest": spec.digest(),
              "n_tasks": spec.n_tasks(), "sweep": spec.sweep_paths()}, indent=1))
         return set()
 

@@ -27,11 +27,33 @@ def interval(n: int, level: float = LEVEL) -> tuple[float, float]:
     return math.sqrt(lo / n), math.sqrt(hi / n)
 
 
+ESTIMATORS = ("closed_form", "all_positions")  # the rows' z_<estimator> columns (issue 19)
+
+
+def _by_estimator(g: pd.DataFrame, estimators: list[str]) -> dict[str, Any]:
+    """Per estimator: its ratio sqrt(mean z^2), inside its 99 % interval, max |z|."""
+    line: dict[str, Any] = {}
+    for e in estimators:
+        z = g[f"z_{e}"].to_numpy(float)
+        z = z[np.isfinite(z)]
+        line.update({f"n_{e}": len(z), f"ratio_{e}": math.nan, f"inside_{e}": None,
+                     f"max_abs_z_{e}": math.nan})
+        if len(z):
+            lo, hi = interval(len(z))
+            ratio = float(np.sqrt(np.mean(z ** 2)))
+            line.update({f"ratio_{e}": ratio, f"inside_{e}": bool(lo <= ratio <= hi),
+                         f"max_abs_z_{e}": float(np.max(np.abs(z)))})
+    return line
+
+
 def summarise(rows: pd.DataFrame, grid: list[str]) -> pd.DataFrame:
     """One line per grid point and constant: n, rms error, rms sigma, ratio, its interval,
-    inside, max |z| (ratio and interval empty for a constant without sigma)."""
+    inside, max |z| (ratio and interval empty for a constant without sigma); with rows that
+    carry both estimators (issue 19), each one's n, ratio, inside and max |z| too."""
     cols = [*grid, "instrument", "parameter", "units", "n", "rms_error", "rms_sigma",
             "ratio", "low", "high", "inside", "max_abs_z"]
+    estimators = [e for e in ESTIMATORS if f"z_{e}" in rows.columns]
+    cols += [f"{k}_{e}" for e in estimators for k in ("n", "ratio", "inside", "max_abs_z")]
     if rows.empty:
         return pd.DataFrame(columns=cols)
     out = []
@@ -53,6 +75,7 @@ def summarise(rows: pd.DataFrame, grid: list[str]) -> pd.DataFrame:
             ratio = float(np.sqrt(np.mean(z ** 2)))
             line.update(ratio=ratio, low=lo, high=hi, inside=bool(lo <= ratio <= hi),
                         max_abs_z=float(np.max(np.abs(z))))
+        line.update(_by_estimator(g, estimators))
         out.append(line)
     return pd.DataFrame(out, columns=cols)
 

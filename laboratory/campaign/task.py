@@ -16,9 +16,12 @@ import time
 from pathlib import Path
 from typing import Any
 
-from laboratory.campaign.spec import PLAN_PREFIX, CampaignSpec, Task
+from laboratory.campaign.spec import LAB_PREFIX, PLAN_PREFIX, CampaignSpec, Task, lab_rng
 
 Row = dict[str, Any]
+# both estimators of the Calibration Results Sheet (issue 19), NaN where a row has none
+ESTIMATOR_COLUMNS = ("closed_form", "closed_form_sigma", "all_positions",
+                     "all_positions_sigma", "cramer_rao_sigma")
 
 
 def _num(x: Any) -> float:
@@ -34,21 +37,46 @@ def _row(instrument: str, parameter: str, units: str, estimate: Any, truth: Any,
             "z": err / sig if sig > 0 else math.nan}
 
 
-def isu_rows(res: dict[str, Any]) -> list[Row]:
-    """Chart II-5 rows, then each alignment's errors about east, north and up (truth 0)."""
-    rows = [_row(r["instrument"], r["parameter"], r.get("units") or "", r.get("estimate"),
-                 r.get("truth"), r.get("sigma"), r.get("error"))
+def _estimators(row: Row, sheet_row: dict[str, Any], truth: float) -> Row:
+    """``row`` with both estimators' estimate and sigma from its sheet row, and their z."""
+    for c in ESTIMATOR_COLUMNS:
+        row[c] = _num(sheet_row.get(c))
+    for e in ("closed_form", "all_positions"):
+        err, sig = row[e] - truth, row[f"{e}_sigma"]
+        row[f"z_{e}"] = err / sig if sig > 0 else math.nan
+    return row
+
+
+def _sheet_rows(run_dir: Path | None) -> dict[tuple[str, str], dict[str, Any]]:
+    """The run's Calibration Results Sheet rows by (instrument, parameter) (none: empty)."""
+    import json
+
+    path = None if run_dir is None else run_dir / "sheets" / "calibration_results.json"
+    if path is None or not path.is_file():
+        return {}
+    return {(r["instrument"], r["parameter"]): r
+            for r in json.loads(path.read_text()).get("rows") or ()}
+
+
+def isu_rows(res: dict[str, Any], run_dir: Path | None = None) -> list[Row]:
+    """Chart II-5 rows (with both estimators, from the run's sheet), then each alignment's
+    errors about east, north and up (truth 0)."""
+    sheet = _sheet_rows(run_dir)
+    rows = [_estimators(_row(r["instrument"], r["parameter"], r.get("units") or "",
+                             r.get("estimate"), r.get("truth"), r.get("sigma"),
+                             r.get("error")),
+                        sheet.get((r["instrument"], r["parameter"]), {}), _num(r.get("truth")))
             for r in res.get("calibration") or () if isinstance(r, dict)]
     for e in res.get("alignment") or ():
         errs = list(e.get("level_error_arcsec") or (None, None)) + [e.get("azimuth_error_arcsec")]
         for axis, err, sig in zip(("east", "north", "azimuth"), errs,
                                   e.get("predicted_sigma_arcsec") or (None,) * 3, strict=False):
-            rows.append(_row(f"{e['method']}/{e['estimator']}", axis, "arcsec", err, 0.0, sig,
-                             err))
+            rows.append(_estimators(_row(f"{e['method']}/{e['estimator']}", axis, "arcsec",
+                                         err, 0.0, sig, err), {}, 0.0))
     return rows
 
 
-def cigtf_rows(res: dict[str, Any]) -> list[Row]:
+def cigtf_rows(res: dict[str, Any], run_dir: Path | None = None) -> list[Row]:
     """Each phase's theta against the true theta; the instabilities delta and Delta."""
     truth = (res.get("truth") or {}).get("theta_arcsec")
     rows = [_row(p["phase"], "theta", "arcsec", p["theta_arcsec"], truth, p["sigma_arcsec"])
@@ -58,7 +86,7 @@ def cigtf_rows(res: dict[str, Any]) -> list[Row]:
     return rows
 
 
-def esg_rows(res: dict[str, Any]) -> list[Row]:
+def esg_rows(res: dict[str, Any], run_dir: Path | None = None) -> list[Row]:
     """Per schedule: the assignment rms (an error, truth 0) against its predicted rms; the
     readout and calibration rms against the true ones (no sigma)."""
     rows = []
@@ -94,6 +122,21 @@ def station(lab: str, seed: int, over: dict[str, Any], config: Path | None) -> A
     return virtual_station(lab, seed, over, config)
 
 
+def random_station(spec: CampaignSpec, task: Task, over: dict[str, Any]) -> Any:
+    """The task's random admissible laboratory (``[laboratory] random``: its own stream,
+    ``spec.lab_rng``) over the spec's config, its ``[plan]`` reachable, with the task's
+    overrides over it."""
+    from laboratory import registry
+    from laboratory.isu.random_lab import random_config
+    from laboratory.virtual import VirtualStation, override
+
+    lab = registry.get("isu")
+    base = lab.load_config(Path(spec.config) if spec.config else None, task.seed)
+    cfg, _ = random_config(lab_rng(spec, task.index), task.seed, base,
+                           redraw_isu=spec.laboratory.redraw_isu, noise=spec.laboratory.noise)
+    return VirtualStation(lab, override(cfg, over), over)
+
+
 def run_task(spec: CampaignSpec, task: Task) -> dict[str, Any]:
     """Run ``task``; returns index, seed, values, rows, failure (a line or None), wall_s
     and worker (host:pid)."""
@@ -109,12 +152,14 @@ def run_task(spec: CampaignSpec, task: Task) -> dict[str, Any]:
         if plan and spec.lab != "isu":
             raise ValueError(f"{', '.join(PLAN_PREFIX + k for k in plan)}: the day plan is "
                              f"the isu laboratory's, not {spec.lab}'s")
-        over = {k: v for k, v in task.values.items() if not k.startswith(PLAN_PREFIX)}
-        st = station(lab, task.seed, over, Path(spec.config) if spec.config else None)
+        over = {k: v for k, v in task.values.items()
+                if not k.startswith((PLAN_PREFIX, LAB_PREFIX))}
+        st = (random_station(spec, task, over) if spec.laboratory.random else
+              station(lab, task.seed, over, Path(spec.config) if spec.config else None))
         opts = options(spec, plan)
         with tempfile.TemporaryDirectory(prefix="campaign-") as d:
             res = fn(st, Path(d) / "run", opts)
-        rows = ROWS[spec.command](res)
+            rows = ROWS[spec.command](res, Path(d) / "run")
     except Exception as e:  # noqa: BLE001 - any refusal or stop is the task's failure
         from laboratory.app import one_line
 

@@ -22,7 +22,7 @@ from procedures.isu.calibration import (
     NoiseSpec,
     TableGeometry,
 )
-from procedures.isu.calibration.all_positions import side_by_side
+from procedures.isu.calibration.all_positions import chosen_correlation, side_by_side
 from procedures.isu.calibration.checks import K_RESULT, check_residuals, check_string_sums
 from procedures.isu.calibration.compute import calibrate_with_correlation, without
 from procedures.isu.calibration.forward import GyroModel
@@ -243,9 +243,12 @@ def compute_calibration(run: Run, data: DayData, plan: DayPlan, noise: NoiseSpec
         sheet.done("7", "Last (D1 D3) for accelerometers without positions 13, 14", step7)
         with sheet.step("8", "Compute the constants") as s:
             rows, corr = calibrate_with_correlation(cd, noise)
-            # issue 19: the all-positions estimator beside the closed forms (the correlation
-            # carried to the alignments stays the closed forms': see docs/calibration-accuracy)
-            side_by_side(rows, cd, noise, plan.options.estimator, data.nonlinearity)
+            # issue 19: the all-positions estimator beside the closed forms; the correlation
+            # carried to the alignments is the laboratory's estimator's
+            estimator = plan.options.estimator
+            chosen = side_by_side(rows, cd, noise, estimator, data.nonlinearity)
+            if estimator != "closed-form":
+                corr = chosen_correlation(rows, chosen, estimator)
             carried = ([] if prior is None else
                        cf.carry_rows(rows, prior, cd.prior_gyro, cd.last_d1d3))
             special = special_experiments(rows, data, plan, site, noise)

@@ -34,6 +34,7 @@ import numpy as np
 from procedures.isu.calibration.compute import (
     Row,
     constants_covariance,
+    correlation,
     data_covariance,
     estimate,
 )
@@ -42,7 +43,7 @@ from procedures.isu.calibration.geometry import FIRST_COLUMN, extra_t_br, t_br
 from procedures.isu.calibration.inputs import CalibrationData, Constants
 from procedures.isu.calibration.noise_spec import NoiseSpec
 from procedures.isu.calibration.reduce import Key, Reduced, reduce_all
-from procedures.isu.sheets import ResultRow
+from procedures.isu.sheets import ConstantsCorrelation, ResultRow
 from sim.frames import cross3, norm3
 
 GYRO_COEFS = ("R", "B_I", "B_O", "B_S", "C_II", "C_SS", "C_IS", "C_OS", "C_IO")
@@ -531,3 +532,16 @@ def side_by_side(rows: list[ResultRow], data: CalibrationData, noise: NoiseSpec 
     if estimator == "all-positions" and f.rows:
         return f.rows, f.covariance
     return cf_rows, cf_cov
+
+
+def chosen_correlation(rows: list[ResultRow], chosen: tuple[list[Row], np.ndarray],
+                       estimator: str) -> ConstantsCorrelation:
+    """The correlation of the sheet rows whose estimate is ``estimator``'s (``chosen``:
+    ``side_by_side``'s covariance): what the alignments combine the constants with (Chart
+    II-15 step 8). Q_II, Q_IS stay the special experiments' and are left out."""
+    order, cov = chosen
+    mine = {(r.instrument, r.parameter) for r in rows if r.estimate is not None
+            and r.estimator == estimator and r.parameter not in Q_TERMS}
+    keep = [i for i, r in enumerate(order) if r in mine]
+    return correlation([order[i] for i in keep], cov[np.ix_(keep, keep)])
+

@@ -27,18 +27,26 @@ from collections.abc import Mapping
 import numpy as np
 
 from procedures.isu.calibration.accel_equations import ACCEL_PARAMS
-from procedures.isu.calibration.compute import Row, data_covariance, estimate, estimate_of, readers
+from procedures.isu.calibration.compute import (
+    Row,
+    data_covariance,
+    data_covariance_model,
+    estimate,
+    estimate_of,
+    readers,
+)
 from procedures.isu.calibration.forward import AccelModel, GyroModel
 from procedures.isu.calibration.geometry import FIRST_COLUMN, t_br
 from procedures.isu.calibration.gyro_equations import GYRO_PARAMS
 from procedures.isu.calibration.inputs import TURNING_POSITIONS, CalibrationData, Constants
-from procedures.isu.calibration.noise_spec import ARCSEC, NoiseSpec
+from procedures.isu.calibration.noise_spec import NoiseSpec
 from procedures.isu.calibration.reduce import Key, reduce
 from procedures.isu.plausibility import Implausible
 from procedures.isu.sheets import ResultRow
 
 K_RESULT = 6.0  # a residual this many of its sigmas off stops the computation
 REDUNDANT = 0.3  # judged only where the residual keeps this fraction of the datum's sigma
+STRING_NOISE = 0.0
 SPECIAL = ("Q_II", "Q_IS")  # from the special experiments, not from these data
 
 
@@ -177,24 +185,42 @@ def _up(m: int, c: Constants) -> np.ndarray:
     return t_br(m, c)[:, 0] if m > 12 else FIRST_COLUMN[m]
 
 
+def _string_sum_geometry(data: CalibrationData, rows: list[ResultRow], noise: NoiseSpec,
+                         keys: list[Key]) -> np.ndarray:
+    """Covariance (pulses/s)^2 of the f2 - f1 data ``keys`` from what turns the input axis:
+    pier tilt since the bubble reading and the settings' orientation errors (``covariance``).
+    Zero where the model cannot be built (a partial day without the constants it needs)."""
+    est = {(r.instrument, r.parameter): r.estimate for r in rows}
+    try:
+        return data_covariance_model(reduce(data), keys, data, noise, est).geometric()
+    except (ValueError, KeyError, TypeError):
+        return np.zeros((len(keys), len(keys)))
+
+
 def check_string_sums(data: CalibrationData, rows: list[ResultRow],
                       noise: NoiseSpec | None = None, k_lim: float = K_RESULT) -> dict:
     """Each accelerometer's f1 + f2 over its positions against a + b u + c u^2; the residual
-    of each position in units of its own sigma (the strings' white noise over each gate,
-    taken independent per string, and the clock count's quantization); beyond ``k_lim`` an
-    Implausible naming the two counters."""
+    of each position in units of its own sigma; beyond ``k_lim`` an Implausible naming the
+    two counters.
+
+    The sums' covariance: the strings' white noise over each gate (taken independent per
+    string), the clock count's quantization, the common drift, and the input axis' turn by
+    pier tilt and table setting (Chart I-4 geometry: the same du that moves f2 - f1 by
+    D1 du moves the common mode 2 kappa u^2 of Chart IV-1 by 2 (2 kappa) u du, i.e. the
+    fit's slope b + 2 c u times du; correlated across positions as the f2 - f1 data are).
+    With pier factor 2.9 and accelerometer noise 0.3x (random lab 183) that term is 13-17
+    sigma of the noise alone at the bisector positions 13, 14 (u = 0.7)."""
     noise = noise or NoiseSpec.model_validate({})
     c = data.constants
     est = {(r.instrument, r.parameter): r.estimate for r in rows}
     q = (noise.accel_white_micro_g_rt_hz * 1e-6) ** 2
-    geo = data.geometry
-    # rounding's sigma per angle (rad) of the accelerometer settings' precision (II-6.1)
-    prec = (0.0 if geo is None else geo.precision_arcsec.get("A", 0.0)) * ARCSEC / math.sqrt(12)
     out: dict[str, float] = {}
     for k in (1, 2, 3):
         ab = [est.get((f"accel{k}", f"A.B{j}")) for j in (1, 2, 3)]
         a_vec = np.array(ab, dtype=float) if None not in ab else np.eye(3)[k - 1]
         d1 = float(est.get((f"accel{k}", "D1")) or 2000.0)
+        d2 = float(est.get((f"accel{k}", "D2")) or 0.0)
+        d3 = float(est.get((f"accel{k}", "D3")) or 0.0)
         ms, u, sums, var = [], [], [], []
         for m, p in sorted(data.accel.items()):
             if (k, 1) not in p.gamma or (k, 2) not in p.gamma:
@@ -204,25 +230,31 @@ def check_string_sums(data: CalibrationData, rows: list[ResultRow],
             ms.append(m)
             u.append(c.g * float(a_vec @ _up(m, c)))
             sums.append(f[0] + f[1])
-            var.append(sum((0.5 * d1) ** 2 * q / t + noise.clock_quantization_var
+            var.append(sum(STRING_NOISE * (0.5 * d1) ** 2 * q / t + noise.clock_quantization_var
                            * (fi / (t / c.s1_t)) ** 2 for fi, t in zip(f, gates, strict=True))
                        + 2.0 * noise.string_common_drift_hz**2)
         if len(ms) < 4:
             continue  # three coefficients: nothing left to judge
-        x = np.column_stack([np.ones(len(u)), u, np.square(u)])
-        w = 1.0 / np.array(var)
-        h = np.linalg.inv(x.T @ (x * w[:, None]))
-        beta = h @ (x.T @ (w * np.array(sums)))
-        if prec > 0:  # II-6.1's coarser settings move u: the fitted slope carries that in
-            slope = beta[1] + 2.0 * beta[2] * np.array(u)
-            var = list(np.array(var) + 2.0 * (slope * c.g * prec) ** 2)
-            w = 1.0 / np.array(var)
-            h = np.linalg.inv(x.T @ (x * w[:, None]))
-            beta = h @ (x.T @ (w * np.array(sums)))
-        resid = np.array(sums) - x @ beta
-        cov_r = np.array(var) - np.einsum("ij,jk,ik->i", x, h, x)
-        for m, r, v, v0 in zip(ms, resid, cov_r, var, strict=True):
-            if v <= (REDUNDANT**2) * v0:
+        ua, y = np.array(u), np.array(sums)
+        x = np.column_stack([np.ones(len(u)), ua, np.square(ua)])
+        v0 = np.diag(var)
+        geo = _string_sum_geometry(data, rows, noise, [("F", k, m) for m in ms])
+        # d(f2 - f1)/du of Chart IV-1 at each position: the geometric part is D1' du
+        diff_slope = d1 * (1.0 + 2.0 * d2 * ua + 3.0 * d3 * ua**2)
+        cov = v0
+        for _ in range(3):  # the slope of the sums comes from the fit: iterate
+            w = np.linalg.inv(cov)
+            h = np.linalg.inv(x.T @ w @ x)
+            beta = h @ (x.T @ (w @ y))
+            ratio = (beta[1] + 2.0 * beta[2] * ua) / diff_slope
+            cov = v0 + np.outer(ratio, ratio) * geo
+        w = np.linalg.inv(cov)
+        h = np.linalg.inv(x.T @ w @ x)
+        beta = h @ (x.T @ (w @ y))
+        resid = y - x @ beta
+        cov_r = np.diag(cov) - np.einsum("ij,jk,ik->i", x, h, x)
+        for m, r, v, vm in zip(ms, resid, cov_r, np.diag(cov), strict=True):
+            if v <= (REDUNDANT**2) * vm:
                 continue
             z = float(r / math.sqrt(v))
             out[f"accel{k} position {m}"] = z

@@ -12,7 +12,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from procedures.isu.calibration.noise_spec import NoiseSpec
-from procedures.isu.computations import _count_sigma  # the fit's own weights
+from procedures.isu.computations import speed_count_sigma  # the fit's own weights
 from procedures.isu.nonlinearity import fit_nonlinearity
 
 if TYPE_CHECKING:
@@ -47,7 +47,8 @@ def nonlinearity_plot(points: dict[int, list[dict]], path: Path, noise: NoiseSpe
         p = np.array([r["p_dot"] for r in rows])
         gates = np.abs(np.array([r["counts"] for r in rows]) / p)
         dphi = (dphi_arcsec or {}).get(k, 3.0)
-        sig_counts = np.array([_count_sigma(noise, g, dphi) for g in gates])
+        sig_counts = np.array([speed_count_sigma(noise, g, abs(pp), dphi)
+                               for g, pp in zip(gates, p, strict=True)])
         sig_p = sig_counts / gates  # pulses/s
         fit = fit_nonlinearity(rows, sig_counts)
         ww = np.linspace(w.min(), w.max(), 200)

@@ -27,12 +27,19 @@ from collections.abc import Mapping
 import numpy as np
 
 from procedures.isu.calibration.accel_equations import ACCEL_PARAMS
-from procedures.isu.calibration.compute import Row, data_covariance, estimate, estimate_of, readers
+from procedures.isu.calibration.compute import (
+    Row,
+    data_covariance,
+    data_covariance_model,
+    estimate,
+    estimate_of,
+    readers,
+)
 from procedures.isu.calibration.forward import AccelModel, GyroModel
 from procedures.isu.calibration.geometry import FIRST_COLUMN, t_br
 from procedures.isu.calibration.gyro_equations import GYRO_PARAMS
 from procedures.isu.calibration.inputs import TURNING_POSITIONS, CalibrationData, Constants
-from procedures.isu.calibration.noise_spec import ARCSEC, NoiseSpec
+from procedures.isu.calibration.noise_spec import NoiseSpec
 from procedures.isu.calibration.reduce import Key, reduce
 from procedures.isu.plausibility import Implausible
 from procedures.isu.sheets import ResultRow
@@ -177,24 +184,44 @@ def _up(m: int, c: Constants) -> np.ndarray:
     return t_br(m, c)[:, 0] if m > 12 else FIRST_COLUMN[m]
 
 
+def _string_sum_geometry(data: CalibrationData, rows: list[ResultRow], noise: NoiseSpec,
+                         keys: list[Key]) -> np.ndarray:
+    """Covariance (pulses/s)^2 of the f2 - f1 data ``keys`` from what turns the input axis:
+    pier tilt since the bubble reading and the settings' orientation errors (``covariance``).
+    Zero where the model cannot be built (a partial day without the constants it needs)."""
+    est = {(r.instrument, r.parameter): r.estimate for r in rows}
+    try:
+        return data_covariance_model(reduce(data), keys, data, noise, est).geometric()
+    except (ValueError, KeyError, TypeError):
+        return np.zeros((len(keys), len(keys)))
+
+
 def check_string_sums(data: CalibrationData, rows: list[ResultRow],
                       noise: NoiseSpec | None = None, k_lim: float = K_RESULT) -> dict:
     """Each accelerometer's f1 + f2 over its positions against a + b u + c u^2; the residual
-    of each position in units of its own sigma (the strings' white noise over each gate,
-    taken independent per string, and the clock count's quantization); beyond ``k_lim`` an
-    Implausible naming the two counters."""
+    of each position in units of its own sigma; beyond ``k_lim`` an Implausible naming the
+    two counters.
+
+    The sums' covariance: the white noise on f2 - f1 (NoiseSpec: one acceleration noise,
+    which moves the strings push-pull, so the sum sees it only where the two gates differ),
+    the clock count's quantization, the common drift, and the input axis' turn by
+    pier tilt and table setting (Chart I-4 geometry: the same du that moves f2 - f1 by
+    D1 du moves the common mode 2 kappa u^2 of Chart IV-1 by 2 (2 kappa) u du, i.e. the
+    fit's slope b + 2 c u times du; correlated across positions as the f2 - f1 data are).
+    With pier factor 2.9 and accelerometer noise 0.3x (random lab 183) that term is 13-17
+    sigma of the noise alone at the bisector positions 13, 14 (u = 0.7)."""
     noise = noise or NoiseSpec.model_validate({})
     c = data.constants
     est = {(r.instrument, r.parameter): r.estimate for r in rows}
     q = (noise.accel_white_micro_g_rt_hz * 1e-6) ** 2
-    geo = data.geometry
-    # rounding's sigma per angle (rad) of the accelerometer settings' precision (II-6.1)
-    prec = (0.0 if geo is None else geo.precision_arcsec.get("A", 0.0)) * ARCSEC / math.sqrt(12)
     out: dict[str, float] = {}
+    worst: tuple[float, int, int, float, float] | None = None  # |z|, k, m, r, sigma
     for k in (1, 2, 3):
         ab = [est.get((f"accel{k}", f"A.B{j}")) for j in (1, 2, 3)]
         a_vec = np.array(ab, dtype=float) if None not in ab else np.eye(3)[k - 1]
         d1 = float(est.get((f"accel{k}", "D1")) or 2000.0)
+        d2 = float(est.get((f"accel{k}", "D2")) or 0.0)
+        d3 = float(est.get((f"accel{k}", "D3")) or 0.0)
         ms, u, sums, var = [], [], [], []
         for m, p in sorted(data.accel.items()):
             if (k, 1) not in p.gamma or (k, 2) not in p.gamma:
@@ -204,32 +231,72 @@ def check_string_sums(data: CalibrationData, rows: list[ResultRow],
             ms.append(m)
             u.append(c.g * float(a_vec @ _up(m, c)))
             sums.append(f[0] + f[1])
-            var.append(sum((0.5 * d1) ** 2 * q / t + noise.clock_quantization_var
-                           * (fi / (t / c.s1_t)) ** 2 for fi, t in zip(f, gates, strict=True))
+            # one acceleration noise moves the strings push-pull, each seen over its own
+            # gate from t0: in the sum only the gates' difference, (D1/2)^2 q |1/T1 - 1/T2|
+            var.append((0.5 * d1) ** 2 * q * abs(1.0 / gates[0] - 1.0 / gates[1])
+                       + sum(noise.clock_quantization_var * (fi / (t / c.s1_t)) ** 2
+                             for fi, t in zip(f, gates, strict=True))
                        + 2.0 * noise.string_common_drift_hz**2)
         if len(ms) < 4:
             continue  # three coefficients: nothing left to judge
-        x = np.column_stack([np.ones(len(u)), u, np.square(u)])
-        w = 1.0 / np.array(var)
-        h = np.linalg.inv(x.T @ (x * w[:, None]))
-        beta = h @ (x.T @ (w * np.array(sums)))
-        if prec > 0:  # II-6.1's coarser settings move u: the fitted slope carries that in
-            slope = beta[1] + 2.0 * beta[2] * np.array(u)
-            var = list(np.array(var) + 2.0 * (slope * c.g * prec) ** 2)
-            w = 1.0 / np.array(var)
-            h = np.linalg.inv(x.T @ (x * w[:, None]))
-            beta = h @ (x.T @ (w * np.array(sums)))
-        resid = np.array(sums) - x @ beta
-        cov_r = np.array(var) - np.einsum("ij,jk,ik->i", x, h, x)
-        for m, r, v, v0 in zip(ms, resid, cov_r, var, strict=True):
-            if v <= (REDUNDANT**2) * v0:
+        ua, y = np.array(u), np.array(sums)
+        x = np.column_stack([np.ones(len(u)), ua, np.square(ua)])
+        v0 = np.diag(var)
+        geo = _string_sum_geometry(data, rows, noise, [("F", k, m) for m in ms])
+        # d(f2 - f1)/du of Chart IV-1 at each position: the geometric part is D1' du
+        diff_slope = d1 * (1.0 + 2.0 * d2 * ua + 3.0 * d3 * ua**2)
+        cov = v0
+        for _ in range(3):  # the slope of the sums comes from the fit: iterate
+            beta, _ = _gls(x, y, cov)
+            ratio = (beta[1] + 2.0 * beta[2] * ua) / diff_slope
+            cov = v0 + np.outer(ratio, ratio) * geo
+        beta, h = _gls(x, y, cov)
+        resid = y - x @ beta
+        cov_r = np.diag(cov) - np.einsum("ij,jk,ik->i", x, h, x)
+        zs = []
+        for m, r, v, vm in zip(ms, resid, cov_r, np.diag(cov), strict=True):
+            if v <= (REDUNDANT**2) * vm:
                 continue
             z = float(r / math.sqrt(v))
             out[f"accel{k} position {m}"] = z
-            if abs(z) > k_lim:
-                raise Implausible(
-                    f"counter{2 * k - 1} and counter{2 * k} (accelerometer {k}'s strings)",
-                    f"Chart {_chart('F', m)} position {m}: the strings' common frequency "
-                    f"f1 + f2 is {r:+.4g} Hz off the other positions' ({z:+.1f} sigma, sigma "
-                    f"{math.sqrt(v):.3g} Hz, limit {k_lim:g}): a wrong count")
+            zs.append(abs(z))
+        if zs and max(zs) > k_lim and (worst is None or max(zs) > worst[0]):
+            worst = (max(zs), k, *_culprit(x, y, cov, ms))
+    if worst is not None:
+        _, k, m, r, s = worst
+        raise Implausible(
+            f"counter{2 * k - 1} and counter{2 * k} (accelerometer {k}'s strings)",
+            f"Chart {_chart('F', m)} position {m}: the strings' common frequency "
+            f"f1 + f2 is {r:+.4g} Hz off the other positions' ({r / s:+.1f} sigma, sigma "
+            f"{s:.3g} Hz, limit {k_lim:g}): a wrong count")
     return out
+
+
+def _gls(x: np.ndarray, y: np.ndarray, cov: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Generalized least squares: the coefficients and their covariance."""
+    w = np.linalg.inv(cov)
+    h = np.linalg.inv(x.T @ w @ x)
+    return h @ (x.T @ (w @ y)), h
+
+
+def _culprit(x: np.ndarray, y: np.ndarray, cov: np.ndarray, ms: list[int]
+             ) -> tuple[int, float, float]:
+    """The position whose removal leaves the others most consistent (least chi-square):
+    where the garbled count is, even where the fit goes through it (the vertical pairs,
+    whose sums are the sharpest); its sum against the others' fit and that residual's
+    sigma (Hz)."""
+    best: tuple[float, int, float, float] | None = None
+    for i, m in enumerate(ms):
+        keep = [j for j in range(len(ms)) if j != i]
+        if len(keep) < x.shape[1]:
+            break
+        c = cov[np.ix_(keep, keep)]
+        beta, h = _gls(x[keep], y[keep], c)
+        e = y[keep] - x[keep] @ beta
+        chi2 = float(e @ np.linalg.solve(c, e))
+        r = float(y[i] - x[i] @ beta)
+        s = math.sqrt(float(cov[i, i] + x[i] @ h @ x[i]))
+        if best is None or chi2 < best[0]:
+            best = (chi2, m, r, s)
+    assert best is not None
+    return best[1], best[2], best[3]

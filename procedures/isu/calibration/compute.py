@@ -97,6 +97,19 @@ def data_covariance(
     noise: NoiseSpec,
     est: Mapping[Row, float | None],
 ) -> np.ndarray:
+    """The covariance of the reduced data ``keys`` (``covariance.DataCovariance.matrix``)."""
+    return data_covariance_model(red, keys, data, noise, est).matrix()
+
+
+def data_covariance_model(
+    red: Reduced,
+    keys: list[Key],
+    data: CalibrationData,
+    noise: NoiseSpec,
+    est: Mapping[Row, float | None],
+) -> DataCovariance:
+    """The data covariance's builder at the estimates ``est`` (its pieces, e.g. the
+    geometric part the string-sum check needs)."""
     c = data.constants
 
     def sub(prefix: str) -> dict[str, float | None]:
@@ -108,7 +121,7 @@ def data_covariance(
     extra = extra_t_br(data)  # positions beyond the manual (all-positions fit only)
     tbr = {s: extra[s[1]] if s[1] in extra else _nominal_t_br(s[1], c) for s in settings}
     table = TableErrorModel(extended_geometry(data), noise)
-    return DataCovariance(red, keys, c, noise, gyros, accels, table, tbr).matrix()
+    return DataCovariance(red, keys, c, noise, gyros, accels, table, tbr)
 
 
 def estimator_jacobian(z: Mapping[Key, float], c: Constants, keys: list[Key], rows: list[Row],

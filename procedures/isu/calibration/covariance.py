@@ -233,7 +233,14 @@ class DataCovariance:
         t = self.t_br[("A", m)]
         return self.accels[k].difference(turn(t[:, 0]), self.c)
 
-    def matrix(self) -> np.ndarray:
+    def orientation(self) -> np.ndarray:
+        """The settings' orientation errors carried into the data (``orientation_jacobian``)."""
         d, sig = self.orientation_jacobian()
-        orient = (d * sig**2) @ d.T
-        return self.independent() + self.drift() + self.tilt() + orient
+        return (d * sig**2) @ d.T
+
+    def geometric(self) -> np.ndarray:
+        """The part of the covariance that turns the input axis: pier tilt and settings."""
+        return self.tilt() + self.orientation()
+
+    def matrix(self) -> np.ndarray:
+        return self.independent() + self.drift() + self.geometric()

@@ -212,7 +212,8 @@ def procedure_record(plan: EsgPlan, variants_points: int | None) -> dict:
     used = {"extremity_setup": plan.extremity_setup, "counters": plan.counters,
             "strategy_variants": variants_points is not None,
             "adjust_alignment": plan.adjust_alignment,
-            "alignment_iterations": plan.alignment_iterations}
+            "alignment_iterations": plan.alignment_iterations,
+            "remount_alignment": plan.remount_alignment}
     if variants_points is not None:
         used["strategy_variants_points"] = variants_points
     default = ProcedureConfig.model_validate({}).model_dump()
@@ -258,7 +259,8 @@ def run_esg_calibration(seed: int, out: Path, params: EsgParams | None = None,
     with PlotWorker(*child) as plots, journaled_run(  # matplotlib meanwhile
             out, conn, resume, renew=RENEW, seed=seed, test="esg-calibration", order=order,
             extremity_setup=plan.extremity_setup, counters=plan.counters,
-            **{k: True for k in ("strategy_variants", "adjust_alignment") if procedure.get(k)},
+            **{k: True for k in ("strategy_variants", "adjust_alignment",
+                                      "remount_alignment") if procedure.get(k)},
             identify=Identifying("esg", "esg-calibration", seed, "esg", EsgConfig, params,
                                  tables={"procedure": procedure})) as (
             run, extra, t_start):

@@ -20,6 +20,7 @@ block but the mount check then.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field, fields
 
 import numpy as np
@@ -563,15 +564,16 @@ def _pickoff_coning(st: EsgDrivers, plan: EsgPlan, gamma0: float, pickoff: int =
     slope = plan_slope_per_deg(90.0, plan)
     n = plan.coning_positions
     gs = [gamma0 + 360.0 * k / n for k in range(n + 1)]
-    rows = []
+    rows: list[tuple[float, float, float]] = []
     partner_cr = None
     for g in gs:
         gr = _move_head(st, plan, g)
         r = _read(st, plan, (pickoff, partner))
-        if r.cr[pickoff] is None:
+        cr = r.cr[pickoff]
+        if cr is None:
             raise CheckFailed(f"pickoff {pickoff} left the pattern during the coning turn")
-        partner_cr = r.cr[partner] if partner_cr is None and not rows else partner_cr
-        rows.append((gr, r.t_s, r.cr[pickoff]))
+        partner_cr = r.cr[partner] if not rows else partner_cr
+        rows.append((gr, r.t_s, cr))
     a = np.array([[1.0, math.cos(math.radians(g)), math.sin(math.radians(g)),
                    t - rows[0][1]] for g, t, _ in rows])
     y = np.array([c for _, _, c in rows])
@@ -759,15 +761,19 @@ def calibration_scans(st: EsgDrivers, run: Run, plan: EsgPlan, sh: CheckSheetRun
                         _scan_offsets(first, last, inc), slope_g)
 
 
-def acquire(st: EsgDrivers, run: Run, plan: EsgPlan) -> Acquisition:
-    """Sheets ESG-DP, ESG-CAL (steps 1-13) and ESG-PA; returns the acquisition record."""
+def acquire(st: EsgDrivers, run: Run, plan: EsgPlan,
+            remount: Callable[[EsgDrivers, Run, EsgPlan], dict] | None = None) -> Acquisition:
+    """Sheets ESG-DP, ESG-CAL (steps 1-13) and ESG-PA; returns the acquisition record.
+    ``remount``: sheet ESG-PA2 before step 1 with ``plan.remount_alignment``
+    (procedures.esg.remount.pickoff2_alignment, which uses this module's steps)."""
     acq = Acquisition()
     acq.t_zero_s = run.block("ESG-DP", lambda: processor_setup(st, run, plan)["t_zero_s"],
                              float)
     if plan.remount_alignment:
-        from procedures.esg.remount import pickoff2_alignment  # it uses this module's steps
-
-        run.block("ESG-PA2", lambda: pickoff2_alignment(st, run, plan), dict)
+        if remount is None:
+            raise ValueError("remount_alignment needs the ESG-PA2 sheet "
+                             "(procedures.esg.remount.pickoff2_alignment)")
+        run.block("ESG-PA2", lambda: remount(st, run, plan), dict)
     with run.sheet("ESG-CAL", "Pattern calibration data acquisition") as sh:
         acq.mount_coning_arcsec = run.block(
             "ESG-CAL.mount", lambda: mount_check(st, run, plan, sh), float)

@@ -1,19 +1,25 @@
 """Mirror and pickoff alignment as adjustments (docs/esg-options.md): a rack misaligned
 before step 1 by a shim and a pickoff-1 translation, calibrated with adjust_alignment;
 per case the coning measured before and after each adjustment beside the simulator's
-truth, and the true readout rms.
+truth, and the true readout rms. With ``remount``: pickoff 2 misaligned too, and the run
+with remount_alignment (sheet ESG-PA2).
 
-    python bench/esg_alignment.py
+    python bench/esg_alignment.py [remount]
 """
 
 from __future__ import annotations
 
 import json
+import sys
 import tempfile
 from pathlib import Path
 
 from laboratory.esg.calibration import run_esg_calibration
-from laboratory.esg.truth import true_pickoff1_coning_arcsec
+from laboratory.esg.truth import (
+    true_pickoff1_coning_arcsec,
+    true_pickoff_coning_arcsec,
+    true_pickoff_mirror_arcsec,
+)
 from procedures.esg.acquisition import EsgPlan
 from sim.units import ARCSEC
 from station.racks.esg import EsgRack
@@ -22,6 +28,9 @@ from station.racks.esg import EsgRack
 CASES = ((1, 15.0, -10.0, 40.0, -30.0), (2, 15.0, -10.0, 40.0, -30.0),
          (3, 15.0, -10.0, 40.0, -30.0), (1, -40.0, 25.0, -90.0, 80.0),
          (4, 5.0, 2.0, 60.0, 0.0))
+# (seed, pickoff-2 translation a, b), arcsec, with the first case's shim and pickoff 1
+REMOUNT_CASES = ((1, 40.0, -30.0), (2, 40.0, -30.0), (3, -70.0, 50.0), (4, 0.0, 90.0),
+                 (5, 25.0, 10.0))
 
 
 def one(seed: int, x: float, y: float, a: float, b: float) -> dict:
@@ -50,7 +59,41 @@ def one(seed: int, x: float, y: float, a: float, b: float) -> dict:
             "true_readout": [s["true_readout_rms_arcsec"] for s in res["schedules"]]}
 
 
+def remounted(seed: int, a: float, b: float) -> dict:
+    """One calibration with pickoff 2 misaligned by (a, b) and aligned in ESG-PA2."""
+    racks: list[EsgRack] = []
+
+    def hook(rack: EsgRack) -> None:
+        racks.append(rack)
+        rack.world.shim(15.0, -10.0)
+        rack.world.translate_pickoff(1, 40.0, -30.0)
+        rack.world.translate_pickoff(2, a, b)
+
+    with tempfile.TemporaryDirectory() as d:
+        res = run_esg_calibration(seed, Path(d), rack_hook=hook, with_study=False,
+                                  plan=EsgPlan(latitude_deg=0.0, remount_alignment=True))
+        steps = {}
+        for line in (Path(d) / "journal.jsonl").read_text().splitlines():
+            j = json.loads(line)
+            if j.get("kind") == "step" and j["step"].startswith("PA2."):
+                steps[j["step"]] = j["reading"]
+    w = racks[0].world
+    turns = [k for k in steps if k == "PA2.1" or k.startswith("PA2.translate-")]
+    return {"p2_off_mirror2_before": true_pickoff_mirror_arcsec(w, 2, 0.0),
+            "mirror2": [steps[k]["coning_radius_arcsec"] for k in steps
+                        if k == "PA2.mount" or k.startswith("PA2.shim-")],
+            "turns": [(steps[k]["coning_arcsec"], steps[k]["sigma_arcsec"],
+                       true_pickoff_coning_arcsec(w, 2, steps[k]["t_s"][-1]))
+                      for k in turns],
+            "p2_off_mirror2_after": true_pickoff_mirror_arcsec(w, 2),
+            "true_readout": [s["true_readout_rms_arcsec"] for s in res["schedules"]]}
+
+
 def main() -> None:
+    if sys.argv[1:] == ["remount"]:
+        for rcase in REMOUNT_CASES:
+            print(rcase, json.dumps(remounted(*rcase), indent=None))
+        return
     for case in CASES:
         print(case, json.dumps(one(*case), indent=None))
 

@@ -23,9 +23,12 @@ The settings commands and TZERO are refused while a stream runs (ERR 16 busy); q
 are answered between the lines. A data line (Appendix A) is six 7-digit fields:
 ``time C1(p1) C1(p2) C1(p3) run period_sum``, time in 1e-5 h of the processor clock.
 Dividing head: SPIN <deg> | STEP <deg> | SPIN? | STAT? (HOLD | MOVING) | SHIM <x> <y>
-(the case re-shimmed on the adapter plate: mirror 1 moved by x, y arcsec on the
-theodolite's axes, |x|, |y| <= 120; ERR 16 while the spindle moves, ERR 19 with the rotor
-spinning).
+(the case re-shimmed on the adapter plate: the mirror along the spindle moved by x, y
+arcsec on the theodolite's axes, |x|, |y| <= 120) | MOUNT <k> (the case set back on the
+plate with mirror k, 1 or 2, along the spindle: mirror 1 with c2, c3 where they were,
+mirror 2 with c3 where c2 was and c1 where c3 was; not yet shimmed) | MOUNT? (the mirror
+along the spindle); SHIM and MOUNT answer ERR 16 while the spindle moves, ERR 19 with
+the rotor spinning.
 Turntable and tilt: AZ <deg> | TILT <deg> | AZ? | TILT? | LOCK | UNLOCK | STAT?
 (HOLD | MOVING | LOCKED).
 Theodolite: READ? -> "<x> <y>" arcsec.
@@ -303,16 +306,28 @@ class DividingHead(ByteInstrument):
         self.define("SPIN?", lambda _: f"{world.head_reading_deg() % 360.0:.5f}")
         self.define("STAT?", lambda _: "MOVING" if world.head_moving() else "HOLD")
         self.define("SHIM <x> <y>", self._shim)
+        self.define("MOUNT <k>", self._mount)
+        self.define("MOUNT?", lambda _: str(world.case.mirror_on_spindle))
 
     def _shim(self, args: list[str]) -> str:
         x = _in_range(args[0], "shim x", -SHIM_MAX_ARCSEC, SHIM_MAX_ARCSEC)
         y = _in_range(args[1], "shim y", -SHIM_MAX_ARCSEC, SHIM_MAX_ARCSEC)
+        self._at_rest("shim")
+        self.world.shim(x, y)
+        return "OK"
+
+    def _mount(self, args: list[str]) -> str:
+        k = as_int(args[0], "mirror", 1, 2)
+        self._at_rest("remount")
+        self.world.remount(k)
+        return "OK"
+
+    def _at_rest(self, what: str) -> None:
+        """Refused while the spindle moves (ERR 16) or the rotor spins (ERR 19)."""
         if self.world.head_moving():
             raise _busy("spindle still moving")
         if self.world.console_status()["spin_rps"] > 0.0:
-            raise InstrumentError(SPINNING, "rotor spinning: shim the mounting at rest")
-        self.world.shim(x, y)
-        return "OK"
+            raise InstrumentError(SPINNING, f"rotor spinning: {what} the case at rest")
 
     def _move(self, deg: float) -> str:
         if self.world.head_moving():

@@ -487,6 +487,8 @@ HEAD = Grammar("head", "ESG-LAB,DIVIDING-HEAD,0,1.0", [
     Cmd("SPIN?", reply=r"[0-9]+\.[0-9]{5}"),
     Cmd("STAT?", reply="HOLD|MOVING"),
     Cmd("SHIM", (Real(-120.0, 120.0), Real(-120.0, 120.0))),
+    Cmd("MOUNT", (Int(1, 2),)),
+    Cmd("MOUNT?", reply="[12]"),
 ], state_codes=frozenset({16, 19}))
 
 TURNTABLE = Grammar("turntable", "ESG-LAB,TURNTABLE-TILT,0,1.0", [

@@ -1,8 +1,9 @@
 """Mirror and pickoff alignment as adjustments (report 004, "Mirror and Pickoff Alignment",
-procedure step 1; issue 20), and the strategy variants and Figure 3 in the run's record
-(report 004, "Pattern Analysis", Figure 3). One calibration serves both: a case mounted
-beyond the 3 arcsec coning limit with pickoff 1 beyond 15 arcsec, adjusted, with the
-variants computed at 1000 orientations."""
+procedure step 1; issue 20), pickoff 2 aligned with the case remounted (sheet ESG-PA2),
+and the strategy variants and Figure 3 in the run's record (report 004, "Pattern
+Analysis", Figure 3). One calibration serves all: a case mounted beyond the 3 arcsec
+coning limit with pickoffs 1 and 2 beyond 15 arcsec, adjusted, with the variants computed
+at 1000 orientations."""
 
 from __future__ import annotations
 
@@ -15,7 +16,11 @@ from typer.testing import CliRunner
 
 from laboratory.cli import app
 from laboratory.esg.calibration import procedure_record, run_esg_calibration
-from laboratory.esg.truth import true_pickoff1_coning_arcsec
+from laboratory.esg.truth import (
+    true_pickoff1_coning_arcsec,
+    true_pickoff_coning_arcsec,
+    true_pickoff_mirror_arcsec,
+)
 from laboratory.esg.variants import FIGURE3_RANGES
 from procedures.esg import strategy_variants as sv
 from procedures.esg.acquisition import EsgPlan
@@ -30,9 +35,11 @@ POINTS = 1000
 
 
 def _misalign(rack: EsgRack) -> None:
-    """Mirror 1 about 17 arcsec off the spindle, pickoff 1 about 40 arcsec off it."""
+    """Mirror 1 about 17 arcsec off the spindle, pickoff 1 about 40 arcsec off it,
+    pickoff 2 about 50 arcsec off mirror 2."""
     rack.world.shim(15.0, -10.0)
     rack.world.translate_pickoff(1, 40.0, -30.0)
+    rack.world.translate_pickoff(2, 40.0, -30.0)
 
 
 def _steps(out) -> dict[str, dict]:
@@ -53,8 +60,9 @@ def adjusted(tmp_path_factory):
         racks.append(rack)
         _misalign(rack)
 
-    res = run_esg_calibration(1, out, plan=EsgPlan(latitude_deg=0.0, adjust_alignment=True),
-                              rack_hook=hook, with_study=False, variants_points=POINTS)
+    plan = EsgPlan(latitude_deg=0.0, adjust_alignment=True, remount_alignment=True)
+    res = run_esg_calibration(1, out, plan=plan, rack_hook=hook, with_study=False,
+                              variants_points=POINTS)
     return out, res, racks[0].world
 
 
@@ -85,6 +93,27 @@ def test_pickoff_translated_within_15_arcsec_of_the_spindle(adjusted):
     assert res["acquisition"]["true_pickoff_coning_arcsec"] == pytest.approx(true)
 
 
+def test_pickoff2_aligned_with_the_case_remounted(adjusted):
+    """ESG-PA2: mirror 2 shimmed onto the spindle, pickoff 2 translated from beyond 15
+    arcsec to within it (measured within 3 sigma of the simulator's coning), the case
+    mounted back with mirror 1 along the spindle."""
+    out, _, world = adjusted
+    st = _steps(out)
+    assert true_pickoff_mirror_arcsec(world, 2, 0.0) > 15.0  # off mirror 2 at the start
+    assert st["PA2.mount"]["coning_radius_arcsec"] > 3.0
+    shims = [k for k in st if k.startswith("PA2.shim-")]
+    assert shims and st[shims[-1]]["coning_radius_arcsec"] <= 3.0
+    assert st["PA2.1"]["coning_arcsec"] - 3 * st["PA2.1"]["sigma_arcsec"] > 15.0
+    moves = [k for k in st if k.startswith("PA2.translate-")]
+    assert moves
+    last = st[moves[-1]]
+    true_then = true_pickoff_coning_arcsec(world, 2, last["t_s"][-1])
+    assert true_then <= 15.0 and last["coning_arcsec"] <= 15.0
+    assert abs(last["coning_arcsec"] - true_then) < 3 * last["sigma_arcsec"]
+    assert true_pickoff_mirror_arcsec(world, 2) <= 15.0  # against its mirror, now
+    assert st["PA2.remount"]["spin_rps"] == 0.0 and world.case.mirror_on_spindle == 1
+
+
 def test_readout_after_the_adjustment_is_within_its_sigma_of_truth(adjusted):
     _, res, _ = adjusted
     for s in res["schedules"]:
@@ -106,6 +135,9 @@ def test_shim_refused_with_the_rotor_spinning():
     with pytest.raises(InstrumentRefused) as e:
         st.head.shim(1.0, 1.0)
     assert e.value.code == 19 and "rotor spinning" in e.value.text
+    with pytest.raises(InstrumentRefused) as e:
+        st.head.mount(2)
+    assert e.value.code == 19 and "remount the case at rest" in e.value.text
 
 
 def test_variants_in_the_record_are_the_study_s(adjusted):
@@ -133,10 +165,12 @@ def test_procedure_settings_in_the_record_s_config(adjusted):
     out, _, _ = adjusted
     doc = tomllib.loads((out / "config.toml").read_text())
     assert doc["esg"]["procedure"] == {"strategy_variants": True, "adjust_alignment": True,
+                                       "remount_alignment": True,
                                        "strategy_variants_points": POINTS}
     proc = load_esg_procedure(out / "config.toml")  # what a re-analysis reads back
     assert (proc.strategy_variants, proc.adjust_alignment, proc.strategy_variants_points,
-            proc.counters, proc.extremity_setup) == (True, True, POINTS, 2, True)
+            proc.counters, proc.extremity_setup, proc.remount_alignment) == (
+                True, True, POINTS, 2, True, True)
     assert procedure_record(EsgPlan(latitude_deg=0.0), None) == {}  # a default run's
 
 

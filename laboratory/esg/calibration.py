@@ -45,6 +45,7 @@ from procedures.esg.acquisition import RENEW, Acquisition, EsgPlan, acquire
 from procedures.esg.calibration import SCHEDULES, ScheduleResult, assign, calibrate, nominal
 from procedures.esg.cosine import CosineParams
 from procedures.esg.mechanization import Mechanization
+from procedures.esg.remount import pickoff2_alignment
 from procedures.esg.table4 import REPORT_ORDER, order_trials, table4
 from sim.esg.pattern import PatternSpec, nominal_pattern
 from sim.esg.world import EsgParams, EsgWorld
@@ -212,7 +213,8 @@ def procedure_record(plan: EsgPlan, variants_points: int | None) -> dict:
     used = {"extremity_setup": plan.extremity_setup, "counters": plan.counters,
             "strategy_variants": variants_points is not None,
             "adjust_alignment": plan.adjust_alignment,
-            "alignment_iterations": plan.alignment_iterations}
+            "alignment_iterations": plan.alignment_iterations,
+            "remount_alignment": plan.remount_alignment}
     if variants_points is not None:
         used["strategy_variants_points"] = variants_points
     default = ProcedureConfig.model_validate({}).model_dump()
@@ -258,7 +260,8 @@ def run_esg_calibration(seed: int, out: Path, params: EsgParams | None = None,
     with PlotWorker(*child) as plots, journaled_run(  # matplotlib meanwhile
             out, conn, resume, renew=RENEW, seed=seed, test="esg-calibration", order=order,
             extremity_setup=plan.extremity_setup, counters=plan.counters,
-            **{k: True for k in ("strategy_variants", "adjust_alignment") if procedure.get(k)},
+            **{k: True for k in ("strategy_variants", "adjust_alignment",
+                                      "remount_alignment") if procedure.get(k)},
             identify=Identifying("esg", "esg-calibration", seed, "esg", EsgConfig, params,
                                  tables={"procedure": procedure})) as (
             run, extra, t_start):
@@ -269,7 +272,7 @@ def run_esg_calibration(seed: int, out: Path, params: EsgParams | None = None,
             varied = plots.draw([(f"{VARIANTS}:variants_plot",
                                   {"path": out / "esg_figure3.png", "points": variants_points})],
                                 more=True)
-        acq = acquire(st, run, plan)
+        acq = acquire(st, run, plan, pickoff2_alignment)
         points, bud = assign(acq, plan, plan.lines_per_setting)
         times = {(p.scan, p.offset_deg): p.times_s for p in points}
         nom = nominal(acq, plan)

@@ -65,6 +65,12 @@ def add_commands(app: typer.Typer) -> None:
             help="shim the mount and translate pickoff 1 when their coning exceeds 3 / 15 "
                  "arcsec (default: check and stop; or the config's \\[esg.procedure] "
                  "adjust_alignment)")] = None,
+        remount: Annotated[bool | None, typer.Option(
+            "--remount-alignment/--no-remount-alignment",
+            help="before step 1, remount the case with mirror 2 along the spindle and "
+                 "align pickoff 2 by coning, then mount it back (implies "
+                 "--adjust-alignment; default off, or the config's \\[esg.procedure] "
+                 "remount_alignment)")] = None,
         operator: OperatorOpt = None,
     ) -> None:
         """The strapdown ESG pattern calibration and readout study (report 004)."""
@@ -86,7 +92,8 @@ def add_commands(app: typer.Typer) -> None:
                                        "extremity_setup": extremity,
                                        "counters": counters,
                                        "strategy_variants": variants,
-                                       "adjust_alignment": adjust})
+                                       "adjust_alignment": adjust,
+                                       "remount_alignment": remount})
         run_seed = 1 if args["seed"] is None else args["seed"]
         from station.config.identity import load_identity
 
@@ -102,6 +109,8 @@ def add_commands(app: typer.Typer) -> None:
                              is not None else proc.strategy_variants)
         adjusting = bool(args.get("adjust_alignment") if args.get("adjust_alignment")
                          is not None else proc.adjust_alignment)
+        remounting = bool(args.get("remount_alignment") if args.get("remount_alignment")
+                          is not None else proc.remount_alignment)
         from dataclasses import replace
 
         n_counters = args.get("counters")
@@ -109,7 +118,8 @@ def add_commands(app: typer.Typer) -> None:
 
         # the site's latitude comes from the params (run_esg_calibration sets it)
         plan = EsgPlan(latitude_deg=0.0, extremity_setup=setup, adjust_alignment=adjusting,
-                       alignment_iterations=proc.alignment_iterations)
+                       alignment_iterations=proc.alignment_iterations,
+                       remount_alignment=remounting)
         points = proc.strategy_variants_points if want_variants else None
         with invoked(operator, identity=unit):
             res, target = station_run(

@@ -9,6 +9,26 @@ import numpy as np
 from sim.esg.world import EsgWorld
 
 
+def _angle_arcsec(a: np.ndarray, b: np.ndarray) -> float:
+    c = float(a @ b) / float(np.linalg.norm(a) * np.linalg.norm(b))
+    return math.degrees(math.acos(min(1.0, c))) * 3600
+
+
+def true_pickoff_coning_arcsec(world: EsgWorld, pickoff: int, t: float) -> float:
+    """Angle between a pickoff and the spindle axis in the case at time t, whichever
+    mirror is mounted along the spindle then (what a coning turn at t measures)."""
+    u = world.mount.mounting_at(t).T @ np.array([1.0, 0.0, 0.0])
+    return _angle_arcsec(world.case.pickoffs_at(t)[pickoff - 1], u)
+
+
+def true_pickoff_mirror_arcsec(world: EsgWorld, pickoff: int, t: float | None = None
+                               ) -> float:
+    """Angle between pickoff 1 or 2 and its reference mirror's normal at time t (default
+    now): the alignment the report's procedure aims at, whatever the mounting."""
+    p = world.case.pickoffs if t is None else world.case.pickoffs_at(t)
+    return _angle_arcsec(p[pickoff - 1], world.case.mirror(pickoff))
+
+
 def true_pickoff1_coning_arcsec(world: EsgWorld) -> float:
     """Angle between pickoff 1 and the spindle axis in the case (what ESG-PA measures)."""
     u = world.case.mounting.T @ np.array([1.0, 0.0, 0.0])

@@ -20,6 +20,7 @@ block but the mount check then.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field, fields
 
 import numpy as np
@@ -87,10 +88,18 @@ class EsgPlan:
     # translated; up to alignment_iterations times) instead of stopping the run
     adjust_alignment: bool = False
     alignment_iterations: int = 3
+    # sheet ESG-PA2 before step 1: the case remounted with mirror 2 along the spindle and
+    # pickoff 2 adjusted the same way, then mounted back (implies adjust_alignment)
+    remount_alignment: bool = False
     # a scan point whose count ratio is this far from the drawing's at the scan's nominal
     # colatitude is a mis-gated count (the logic gate meeting another line near a cosine
     # pattern's extremity): the scan ends there (docs/esg-options.md)
     scan_gate_tolerance: float = 0.02
+
+    @property
+    def adjusting(self) -> bool:
+        """Shims and translations made (the remount's set-up needs the shims)."""
+        return self.adjust_alignment or self.remount_alignment
 
 
 # ---------------------------------------------------------------- design mechanization
@@ -333,14 +342,22 @@ def mount_check(st: EsgDrivers, run: Run, plan: EsgPlan, sh: CheckSheetRun) -> f
                  "turn; coning radius") as s:
         turn = _mirror_coning(st, plan)
         s.reading = turn
-        if turn["coning_radius_arcsec"] > limit and not plan.adjust_alignment:
+        if turn["coning_radius_arcsec"] > limit and not plan.adjusting:
             raise CheckFailed(f"mirror coning {turn['coning_radius_arcsec']:.1f} arcsec "
                               f"exceeds {limit:g}: re-shim the mount")
+    return shim_to_limit(st, plan, sh, turn, "1")
+
+
+def shim_to_limit(st: EsgDrivers, plan: EsgPlan, sh: CheckSheetRun, turn: dict,
+                  prefix: str) -> float:
+    """Steps ``<prefix>.shim-k``: the mount shimmed until the mirror along the spindle
+    cones within the limit; its last coning radius."""
+    limit = plan.mount_coning_limit_arcsec
     for k in range(1, plan.alignment_iterations + 1):
         if turn["coning_radius_arcsec"] <= limit:
             break
-        with sh.step(f"1.shim-{k}", "mount shimmed by the coning's first harmonic (spindle "
-                     "at 0); coning measured again") as s:
+        with sh.step(f"{prefix}.shim-{k}", "mount shimmed by the coning's first harmonic "
+                     "(spindle at 0); coning measured again") as s:
             x, y = alignment.shim_arcsec(turn["spindle_deg"], turn["theodolite_arcsec"])
             st.head.shim(x, y)
             turn = _mirror_coning(st, plan)
@@ -535,19 +552,28 @@ def tilt_to_equator(st: EsgDrivers, plan: EsgPlan, cr_eq: float) -> dict:
     return {"tilt_deg": st.turntable.readings()[1], "cr_pickoff1": r.ratio(1)}
 
 
-def _pickoff_coning(st: EsgDrivers, plan: EsgPlan, acq: Acquisition) -> dict:
-    """One spindle turn (and back to the start) reading pickoff 1: its coning about the
-    spindle from the count ratio's first harmonic, with the harmonic and its sigma."""
+# what a coning turn keeps for the adjustment, not in its step's reading
+TURN_INTERNAL = ("harmonic_cr", "partner_cr")
+
+
+def _pickoff_coning(st: EsgDrivers, plan: EsgPlan, gamma0: float, pickoff: int = 1,
+                    partner: int = 2) -> dict:
+    """One spindle turn from ``gamma0`` (and back to it) reading ``pickoff`` (along the
+    spindle) with ``partner``: its coning about the spindle from the count ratio's first
+    harmonic, with the harmonic, its sigma and the partner's first count ratio."""
     slope = plan_slope_per_deg(90.0, plan)
     n = plan.coning_positions
-    gs = [acq.gamma_eq_deg + 360.0 * k / n for k in range(n + 1)]
-    rows = []
+    gs = [gamma0 + 360.0 * k / n for k in range(n + 1)]
+    rows: list[tuple[float, float, float]] = []
+    partner_cr = None
     for g in gs:
         gr = _move_head(st, plan, g)
-        r = _read(st, plan, (1, 2))
-        if r.cr[1] is None:
-            raise CheckFailed("pickoff 1 left the pattern during the coning turn")
-        rows.append((gr, r.t_s, r.cr[1]))
+        r = _read(st, plan, (pickoff, partner))
+        cr = r.cr[pickoff]
+        if cr is None:
+            raise CheckFailed(f"pickoff {pickoff} left the pattern during the coning turn")
+        partner_cr = r.cr[partner] if not rows else partner_cr
+        rows.append((gr, r.t_s, cr))
     a = np.array([[1.0, math.cos(math.radians(g)), math.sin(math.radians(g)),
                    t - rows[0][1]] for g, t, _ in rows])
     y = np.array([c for _, _, c in rows])
@@ -558,10 +584,11 @@ def _pickoff_coning(st: EsgDrivers, plan: EsgPlan, acq: Acquisition) -> dict:
     s_amp = math.sqrt(max(0.0, (coef[1] ** 2 * cov[1, 1] + coef[2] ** 2 * cov[2, 2])
                           / max(amp * amp, 1e-30)))
     return {"spindle_deg": [r[0] for r in rows], "t_s": [r[1] for r in rows],
-            "cr_pickoff1": [r[2] for r in rows], "coning_arcsec": amp / abs(slope) * 3600.0,
+            f"cr_pickoff{pickoff}": [r[2] for r in rows],
+            "coning_arcsec": amp / abs(slope) * 3600.0,
             "sigma_arcsec": s_amp / abs(slope) * 3600.0,
             "limit_arcsec": plan.pickoff_coning_limit_arcsec,
-            "harmonic_cr": [float(coef[1]), float(coef[2])]}
+            "harmonic_cr": [float(coef[1]), float(coef[2])], "partner_cr": partner_cr}
 
 
 def pickoff_check(st: EsgDrivers, run: Run, plan: EsgPlan, acq: Acquisition) -> None:
@@ -572,12 +599,12 @@ def pickoff_check(st: EsgDrivers, run: Run, plan: EsgPlan, acq: Acquisition) -> 
     with run.sheet("ESG-PA", "Pickoff alignment check by coning") as sh:
         with sh.step("PA.1", "pickoff 1 count ratio over one spindle turn (and back to "
                      "the start); first harmonic = coning of pickoff 1") as s:
-            turn = _pickoff_coning(st, plan, acq)
-            s.reading = {k: v for k, v in turn.items() if k != "harmonic_cr"}
-            if not plan.adjust_alignment:
+            turn = _pickoff_coning(st, plan, acq.gamma_eq_deg)
+            s.reading = {k: v for k, v in turn.items() if k not in TURN_INTERNAL}
+            if not plan.adjusting:
                 _refuse_pickoff_coning(turn, acq, limit)
         adjusted = 0
-        while (plan.adjust_alignment and turn["coning_arcsec"] > limit
+        while (plan.adjusting and turn["coning_arcsec"] > limit
                and adjusted < plan.alignment_iterations):
             adjusted += 1
             with sh.step(f"PA.translate-{adjusted}", "pickoff 1 translated in its fixture by "
@@ -587,9 +614,9 @@ def pickoff_check(st: EsgDrivers, run: Run, plan: EsgPlan, acq: Acquisition) -> 
                     h[0], h[1], plan_slope_per_deg(90.0, plan), acq.gamma_eq_deg,
                     acq.colatitude_sign)
                 st.console.translate(1, a, b)
-                turn = _pickoff_coning(st, plan, acq)
+                turn = _pickoff_coning(st, plan, acq.gamma_eq_deg)
                 s.reading = {"translation_arcsec": [a, b],
-                             **{k: v for k, v in turn.items() if k != "harmonic_cr"}}
+                             **{k: v for k, v in turn.items() if k not in TURN_INTERNAL}}
         if adjusted:
             with sh.step("PA.tilt", "tilt made again: pickoff 1 at the equator's ratio") as s:
                 _move_head(st, plan, acq.gamma_eq_deg)
@@ -601,10 +628,16 @@ def _refuse_pickoff_coning(turn: dict, acq: Acquisition, limit: float) -> None:
     """Pickoff 1's coning recorded; CheckFailed if it exceeds the limit beyond the check's
     own uncertainty (3 sigma)."""
     acq.pickoff_coning_arcsec = turn["coning_arcsec"]
+    refuse_coning(turn, limit, 1)
+
+
+def refuse_coning(turn: dict, limit: float, pickoff: int) -> None:
+    """CheckFailed if a pickoff's coning exceeds the limit beyond the check's own
+    uncertainty (3 sigma)."""
     coning, sigma = turn["coning_arcsec"], turn["sigma_arcsec"]
     if coning - 3.0 * sigma > limit:
-        raise CheckFailed(f"pickoff 1 cones {coning:.1f} +- {sigma:.1f} arcsec about "
-                          f"the spindle (limit {limit:g})")
+        raise CheckFailed(f"pickoff {pickoff} cones {coning:.1f} +- {sigma:.1f} arcsec "
+                          f"about the spindle (limit {limit:g})")
 
 
 def baseline_start(st: EsgDrivers, plan: EsgPlan, acq: Acquisition,
@@ -728,11 +761,19 @@ def calibration_scans(st: EsgDrivers, run: Run, plan: EsgPlan, sh: CheckSheetRun
                         _scan_offsets(first, last, inc), slope_g)
 
 
-def acquire(st: EsgDrivers, run: Run, plan: EsgPlan) -> Acquisition:
-    """Sheets ESG-DP, ESG-CAL (steps 1-13) and ESG-PA; returns the acquisition record."""
+def acquire(st: EsgDrivers, run: Run, plan: EsgPlan,
+            remount: Callable[[EsgDrivers, Run, EsgPlan], dict] | None = None) -> Acquisition:
+    """Sheets ESG-DP, ESG-CAL (steps 1-13) and ESG-PA; returns the acquisition record.
+    ``remount``: sheet ESG-PA2 before step 1 with ``plan.remount_alignment``
+    (procedures.esg.remount.pickoff2_alignment, which uses this module's steps)."""
     acq = Acquisition()
     acq.t_zero_s = run.block("ESG-DP", lambda: processor_setup(st, run, plan)["t_zero_s"],
                              float)
+    if plan.remount_alignment:
+        if remount is None:
+            raise ValueError("remount_alignment needs the ESG-PA2 sheet "
+                             "(procedures.esg.remount.pickoff2_alignment)")
+        run.block("ESG-PA2", lambda: remount(st, run, plan), dict)
     with run.sheet("ESG-CAL", "Pattern calibration data acquisition") as sh:
         acq.mount_coning_arcsec = run.block(
             "ESG-CAL.mount", lambda: mount_check(st, run, plan, sh), float)

@@ -16,6 +16,10 @@ the translation that takes pickoff 1 onto it.
   d(theta) = -d(alpha), so the count ratio's first harmonic (a cos g + b sin g) gives
   alpha1's as A = -a / slope, B = -b / slope; solving, d2 = A cos psi + B sin psi,
   d3 = A sin psi - B cos psi, and the translation is (-d2, -d3).
+* The same for pickoff 2 with the case remounted, mirror 2 along the spindle and (c3, c1)
+  in the places of (c2, c3) (the head's ``MOUNT 2``): its translation axes are c3, c1.
+  There psi comes from pickoff 3 (along c3) instead: with s near c1 after damping,
+  pickoff 3's direction cosine is cos(psi - gamma), so psi = gamma + its colatitude.
 """
 
 from __future__ import annotations
@@ -51,9 +55,18 @@ def pickoff_translation_arcsec(a_cr: float, b_cr: float, slope_per_deg: float,
                                ) -> tuple[float, float]:
     """The translation of pickoff 1 along (c2, c3), arcsec, that cancels the first
     harmonic (a cos g + b sin g) of its count ratio over a spindle turn (module doc)."""
+    return translation_arcsec(a_cr, b_cr, slope_per_deg,
+                              gamma_eq_deg - colatitude_sign * 90.0)
+
+
+def translation_arcsec(a_cr: float, b_cr: float, slope_per_deg: float, psi_deg: float
+                       ) -> tuple[float, float]:
+    """The translation of the pickoff along the spindle, along its two translation axes
+    (the spindle frame's second and third), arcsec, with the spin axis at ``psi_deg``
+    from the second towards the third at spindle angle 0 (module doc)."""
     big_a = -a_cr / slope_per_deg * 3600.0
     big_b = -b_cr / slope_per_deg * 3600.0
-    psi = math.radians(gamma_eq_deg - colatitude_sign * 90.0)
+    psi = math.radians(psi_deg)
     d2 = big_a * math.cos(psi) + big_b * math.sin(psi)
     d3 = big_a * math.sin(psi) - big_b * math.cos(psi)
     return -d2, -d3

@@ -52,6 +52,10 @@ class CaseSpec:
     shim_error_arcsec: float = 0.3
     translate_scale_sd: float = 0.05
     translate_error_arcsec: float = 1.0
+    # the case set on the adapter plate and fixture with a mirror along the spindle (a
+    # remount, before any shim): that mirror's normal off the spindle, rms per axis
+    # (our choice: the fixture places it to a third of an arcminute; a shim finishes it)
+    remount_error_arcsec: float = 20.0
 
 
 def _tilted(rng: np.random.Generator, n: np.ndarray, max_rad: float) -> np.ndarray:
@@ -82,6 +86,7 @@ class GyroCase:
         rng = stream(seed, "esg", "case", "mounting")
         eps = rng.normal(0.0, spec.coning_rms_arcsec * ARCSEC / math.sqrt(2.0), 2)
         self.mounting = small_rotation([0.0, eps[0], eps[1]])
+        self.mirror_on_spindle = 1  # the mirror the mounting puts along the spindle
         self.coning_rad = float(math.acos(min(1.0, self.mounting[0, 0])))
         self._theo_count = 0
         self._seed = seed
@@ -89,10 +94,32 @@ class GyroCase:
         self._pickoff_times: list[float] = [-math.inf]
         self._pickoff_sets: list[np.ndarray] = [self.pickoffs]
 
-    def remount(self, mounting: np.ndarray) -> None:
-        """The mounting after a shim (the truth the coning check is judged by)."""
+    def mirror(self, k: int) -> np.ndarray:
+        """Mirror k's normal in the case frame (1 or 2)."""
+        return self.m1 if k == 1 else self.m2
+
+    def remount(self, mounting: np.ndarray, mirror: int | None = None) -> None:
+        """The mounting after a shim or a remount with ``mirror`` along the spindle (the
+        truth the coning check is judged by)."""
         self.mounting = mounting
-        self.coning_rad = float(math.acos(min(1.0, mounting[0, 0])))
+        if mirror is not None:
+            self.mirror_on_spindle = mirror
+        along = mounting @ self.mirror(self.mirror_on_spindle)
+        self.coning_rad = float(math.acos(min(1.0, float(along[0]))))
+
+    def mounting_for(self, mirror: int, rng: np.random.Generator) -> np.ndarray:
+        """A fresh mounting with ``mirror`` along the spindle, as the adapter plate and
+        fixture set it: mirror 1 with (c2, c3) on the spindle frame's (y, z), mirror 2
+        with (c3, c1) there (a cyclic turn, so each pickoff's translation axes take the
+        place of pickoff 1's), off by the remount error (CaseSpec)."""
+        nominal = np.eye(3) if mirror == 1 else np.array(
+            [[0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [1.0, 0.0, 0.0]])
+        m = nominal @ self.mirror(mirror)  # mirror 2 is 3' 55" off the spindle here
+        c = np.cross(m, [1.0, 0.0, 0.0])
+        n = float(np.linalg.norm(c))
+        level = small_rotation(c / n * math.asin(min(1.0, n)) if n > 0.0 else c)
+        err = rng.normal(0.0, self.spec.remount_error_arcsec * ARCSEC, 2)
+        return small_rotation([0.0, err[0], err[1]]) @ level @ nominal
 
     def translate(self, now: float, pickoff: int, move_rad: np.ndarray) -> None:
         """Pickoff ``pickoff``'s line of sight moved by ``move_rad`` (a case-frame vector
@@ -109,12 +136,13 @@ class GyroCase:
         return self._pickoff_sets[bisect.bisect_right(self._pickoff_times, t) - 1]
 
     def theodolite(self, r_lc: np.ndarray, azimuth: float, tilt: float) -> tuple[float, float]:
-        """Mirror-1 normal relative to the spindle axis, arcsec on (h, v), with noise."""
+        """The normal of the mirror along the spindle (mirror 1 unless remounted)
+        relative to the spindle axis, arcsec on (h, v), with noise."""
         u = np.array([math.sin(azimuth) * math.cos(tilt), math.cos(azimuth) * math.cos(tilt),
                       math.sin(tilt)])
         h = np.array([math.cos(azimuth), -math.sin(azimuth), 0.0])
         v = np.cross(h, u)
-        m1 = r_lc[:, 0]
+        m1 = r_lc @ self.mirror(self.mirror_on_spindle)  # the mirror along the spindle
         rng = stream(self._seed, "esg", "theodolite", self._theo_count)
         self._theo_count += 1
         noise = rng.normal(0.0, self.spec.theodolite_noise_arcsec, 2)

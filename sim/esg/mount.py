@@ -224,6 +224,10 @@ class Mount:
         self._shims.append((now, mounting))
         self.mounting = mounting
 
+    def mounting_at(self, t: float) -> np.ndarray:
+        """The mounting in effect at time t (after the shims and remounts before it)."""
+        return self._shims[self._shim_index(t)][1]
+
     def _shim_index(self, t: float) -> int:
         return bisect.bisect_right([s[0] for s in self._shims], t) - 1
 

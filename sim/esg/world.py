@@ -135,6 +135,7 @@ class EsgWorld:
         self._lamp_current = np.ones(3)  # fraction of the nominal lamp current
         self._shims = 0  # adjustments made so far (each draws its own error stream)
         self._translations = 0
+        self._remounts = 0
         self._axis_case: dict[float, np.ndarray] = {}  # spin_axis_case at past instants
 
     @property
@@ -178,7 +179,8 @@ class EsgWorld:
 
     # ----- alignment adjustments (report 004, "Mirror and Pickoff Alignment") -----
     def shim(self, x_arcsec: float, y_arcsec: float) -> None:
-        """Re-shim the case on the spindle plate: mirror 1's normal moves by (x, y) arcsec
+        """Re-shim the case on the spindle plate: the normal of the mirror along the
+        spindle (mirror 1 unless remounted) moves by (x, y) arcsec
         on the theodolite's axes at the present table and spindle angles, within the
         shim's own error (CaseSpec), from now on."""
         spec, now = self.case.spec, self.now
@@ -192,11 +194,24 @@ class EsgWorld:
         u = spindle_axis(a, e)
         h = np.array([math.cos(a), -math.sin(a), 0.0])  # the theodolite's axes (GyroCase)
         v = np.cross(h, u)
-        m1 = bare @ self.mount.mounting[:, 0]
+        m1 = bare @ self.mount.mounting @ self.case.mirror(self.case.mirror_on_spindle)
         turn = small_rotation(np.cross(m1, got[0] * h + got[1] * v))
         mounting = bare.T @ turn @ bare @ self.mount.mounting
         self.mount.reshim(now, mounting)
         self.case.remount(mounting)
+
+    def remount(self, mirror: int) -> None:
+        """The case taken off the adapter plate and set back with mirror ``mirror`` (1 or
+        2) along the spindle (report 004, "Mirror and Pickoff Alignment": the procedure
+        repeated for the second pickoff), off by the remount error (CaseSpec) until
+        shimmed, from now on; the rotor must be at rest (the instrument refuses else)."""
+        if mirror not in (1, 2):
+            raise ValueError(f"mirror must be 1 or 2: {mirror}")
+        self._remounts += 1
+        rng = stream(self.seed, "esg", "remount", self._remounts)
+        mounting = self.case.mounting_for(mirror, rng)
+        self.mount.reshim(self.now, mounting)
+        self.case.remount(mounting, mirror)
 
     def translate_pickoff(self, pickoff: int, a_arcsec: float, b_arcsec: float) -> None:
         """Translate a pickoff in its fixture: its line of sight moves a arcsec along the

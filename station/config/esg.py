@@ -80,6 +80,10 @@ class ProcedureConfig(BaseModel):
     # them beyond 3 / 15 arcsec, up to alignment_iterations times, instead of stopping
     adjust_alignment: bool = False
     alignment_iterations: int = Field(3, ge=1, le=10)
+    # sheet ESG-PA2 before step 1: the case remounted with mirror 2 along the spindle and
+    # pickoff 2 adjusted the same way, then mounted back (report 004, "Mirror and Pickoff
+    # Alignment"; implies adjust_alignment)
+    remount_alignment: bool = False
 
 
 class EsgConfig(BaseModel):

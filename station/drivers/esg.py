@@ -353,9 +353,14 @@ class HeadDriver(_Positioner):
         return self.ask("SPIN?", HEAD_READING)[0]
 
     def shim(self, x_arcsec: float, y_arcsec: float) -> None:
-        """Re-shim the case: mirror 1 moved by (x, y) arcsec on the theodolite's axes
-        (refused while the spindle moves or the rotor spins)."""
+        """Re-shim the case: the mirror along the spindle moved by (x, y) arcsec on the
+        theodolite's axes (refused while the spindle moves or the rotor spins)."""
         self.command(f"SHIM {float(x_arcsec):.2f} {float(y_arcsec):.2f}")
+
+    def mount(self, mirror: int) -> None:
+        """The case set back on the plate with mirror ``mirror`` (1, 2) along the spindle
+        (refused while the spindle moves or the rotor spins)."""
+        self.command(f"MOUNT {int(mirror)}")
 
 
 class TurntableDriver(_Positioner):

@@ -19,6 +19,7 @@ separated), read when the table is first used.
 
 from __future__ import annotations
 
+import functools
 import importlib
 import os
 from collections.abc import Callable, Mapping
@@ -69,10 +70,17 @@ class UnknownLaboratory(UseError, ValueError):
     """A --station name (or a registry entry) that names no laboratory."""
 
 
+@functools.cache
+def _installed() -> tuple[tuple[str, str], ...]:
+    """The installed packages' laboratories (entry points): read once per process, since
+    scanning every distribution's metadata costs tens of ms and the CLI asks four times."""
+    return tuple((ep.name, ep.value) for ep in entry_points(group=ENTRY_POINTS))
+
+
 def _entries() -> dict[str, str]:
     table = dict(BUILTIN)
-    for ep in entry_points(group=ENTRY_POINTS):
-        table.setdefault(ep.name, ep.value)
+    for name, value in _installed():
+        table.setdefault(name, value)
     for item in filter(None, (x.strip() for x in os.environ.get(ENV_VAR, "").split(","))):
         name, sep, target = item.partition("=")
         if not sep or ":" not in target or not name.strip():

@@ -3,7 +3,7 @@ before step 1 by a shim and a pickoff-1 translation, calibrated with adjust_alig
 per case the coning measured before and after each adjustment beside the simulator's
 truth, and the true readout rms. With ``remount``: pickoff 2 misaligned too, and the run
 with remount_alignment (sheet ESG-PA2). With ``pickoff3``: pickoff 3 misaligned as well,
-its tilt towards mirror 1 measured and translated out after step 7 (procedures.esg.pickoff3).
+its tilt towards mirror 1 measured and translated out after step 3 (procedures.esg.pickoff3).
 
     python bench/esg_alignment.py [remount | pickoff3]
 """
@@ -113,14 +113,15 @@ def pickoff3(seed: int, a: float, b: float) -> dict:
         steps = {}
         for line in (Path(d) / "journal.jsonl").read_text().splitlines():
             j = json.loads(line)
-            if j.get("kind") == "step" and j["step"].startswith("7.p3"):
+            if j.get("kind") == "step" and j["step"].startswith("3.p3"):
                 steps[j["step"]] = j["reading"]
     w = racks[0].world
-    turns = [k for k in steps if k != "7.p3-back"]
+    turns = [k for k in steps if True]
     return {"before": true_pickoff3_tilts_arcsec(w, 0.0),
             "turns": [(steps[k]["tilt_arcsec"], steps[k]["sigma_arcsec"],
-                       true_pickoff3_spindle_tilt_arcsec(w, steps[k]["t_s"][-1]),
-                       steps[k]["t_s"][-1] - steps[k]["t_s"][0]) for k in turns],
+                       true_pickoff3_spindle_tilt_arcsec(w, steps[k]["along"]["t_s"][-1]),
+                       steps[k]["reversed"]["t_s"][-1] - steps[k]["along"]["t_s"][0])
+                      for k in turns],
             "after": true_pickoff3_tilts_arcsec(w),
             "true_readout": [s["true_readout_rms_arcsec"] for s in res["schedules"]]}
 

@@ -723,18 +723,18 @@ Pickoff3 = Callable[[EsgDrivers, EsgPlan, CheckSheetRun, Acquisition], dict]
 def rotor_setup(st: EsgDrivers, run: Run, plan: EsgPlan, sh: CheckSheetRun,
                 acq: Acquisition, pickoff3: Pickoff3 | None = None) -> None:
     """Steps 2-8 and ESG-PA: spin-up, drift offset, equal ratios, equator, tilt, lock;
-    ``pickoff3`` after step 7 (pickoff 3's tilt towards mirror 1, with the remount)."""
+    ``pickoff3`` after step 3 (pickoff 3's tilt towards mirror 1, with the remount)."""
     start_gyro(st, run, plan, sh)
     if plan.extremity_setup:
         extremity_setup(st, run, plan.latitude_deg, plan.mirror_angle_deg,
                         lambda a, e, g: _move_all(st, plan, a, e, g), lambda: _damp(st, plan),
                         plan.design_top_deg)
     cancel_drift(st, run, plan, sh, acq)
+    if plan.remount_alignment and pickoff3 is not None:
+        pickoff3(st, plan, sh, acq)
     s_lab = geo.drift_equilibrium(plan.latitude_deg, acq.unbalance_k_deg_hr)
     s_lab = equal_ratio_points(st, run, plan, sh, acq, s_lab)
     equator(st, run, plan, sh, acq, s_lab)
-    if plan.remount_alignment and pickoff3 is not None:
-        pickoff3(st, plan, sh, acq)
     with sh.step("8", "tilt until pickoff 1 reads the equator's ratio; lock the table") as s:
         _move_head(st, plan, acq.gamma_eq_deg)
         s.reading = tilt_to_equator(st, plan, acq.cr_eq)
@@ -773,7 +773,7 @@ def acquire(st: EsgDrivers, run: Run, plan: EsgPlan,
     """Sheets ESG-DP, ESG-CAL (steps 1-13) and ESG-PA; returns the acquisition record.
     ``remount``: sheet ESG-PA2 before step 1 with ``plan.remount_alignment``
     (procedures.esg.remount.pickoff2_alignment, which uses this module's steps), and
-    ``pickoff3`` after step 7 (procedures.esg.pickoff3.pickoff3_alignment)."""
+    ``pickoff3`` after step 3 (procedures.esg.pickoff3.pickoff3_alignment)."""
     acq = Acquisition()
     acq.t_zero_s = run.block("ESG-DP", lambda: processor_setup(st, run, plan)["t_zero_s"],
                              float)

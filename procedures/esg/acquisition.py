@@ -89,7 +89,8 @@ class EsgPlan:
     adjust_alignment: bool = False
     alignment_iterations: int = 3
     # sheet ESG-PA2 before step 1: the case remounted with mirror 2 along the spindle and
-    # pickoff 2 adjusted the same way, then mounted back (implies adjust_alignment)
+    # pickoff 2 adjusted the same way, then mounted back; after step 3 pickoff 3's tilt
+    # towards mirror 1 measured and translated out (implies adjust_alignment)
     remount_alignment: bool = False
     # a scan point whose count ratio is this far from the drawing's at the scan's nominal
     # colatitude is a mis-gated count (the logic gate meeting another line near a cosine

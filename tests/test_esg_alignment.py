@@ -1,9 +1,9 @@
 """Mirror and pickoff alignment as adjustments (report 004, "Mirror and Pickoff Alignment",
 procedure step 1; issue 20), pickoff 2 aligned with the case remounted (sheet ESG-PA2),
-and the strategy variants and Figure 3 in the run's record (report 004, "Pattern
-Analysis", Figure 3). One calibration serves all: a case mounted beyond the 3 arcsec
-coning limit with pickoffs 1 and 2 beyond 15 arcsec, adjusted, with the variants computed
-at 1000 orientations."""
+pickoff 3's tilt towards mirror 1 removed after step 3, and the strategy variants and
+Figure 3 in the run's record (report 004, "Pattern Analysis", Figure 3). One calibration
+serves all: a case mounted beyond the 3 arcsec coning limit with pickoffs 1, 2 and 3
+beyond 15 arcsec, adjusted, with the variants computed at 1000 orientations."""
 
 from __future__ import annotations
 

@@ -20,7 +20,6 @@ stationary set-up of ours gives (docs/esg-options.md).
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
 
 import numpy as np
 
@@ -49,38 +48,25 @@ def palindrome(positions: int) -> list[float]:
     return out + out[-2::-1]
 
 
-def mean_ratio(spindle_deg: list[float], t_s: list[float], cr: list[float],
-               curved: bool = False) -> tuple[float, float]:
+def mean_ratio(spindle_deg: list[float], t_s: list[float], cr: list[float]
+               ) -> tuple[float, float]:
     """(mean, its sigma) of a count ratio over a turn, with the first harmonic of the
-    spindle angle and a linear drift in time fitted alongside; ``curved``: also a first
-    harmonic growing with the square of the time from the turn's middle (s leaving the
-    spindle along a curve while the table follows it)."""
+    spindle angle and a linear drift in time fitted alongside."""
     t0 = 0.5 * (t_s[0] + t_s[-1])
-    rows = []
-    for g, t in zip(spindle_deg, t_s, strict=True):
-        c, sn = math.cos(math.radians(g)), math.sin(math.radians(g))
-        q = ((t - t0) / 600.0) ** 2
-        rows.append([1.0, c, sn, t - t0] + ([q * c, q * sn] if curved else []))
-    a = np.array(rows)
+    a = np.array([[1.0, math.cos(math.radians(g)), math.sin(math.radians(g)), t - t0]
+                  for g, t in zip(spindle_deg, t_s, strict=True)])
     y = np.asarray(cr, float)
     coef, *_ = np.linalg.lstsq(a, y, rcond=None)
     res = y - a @ coef
-    cov = float(res @ res) / max(1, len(y) - a.shape[1]) * np.linalg.inv(a.T @ a)
+    cov = float(res @ res) / max(1, len(y) - 4) * np.linalg.inv(a.T @ a)
     return float(coef[0]), math.sqrt(float(cov[0, 0]))
 
 
-Pointing = Callable[[float], tuple[float, float]]  # time -> table (azimuth, tilt) along s
-
-
-def mean_turn(st: EsgDrivers, plan: EsgPlan, pointing: Pointing | None = None,
-              reverse: bool = False) -> dict:
+def mean_turn(st: EsgDrivers, plan: EsgPlan) -> dict:
     """One palindromic spindle turn reading pickoff 3: its count ratios and their mean
-    (first harmonic and drift fitted out) with its sigma. With ``pointing`` the table is
-    laid along s (or against it, ``reverse``) again before each reading."""
+    (first harmonic and drift fitted out) with its sigma."""
     g_list, t_list, cr_list = [], [], []
     for g in palindrome(plan.coning_positions):
-        if pointing is not None:
-            _lay(st, plan, pointing(st.clock.now()), reverse)
         gr = _move_head(st, plan, g)
         r = _read(st, plan, (PICKOFF, 2))
         cr = r.cr[PICKOFF]
@@ -89,28 +75,21 @@ def mean_turn(st: EsgDrivers, plan: EsgPlan, pointing: Pointing | None = None,
         g_list.append(gr)
         t_list.append(r.t_s)
         cr_list.append(float(cr))
-    mean, sigma = mean_ratio(g_list, t_list, cr_list, curved=pointing is not None)
+    mean, sigma = mean_ratio(g_list, t_list, cr_list)
     return {"spindle_deg": g_list, "t_s": t_list, "cr_pickoff3": cr_list,
             "cr_mean": mean, "cr_sigma": sigma}
 
 
-def _lay(st: EsgDrivers, plan: EsgPlan, along: tuple[float, float], reverse: bool) -> None:
-    """The spindle along (azimuth, tilt), or reversed: table turned 180 deg, tilt negated."""
-    az, tilt = (along[0] + 180.0, -along[1]) if reverse else along
-    _move_table(st, plan, az=((az + 180.0) % 360.0) - 180.0, tilt=tilt)
-
-
-def tilt_measurement(st: EsgDrivers, plan: EsgPlan, along: tuple[float, float],
-                     pointing: Pointing | None = None) -> dict:
-    """Pickoff 3's tilt towards the spindle (the mirror along it), arcsec, with its
-    sigma: a turn with the spindle along s (table at ``along``: azimuth, tilt; or following
-    ``pointing``) and one with it reversed (colatitudes 90 - tilt and 90 + tilt; the
-    equator's ratio cancels)."""
+def tilt_measurement(st: EsgDrivers, plan: EsgPlan, along: tuple[float, float]) -> dict:
+    """Pickoff 3's tilt towards the spindle (mirror 1), arcsec, with its sigma: a turn
+    with the spindle along s (table at ``along``: azimuth, tilt) and one with it
+    reversed (colatitudes 90 - tilt and 90 + tilt; the equator's ratio cancels)."""
     slope = plan_slope_per_deg(90.0, plan)
+    az, tilt = along
     turns = []
-    for reverse in (False, True):
-        _lay(st, plan, along if pointing is None else pointing(st.clock.now()), reverse)
-        turns.append(mean_turn(st, plan, pointing, reverse))
+    for a, e in ((az, tilt), (az + 180.0, -tilt)):
+        _move_table(st, plan, az=((a + 180.0) % 360.0) - 180.0, tilt=e)
+        turns.append(mean_turn(st, plan))
     plus, minus = turns
     # CR - CR_eq = slope * (colatitude - 90): plus - minus = -2 slope tilt
     d = plus["cr_mean"] - minus["cr_mean"]
@@ -120,59 +99,25 @@ def tilt_measurement(st: EsgDrivers, plan: EsgPlan, along: tuple[float, float],
             / (2.0 * abs(slope)) * 3600.0}
 
 
-def earth_pointing(latitude_deg: float, s0_lab: np.ndarray, t0: float) -> Pointing:
-    """Table angles along a free spin axis that was at ``s0_lab`` at ``t0``, moved by the
-    Earth's rate alone (ds/dt = s x Omega; unbalance drift not modelled: s near vertical
-    feels little of it)."""
-    w = geo.polar_axis(latitude_deg)
-    rate = math.radians(geo.EARTH_RATE_DEG_HR) / 3600.0
-
-    def at(t: float) -> tuple[float, float]:
-        phi = -rate * (t - t0)  # rotation about Omega by -|Omega| t
-        s = (s0_lab * math.cos(phi) + np.cross(w, s0_lab) * math.sin(phi)
-             + w * float(w @ s0_lab) * (1.0 - math.cos(phi)))
-        return geo.azimuth_deg(s), geo.elevation_deg(s)
-    return at
-
-
-def mirror2_tilt(st: EsgDrivers, plan: EsgPlan, sh: CheckSheetRun, s0_lab: np.ndarray,
-                 t0: float) -> dict:
-    """Steps ``PA2.p3-1``, ``PA2.p3-translate-k`` (mirror 2 along the spindle, the rotor
-    free since ``t0`` with s at ``s0_lab``): pickoff 3's tilt towards mirror 2 measured
-    with the table following s and translated out along c2 (module doc)."""
-    pointing = earth_pointing(plan.latitude_deg, s0_lab, t0)
-    return _adjust(st, plan, sh, "PA2.p3", 1, "mirror 2", "c2",
-                   lambda: tilt_measurement(st, plan, pointing(st.clock.now()), pointing))
-
-
-def _adjust(st: EsgDrivers, plan: EsgPlan, sh: CheckSheetRun, prefix: str, axis: int,
-            mirror: str, along: str, measure: Callable[[], dict]) -> dict:
-    """The measurement, then translations along case axis c1 (axis 0) or c2 (axis 1) until
-    the tilt is within LEAVE_ARCSEC (at most alignment_iterations)."""
-    with sh.step(f"{prefix}-1", "spindle along s, then reversed; pickoff 3 count ratio "
-                 "over a spindle turn and back in each; half their means' difference = "
-                 f"pickoff 3's tilt towards {mirror}") as s:
-        m = measure()
+def pickoff3_alignment(st: EsgDrivers, plan: EsgPlan, sh: CheckSheetRun,
+                       acq: Acquisition) -> dict:
+    """Steps ``3.p3-1`` and ``3.p3-translate-k`` (module doc); the last measurement's
+    tilt and the number of translations."""
+    s_lab = geo.drift_equilibrium(plan.latitude_deg, acq.unbalance_k_deg_hr)
+    along = (geo.azimuth_deg(s_lab), geo.elevation_deg(s_lab))
+    with sh.step("3.p3-1", "spindle along s (step 3's equilibrium), then reversed; pickoff "
+                 "3 count ratio over a spindle turn and back in each; half their means' "
+                 "difference = pickoff 3's tilt towards mirror 1") as s:
+        m = tilt_measurement(st, plan, along)
         s.reading = m
     moved = 0
     while abs(m["tilt_arcsec"]) > LEAVE_ARCSEC and moved < plan.alignment_iterations:
         moved += 1
-        with sh.step(f"{prefix}-translate-{moved}", f"pickoff 3 translated along {along} "
-                     "by its tilt; measured again") as s:
-            move = [0.0, 0.0]
-            move[axis] = -m["tilt_arcsec"]
-            st.console.translate(PICKOFF, move[0], move[1])
-            m = measure()
-            s.reading = {"translation_arcsec": move, **m}
+        with sh.step(f"3.p3-translate-{moved}", "pickoff 3 translated along c1 by its "
+                     "tilt; measured again") as s:
+            a = -m["tilt_arcsec"]
+            st.console.translate(PICKOFF, a, 0.0)
+            m = tilt_measurement(st, plan, along)
+            s.reading = {"translation_arcsec": [a, 0.0], **m}
     return {"tilt_arcsec": m["tilt_arcsec"], "sigma_arcsec": m["sigma_arcsec"],
             "translations": moved}
-
-
-def pickoff3_alignment(st: EsgDrivers, plan: EsgPlan, sh: CheckSheetRun,
-                       acq: Acquisition) -> dict:
-    """Steps ``3.p3-1`` and ``3.p3-translate-k`` (module doc): pickoff 3's tilt towards
-    mirror 1 with s at step 3's equilibrium, translated out along c1."""
-    s_lab = geo.drift_equilibrium(plan.latitude_deg, acq.unbalance_k_deg_hr)
-    along = (geo.azimuth_deg(s_lab), geo.elevation_deg(s_lab))
-    return _adjust(st, plan, sh, "3.p3", 0, "mirror 1", "c1",
-                   lambda: tilt_measurement(st, plan, along))

@@ -12,9 +12,7 @@ and vertical, where the unbalance drift vanishes and the Earth's rate turns s ab
 spindle only (it leaves pickoff 2's colatitude alone). A spindle turn then gives pickoff
 2's coning as ESG-PA gives pickoff 1's; above 15 arcsec pickoff 2 is translated along c3,
 c1 (``XLATE 2``) by the turn's first harmonic, the angle of s about the spindle taken
-from pickoff 3 (procedures.esg.alignment), and measured again. Then pickoff 3's tilt
-towards mirror 2 is measured with the table following s and translated out along c2
-(procedures.esg.pickoff3). Then the rotor is braked
+from pickoff 3 (procedures.esg.alignment), and measured again. Then the rotor is braked
 and the case mounted back with mirror 1 along the spindle (``MOUNT 1``): step 1 shims it.
 """
 
@@ -36,7 +34,6 @@ from procedures.esg.acquisition import (
     refuse_coning,
     shim_to_limit,
 )
-from procedures.esg.pickoff3 import mirror2_tilt
 from procedures.runner import CheckSheetRun, Run
 from station.drivers.esg import EsgDrivers
 from station.errors import CheckFailed
@@ -98,17 +95,6 @@ def pickoff2_alignment(st: EsgDrivers, run: Run, plan: EsgPlan) -> dict:
             _wait_speed(st, plan, True, plan.spin_ready_rps)
             st.clock.sleep(plan.damping_s)
             st.console.damping(False)
-            t_free = st.clock.now()
-            s.reading = {"settings_deg": [0.0, 0.0, gamma0], **st.console.status()}
-        # s was damped onto c1, vertical (nominal geometry), when the rotor ran free
-        s0 = geo.r_lc(0.0, 0.0, gamma0) @ C1_IN_SPINDLE_FRAME
-        tilt3 = mirror2_tilt(st, plan, sh, s0, t_free)
-        with sh.step("PA2.redamp", "table level, c1 up; s damped back onto c1") as s:
-            _move_table(st, plan, az=0.0, tilt=0.0)
-            gamma0 = _move_head(st, plan, gamma0)
-            st.console.damping(True)
-            st.clock.sleep(plan.damping_s)
-            st.console.damping(False)
             s.reading = {"settings_deg": [0.0, 0.0, gamma0], **st.console.status()}
         with sh.step("PA2.1", "pickoff 2 count ratio over one spindle turn (and back to "
                      "the start); first harmonic = coning of pickoff 2") as s:
@@ -135,7 +121,7 @@ def pickoff2_alignment(st: EsgDrivers, run: Run, plan: EsgPlan) -> dict:
             st.head.mount(1)
             s.reading = {"spin_rps": st.console.speed()}
     return {"coning_arcsec": turn["coning_arcsec"], "sigma_arcsec": turn["sigma_arcsec"],
-            "translations": adjusted, "pickoff3_tilt_arcsec": tilt3["tilt_arcsec"]}
+            "translations": adjusted}
 
 
 def _remount_and_shim(st: EsgDrivers, plan: EsgPlan, sh: CheckSheetRun, mirror: int) -> None:

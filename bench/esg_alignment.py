@@ -2,9 +2,10 @@
 before step 1 by a shim and a pickoff-1 translation, calibrated with adjust_alignment;
 per case the coning measured before and after each adjustment beside the simulator's
 truth, and the true readout rms. With ``remount``: pickoff 2 misaligned too, and the run
-with remount_alignment (sheet ESG-PA2).
+with remount_alignment (sheet ESG-PA2). With ``pickoff3``: pickoff 3 misaligned as well,
+its tilt towards mirror 1 measured and translated out after step 3 (procedures.esg.pickoff3).
 
-    python bench/esg_alignment.py [remount]
+    python bench/esg_alignment.py [remount | pickoff3]
 """
 
 from __future__ import annotations
@@ -17,6 +18,8 @@ from pathlib import Path
 from laboratory.esg.calibration import run_esg_calibration
 from laboratory.esg.truth import (
     true_pickoff1_coning_arcsec,
+    true_pickoff3_spindle_tilt_arcsec,
+    true_pickoff3_tilts_arcsec,
     true_pickoff_coning_arcsec,
     true_pickoff_mirror_arcsec,
 )
@@ -31,6 +34,9 @@ CASES = ((1, 15.0, -10.0, 40.0, -30.0), (2, 15.0, -10.0, 40.0, -30.0),
 # (seed, pickoff-2 translation a, b), arcsec, with the first case's shim and pickoff 1
 REMOUNT_CASES = ((1, 40.0, -30.0), (2, 40.0, -30.0), (3, -70.0, 50.0), (4, 0.0, 90.0),
                  (5, 25.0, 10.0))
+# (seed, pickoff-3 translation along c1, c2), arcsec, with the remount cases' first set-up
+PICKOFF3_CASES = ((1, 40.0, 0.0), (2, -35.0, 0.0), (3, 60.0, 0.0), (4, -25.0, 0.0),
+                  (5, 50.0, 0.0))
 
 
 def one(seed: int, x: float, y: float, a: float, b: float) -> dict:
@@ -89,7 +95,42 @@ def remounted(seed: int, a: float, b: float) -> dict:
             "true_readout": [s["true_readout_rms_arcsec"] for s in res["schedules"]]}
 
 
+def pickoff3(seed: int, a: float, b: float) -> dict:
+    """One calibration with pickoff 3 translated by (a, b) beforehand: its tilt towards
+    mirror 1 measured and removed after step 7."""
+    racks: list[EsgRack] = []
+
+    def hook(rack: EsgRack) -> None:
+        racks.append(rack)
+        rack.world.shim(15.0, -10.0)
+        rack.world.translate_pickoff(1, 40.0, -30.0)
+        rack.world.translate_pickoff(2, 40.0, -30.0)
+        rack.world.translate_pickoff(3, a, b)
+
+    with tempfile.TemporaryDirectory() as d:
+        res = run_esg_calibration(seed, Path(d), rack_hook=hook, with_study=False,
+                                  plan=EsgPlan(latitude_deg=0.0, remount_alignment=True))
+        steps = {}
+        for line in (Path(d) / "journal.jsonl").read_text().splitlines():
+            j = json.loads(line)
+            if j.get("kind") == "step" and j["step"].startswith("3.p3"):
+                steps[j["step"]] = j["reading"]
+    w = racks[0].world
+    turns = [k for k in steps if True]
+    return {"before": true_pickoff3_tilts_arcsec(w, 0.0),
+            "turns": [(steps[k]["tilt_arcsec"], steps[k]["sigma_arcsec"],
+                       true_pickoff3_spindle_tilt_arcsec(w, steps[k]["along"]["t_s"][-1]),
+                       steps[k]["reversed"]["t_s"][-1] - steps[k]["along"]["t_s"][0])
+                      for k in turns],
+            "after": true_pickoff3_tilts_arcsec(w),
+            "true_readout": [s["true_readout_rms_arcsec"] for s in res["schedules"]]}
+
+
 def main() -> None:
+    if sys.argv[1:] == ["pickoff3"]:
+        for pcase in PICKOFF3_CASES:
+            print(pcase, json.dumps(pickoff3(*pcase), indent=None), flush=True)
+        return
     if sys.argv[1:] == ["remount"]:
         for rcase in REMOUNT_CASES:
             print(rcase, json.dumps(remounted(*rcase), indent=None))

@@ -1,9 +1,9 @@
 """Mirror and pickoff alignment as adjustments (report 004, "Mirror and Pickoff Alignment",
 procedure step 1; issue 20), pickoff 2 aligned with the case remounted (sheet ESG-PA2),
-and the strategy variants and Figure 3 in the run's record (report 004, "Pattern
-Analysis", Figure 3). One calibration serves all: a case mounted beyond the 3 arcsec
-coning limit with pickoffs 1 and 2 beyond 15 arcsec, adjusted, with the variants computed
-at 1000 orientations."""
+pickoff 3's tilt towards mirror 1 removed after step 3, and the strategy variants and
+Figure 3 in the run's record (report 004, "Pattern Analysis", Figure 3). One calibration
+serves all: a case mounted beyond the 3 arcsec coning limit with pickoffs 1, 2 and 3
+beyond 15 arcsec, adjusted, with the variants computed at 1000 orientations."""
 
 from __future__ import annotations
 
@@ -18,6 +18,8 @@ from laboratory.cli import app
 from laboratory.esg.calibration import procedure_record, run_esg_calibration
 from laboratory.esg.truth import (
     true_pickoff1_coning_arcsec,
+    true_pickoff3_spindle_tilt_arcsec,
+    true_pickoff3_tilts_arcsec,
     true_pickoff_coning_arcsec,
     true_pickoff_mirror_arcsec,
 )
@@ -36,10 +38,12 @@ POINTS = 1000
 
 def _misalign(rack: EsgRack) -> None:
     """Mirror 1 about 17 arcsec off the spindle, pickoff 1 about 40 arcsec off it,
-    pickoff 2 about 50 arcsec off mirror 2."""
+    pickoff 2 about 50 arcsec off mirror 2, pickoff 3 about 37 arcsec off its nominal
+    line (towards mirror 1)."""
     rack.world.shim(15.0, -10.0)
     rack.world.translate_pickoff(1, 40.0, -30.0)
     rack.world.translate_pickoff(2, 40.0, -30.0)
+    rack.world.translate_pickoff(3, 40.0, 0.0)
 
 
 def _steps(out) -> dict[str, dict]:
@@ -112,6 +116,23 @@ def test_pickoff2_aligned_with_the_case_remounted(adjusted):
     assert abs(last["coning_arcsec"] - true_then) < 3 * last["sigma_arcsec"]
     assert true_pickoff_mirror_arcsec(world, 2) <= 15.0  # against its mirror, now
     assert st["PA2.remount"]["spin_rps"] == 0.0 and world.case.mirror_on_spindle == 1
+
+
+def test_pickoff3_tilt_towards_mirror_1_translated_out(adjusted):
+    """Pickoff 3 beyond 15 arcsec off m1 x m2 at the start is within 15 after its tilt
+    towards mirror 1 is measured (within 3 sigma of the simulator's tilt towards the
+    spindle at that time, every measurement) and translated out along c1."""
+    out, _, world = adjusted
+    st = _steps(out)
+    assert true_pickoff3_tilts_arcsec(world, 0.0)[2] > GOAL
+    done = [k for k in st if k == "3.p3-1" or k.startswith("3.p3-translate-")]
+    assert len(done) >= 2 and abs(st["3.p3-1"]["tilt_arcsec"]) > GOAL
+    for k in done:
+        m = st[k]
+        true = true_pickoff3_spindle_tilt_arcsec(world, m["along"]["t_s"][-1])
+        assert abs(m["tilt_arcsec"] - true) < 3 * m["sigma_arcsec"]
+    assert st[done[-1]]["translation_arcsec"][1] == 0.0  # along c1 only
+    assert true_pickoff3_tilts_arcsec(world)[2] <= GOAL
 
 
 def test_readout_after_the_adjustment_is_within_its_sigma_of_truth(adjusted):

@@ -45,6 +45,7 @@ from procedures.esg.acquisition import RENEW, Acquisition, EsgPlan, acquire
 from procedures.esg.calibration import SCHEDULES, ScheduleResult, assign, calibrate, nominal
 from procedures.esg.cosine import CosineParams
 from procedures.esg.mechanization import Mechanization
+from procedures.esg.pickoff3 import pickoff3_alignment
 from procedures.esg.remount import pickoff2_alignment
 from procedures.esg.table4 import REPORT_ORDER, order_trials, table4
 from sim.esg.pattern import PatternSpec, nominal_pattern
@@ -272,7 +273,7 @@ def run_esg_calibration(seed: int, out: Path, params: EsgParams | None = None,
             varied = plots.draw([(f"{VARIANTS}:variants_plot",
                                   {"path": out / "esg_figure3.png", "points": variants_points})],
                                 more=True)
-        acq = acquire(st, run, plan, pickoff2_alignment)
+        acq = acquire(st, run, plan, pickoff2_alignment, pickoff3_alignment)
         points, bud = assign(acq, plan, plan.lines_per_setting)
         times = {(p.scan, p.offset_deg): p.times_s for p in points}
         nom = nominal(acq, plan)

@@ -68,7 +68,8 @@ def add_commands(app: typer.Typer) -> None:
         remount: Annotated[bool | None, typer.Option(
             "--remount-alignment/--no-remount-alignment",
             help="before step 1, remount the case with mirror 2 along the spindle and "
-                 "align pickoff 2 by coning, then mount it back (implies "
+                 "align pickoff 2 by coning, then mount it back; after step 3 measure "
+                 "pickoff 3's tilt towards mirror 1 and translate it out (implies "
                  "--adjust-alignment; default off, or the config's \\[esg.procedure] "
                  "remount_alignment)")] = None,
         operator: OperatorOpt = None,

@@ -89,7 +89,8 @@ class EsgPlan:
     adjust_alignment: bool = False
     alignment_iterations: int = 3
     # sheet ESG-PA2 before step 1: the case remounted with mirror 2 along the spindle and
-    # pickoff 2 adjusted the same way, then mounted back (implies adjust_alignment)
+    # pickoff 2 adjusted the same way, then mounted back; after step 3 pickoff 3's tilt
+    # towards mirror 1 measured and translated out (implies adjust_alignment)
     remount_alignment: bool = False
     # a scan point whose count ratio is this far from the drawing's at the scan's nominal
     # colatitude is a mis-gated count (the logic gate meeting another line near a cosine
@@ -717,15 +718,21 @@ def _scan_block(st: EsgDrivers, run: Run, plan: EsgPlan, sh: CheckSheetRun, acq:
     return run.block(f"ESG-CAL.scan-{name}", measure, load)
 
 
+Pickoff3 = Callable[[EsgDrivers, EsgPlan, CheckSheetRun, Acquisition], dict]
+
+
 def rotor_setup(st: EsgDrivers, run: Run, plan: EsgPlan, sh: CheckSheetRun,
-                acq: Acquisition) -> None:
-    """Steps 2-8 and ESG-PA: spin-up, drift offset, equal ratios, equator, tilt, lock."""
+                acq: Acquisition, pickoff3: Pickoff3 | None = None) -> None:
+    """Steps 2-8 and ESG-PA: spin-up, drift offset, equal ratios, equator, tilt, lock;
+    ``pickoff3`` after step 3 (pickoff 3's tilt towards mirror 1, with the remount)."""
     start_gyro(st, run, plan, sh)
     if plan.extremity_setup:
         extremity_setup(st, run, plan.latitude_deg, plan.mirror_angle_deg,
                         lambda a, e, g: _move_all(st, plan, a, e, g), lambda: _damp(st, plan),
                         plan.design_top_deg)
     cancel_drift(st, run, plan, sh, acq)
+    if plan.remount_alignment and pickoff3 is not None:
+        pickoff3(st, plan, sh, acq)
     s_lab = geo.drift_equilibrium(plan.latitude_deg, acq.unbalance_k_deg_hr)
     s_lab = equal_ratio_points(st, run, plan, sh, acq, s_lab)
     equator(st, run, plan, sh, acq, s_lab)
@@ -762,10 +769,12 @@ def calibration_scans(st: EsgDrivers, run: Run, plan: EsgPlan, sh: CheckSheetRun
 
 
 def acquire(st: EsgDrivers, run: Run, plan: EsgPlan,
-            remount: Callable[[EsgDrivers, Run, EsgPlan], dict] | None = None) -> Acquisition:
+            remount: Callable[[EsgDrivers, Run, EsgPlan], dict] | None = None,
+            pickoff3: Pickoff3 | None = None) -> Acquisition:
     """Sheets ESG-DP, ESG-CAL (steps 1-13) and ESG-PA; returns the acquisition record.
     ``remount``: sheet ESG-PA2 before step 1 with ``plan.remount_alignment``
-    (procedures.esg.remount.pickoff2_alignment, which uses this module's steps)."""
+    (procedures.esg.remount.pickoff2_alignment, which uses this module's steps), and
+    ``pickoff3`` after step 3 (procedures.esg.pickoff3.pickoff3_alignment)."""
     acq = Acquisition()
     acq.t_zero_s = run.block("ESG-DP", lambda: processor_setup(st, run, plan)["t_zero_s"],
                              float)
@@ -779,7 +788,7 @@ def acquire(st: EsgDrivers, run: Run, plan: EsgPlan,
             "ESG-CAL.mount", lambda: mount_check(st, run, plan, sh), float)
 
         def rotor() -> dict:
-            rotor_setup(st, run, plan, sh, acq)
+            rotor_setup(st, run, plan, sh, acq, pickoff3)
             return acq.state()
         run.block("ESG-CAL.rotor", rotor, acq.set_state)
         calibration_scans(st, run, plan, sh, acq)

@@ -81,7 +81,8 @@ class ProcedureConfig(BaseModel):
     adjust_alignment: bool = False
     alignment_iterations: int = Field(3, ge=1, le=10)
     # sheet ESG-PA2 before step 1: the case remounted with mirror 2 along the spindle and
-    # pickoff 2 adjusted the same way, then mounted back (report 004, "Mirror and Pickoff
+    # pickoff 2 adjusted the same way, then mounted back; after step 3 pickoff 3's tilt
+    # towards mirror 1 measured and translated out (report 004, "Mirror and Pickoff
     # Alignment"; implies adjust_alignment)
     remount_alignment: bool = False
 

@@ -13,6 +13,7 @@ from __future__ import annotations
 import json
 import sys
 import tempfile
+from collections.abc import Callable
 from pathlib import Path
 
 from laboratory.esg.calibration import run_esg_calibration
@@ -39,24 +40,36 @@ PICKOFF3_CASES = ((1, 40.0, 0.0), (2, -35.0, 0.0), (3, 60.0, 0.0), (4, -25.0, 0.
                   (5, 50.0, 0.0))
 
 
-def one(seed: int, x: float, y: float, a: float, b: float) -> dict:
-    """One adjusted calibration's figures."""
+def calibrated(seed: int, misalign: list[tuple[int, float, float]],
+               shim: tuple[float, float], plan: EsgPlan,
+               keep: Callable[[str], bool]) -> tuple[EsgRack, dict, dict]:
+    """One calibration of a rack shimmed by ``shim`` and with pickoffs translated
+    (``misalign``: (pickoff, a, b)) before step 1: (its rack, the run's results, the
+    readings of the journal's steps ``keep`` selects)."""
     racks: list[EsgRack] = []
 
     def hook(rack: EsgRack) -> None:
         racks.append(rack)
-        rack.world.shim(x, y)
-        rack.world.translate_pickoff(1, a, b)
+        rack.world.shim(*shim)
+        for k, a, b in misalign:
+            rack.world.translate_pickoff(k, a, b)
 
+    steps = {}
     with tempfile.TemporaryDirectory() as d:
-        res = run_esg_calibration(seed, Path(d), rack_hook=hook, with_study=False,
-                                  plan=EsgPlan(latitude_deg=0.0, adjust_alignment=True))
-        steps = {}
+        res = run_esg_calibration(seed, Path(d), rack_hook=hook, with_study=False, plan=plan)
         for line in (Path(d) / "journal.jsonl").read_text().splitlines():
             j = json.loads(line)
-            if j.get("kind") == "step" and (j["step"] == "1" or j["step"][:2] in ("1.", "PA")):
+            if j.get("kind") == "step" and keep(j["step"]):
                 steps[j["step"]] = j["reading"]
-    w = racks[0].world
+    return racks[0], res, steps
+
+
+def one(seed: int, x: float, y: float, a: float, b: float) -> dict:
+    """One adjusted calibration's figures."""
+    rack, res, steps = calibrated(
+        seed, [(1, a, b)], (x, y), EsgPlan(latitude_deg=0.0, adjust_alignment=True),
+        lambda k: k == "1" or k[:2] in ("1.", "PA"))
+    w = rack.world
     return {"steps": {k: {f: v.get(f) for f in ("coning_radius_arcsec", "coning_arcsec",
                                                 "sigma_arcsec")}
                       for k, v in steps.items() if k != "PA.tilt"},
@@ -67,23 +80,10 @@ def one(seed: int, x: float, y: float, a: float, b: float) -> dict:
 
 def remounted(seed: int, a: float, b: float) -> dict:
     """One calibration with pickoff 2 misaligned by (a, b) and aligned in ESG-PA2."""
-    racks: list[EsgRack] = []
-
-    def hook(rack: EsgRack) -> None:
-        racks.append(rack)
-        rack.world.shim(15.0, -10.0)
-        rack.world.translate_pickoff(1, 40.0, -30.0)
-        rack.world.translate_pickoff(2, a, b)
-
-    with tempfile.TemporaryDirectory() as d:
-        res = run_esg_calibration(seed, Path(d), rack_hook=hook, with_study=False,
-                                  plan=EsgPlan(latitude_deg=0.0, remount_alignment=True))
-        steps = {}
-        for line in (Path(d) / "journal.jsonl").read_text().splitlines():
-            j = json.loads(line)
-            if j.get("kind") == "step" and j["step"].startswith("PA2."):
-                steps[j["step"]] = j["reading"]
-    w = racks[0].world
+    rack, res, steps = calibrated(
+        seed, [(1, 40.0, -30.0), (2, a, b)], (15.0, -10.0),
+        EsgPlan(latitude_deg=0.0, remount_alignment=True), lambda k: k.startswith("PA2."))
+    w = rack.world
     turns = [k for k in steps if k == "PA2.1" or k.startswith("PA2.translate-")]
     return {"p2_off_mirror2_before": true_pickoff_mirror_arcsec(w, 2, 0.0),
             "mirror2": [steps[k]["coning_radius_arcsec"] for k in steps
@@ -97,26 +97,12 @@ def remounted(seed: int, a: float, b: float) -> dict:
 
 def pickoff3(seed: int, a: float, b: float) -> dict:
     """One calibration with pickoff 3 translated by (a, b) beforehand: its tilt towards
-    mirror 1 measured and removed after step 7."""
-    racks: list[EsgRack] = []
-
-    def hook(rack: EsgRack) -> None:
-        racks.append(rack)
-        rack.world.shim(15.0, -10.0)
-        rack.world.translate_pickoff(1, 40.0, -30.0)
-        rack.world.translate_pickoff(2, 40.0, -30.0)
-        rack.world.translate_pickoff(3, a, b)
-
-    with tempfile.TemporaryDirectory() as d:
-        res = run_esg_calibration(seed, Path(d), rack_hook=hook, with_study=False,
-                                  plan=EsgPlan(latitude_deg=0.0, remount_alignment=True))
-        steps = {}
-        for line in (Path(d) / "journal.jsonl").read_text().splitlines():
-            j = json.loads(line)
-            if j.get("kind") == "step" and j["step"].startswith("3.p3"):
-                steps[j["step"]] = j["reading"]
-    w = racks[0].world
-    turns = [k for k in steps if True]
+    mirror 1 measured and removed after step 3."""
+    rack, res, steps = calibrated(
+        seed, [(1, 40.0, -30.0), (2, 40.0, -30.0), (3, a, b)], (15.0, -10.0),
+        EsgPlan(latitude_deg=0.0, remount_alignment=True), lambda k: k.startswith("3.p3"))
+    w = rack.world
+    turns = list(steps)
     return {"before": true_pickoff3_tilts_arcsec(w, 0.0),
             "turns": [(steps[k]["tilt_arcsec"], steps[k]["sigma_arcsec"],
                        true_pickoff3_spindle_tilt_arcsec(w, steps[k]["along"]["t_s"][-1]),

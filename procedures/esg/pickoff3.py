@@ -1,6 +1,6 @@
 """Pickoff 3's tilt towards mirror 1, measured and translated out (report 004, "Mirror and
 Pickoff Alignment": pickoff 3 set perpendicular to the plane of the two mirror normals by
-the coning measurement "modified slightly"; issue 20). Our design, run with
+an adapted coning measurement it does not spell out; issue 20). Our design, run with
 ``remount_alignment`` after step 3 (docs/esg-options.md):
 
 With mirror 1 along the spindle and the spin axis s along the spindle, pickoff 3 is

@@ -32,8 +32,7 @@ def _table(title: str | None, cols: Sequence[Column], rows: Sequence[Sequence[st
 
 def fits(console: Console, table: Table) -> bool:
     """The table's natural width (unwrapped cells) fits the console."""
-    wide = console.options.update_width(10_000)
-    return Measurement.get(console, wide, table).maximum <= console.width
+    return _width(console, table) <= console.width
 
 
 def print_fitted(console: Console, title: str, cols: Sequence[Column],
@@ -54,6 +53,7 @@ def print_fitted(console: Console, title: str, cols: Sequence[Column],
 
 
 def _width(console: Console, table: Table) -> int:
+    """The table's natural width: its cells unwrapped, on a console wide enough."""
     return Measurement.get(console, console.options.update_width(10_000), table).maximum
 
 

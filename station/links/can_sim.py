@@ -10,7 +10,7 @@ from typing import Any
 
 import can
 
-from sim.timebase import seconds
+from sim.timebase import seconds, ticks
 from station.links import virtual
 
 
@@ -42,23 +42,33 @@ class SimBus(can.BusABC):
         )
 
     def recv(self, timeout: float | None = None) -> can.Message | None:
-        """Next frame passing the filters, waiting at most ``timeout`` simulated seconds."""
+        """Next frame passing the filters, waiting at most ``timeout`` simulated seconds.
+
+        A frame is handed over at its timestamp, never before: the IEU puts a sample's five
+        frames out at once, stamped one frame gap apart, and reading the last of them brings
+        the simulation to its time (``virtual.advance_to``)."""
         out = self._ep.output
         env = self._env
-        deadline = None if timeout is None else seconds(env.now) + timeout
+        deadline = None if timeout is None else int(env.now) + ticks(timeout)
         while True:
-            left = None if deadline is None else max(0.0, deadline - seconds(env.now))
-            virtual.run_until(env, lambda: len(out) > 0, left)
+            if not out:
+                left = None if deadline is None else seconds(max(0, deadline - env.now))
+                virtual.run_until(env, lambda: len(out) > 0, left)
+                if not out:
+                    return None
+            due = ticks(out[0][0])
+            if due > env.now:  # stamped ahead of the clock
+                if deadline is not None and due > deadline:
+                    virtual.advance_to(env, deadline)
+                    return None
+                virtual.advance_to(env, due)
+                continue  # the frame at the head may have changed meanwhile
             msg = self._take()
-            if msg is None:
-                return None
-            if self._matches_filters(msg):
+            if msg is not None and self._matches_filters(msg):
                 return msg
 
     def _recv_internal(self, timeout: float | None) -> tuple[can.Message | None, bool]:
-        out = self._ep.output
-        virtual.run_until(self._env, lambda: len(out) > 0, timeout)
-        return self._take(), False
+        return self.recv(timeout), True
 
     def shutdown(self) -> None:
         super().shutdown()

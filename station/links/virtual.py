@@ -108,3 +108,15 @@ def run_until(env: simpy.Environment, done: Callable[[], bool], timeout_s: float
         else:
             still, last = 0, env.now
     return True
+
+
+def advance_to(env: simpy.Environment, at: int) -> None:
+    """Bring ``env`` to ``at`` ticks: every event before it happens, then the clock stands
+    at ``at`` with nothing scheduled for that instant yet run. The same as a timeout ending
+    at ``at`` would do, without the event (a frame stamped ahead of the clock, see
+    ``SimBus.recv``)."""
+    if env.peek() < at:
+        run_until(env, lambda: env.peek() >= at, None)
+    if at > env.now:
+        env._now = at  # simpy keeps its clock here; nothing is scheduled before ``at``
+

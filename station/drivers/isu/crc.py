@@ -1,19 +1,11 @@
-"""The IEU's check sums, table-driven (issue 17): CRC-32C (Castagnoli, reflected, as
-crccheck's ``Crc32C``) over a sample's count frames and CRC-8/AUTOSAR (as crccheck's
-``Crc8Autosar``) over a reply. The same values as crccheck's, at a byte a table look-up
-instead of a bit a loop (tests/test_ieu_crc.py checks them against crccheck)."""
+"""The IEU's check sums: CRC-32C (Castagnoli, reflected, as crccheck's ``Crc32C``) over a
+sample's count frames, from the ``crc32c`` package's C code, and CRC-8/AUTOSAR (as
+crccheck's ``Crc8Autosar``) over a reply, table-driven: a byte a look-up instead of a bit a
+loop. tests/test_ieu_crc.py checks both against crccheck."""
 
 from __future__ import annotations
 
-
-def _table32(poly_reflected: int) -> tuple[int, ...]:
-    out = []
-    for b in range(256):
-        c = b
-        for _ in range(8):
-            c = (c >> 1) ^ poly_reflected if c & 1 else c >> 1
-        out.append(c)
-    return tuple(out)
+import crc32c as _crc32c
 
 
 def _table8(poly: int) -> tuple[int, ...]:
@@ -26,17 +18,13 @@ def _table8(poly: int) -> tuple[int, ...]:
     return tuple(out)
 
 
-CRC32C_TABLE = _table32(0x82F63B78)  # 0x1EDC6F41 reflected
 CRC8_AUTOSAR_TABLE = _table8(0x2F)
 
 
 def crc32c(data: bytes) -> int:
-    """CRC-32C: init and final xor 0xFFFFFFFF, reflected in and out."""
-    c = 0xFFFFFFFF
-    t = CRC32C_TABLE
-    for b in data:
-        c = t[(c ^ b) & 0xFF] ^ (c >> 8)
-    return c ^ 0xFFFFFFFF
+    """CRC-32C: init and final xor 0xFFFFFFFF, reflected in and out (about 0.5 us for a
+    sample's 32 bytes in C, against 10 us a byte at a time in Python)."""
+    return int(_crc32c.crc32c(data))
 
 
 def crc8_autosar(data: bytes) -> int:

@@ -26,13 +26,13 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any, cast
 
 import can
 import cantools
 
-import config
 import station.links  # noqa: F401
+from config.dbc import Codecs, codecs
+from config.dbc import load_dbc as load_dbc
 from station.clock import Clock
 from station.drivers.isu.crc import crc8_autosar, crc32c
 from station.errors import DriverError, InstrumentRefused, LinkTimeout
@@ -90,13 +90,6 @@ class Frame:
     t: float
 
 
-def load_dbc() -> cantools.database.can.Database:
-    db = cantools.database.load_file(str(config.path(config.IEU_DBC)))
-    if not isinstance(db, cantools.database.can.Database):
-        raise TypeError(f"{config.IEU_DBC} is not a CAN database")
-    return db
-
-
 def crc8_ok(msg: cantools.database.can.Message, data: bytes, crc: int) -> bool:
     """The CRC-8/AUTOSAR of the identifier and the frame's other bytes equals ``crc``."""
     at = msg.get_signal_by_name("Crc").start // 8
@@ -104,10 +97,12 @@ def crc8_ok(msg: cantools.database.can.Message, data: bytes, crc: int) -> bool:
     return crc8_autosar(protected) == crc
 
 
-def decode_frame(db: cantools.database.can.Database, name: str, link: str,
+def decode_frame(db: cantools.database.can.Database | Codecs, name: str, link: str,
                  arbitration_id: object, data: object, t: float) -> Frame:
     """Decode one received frame with the DBC; ``GarbledFrame`` for anything that is not an
     IEU frame of the right length, ``FailedCheck`` for a reply failing its CRC-8."""
+    dec = db if isinstance(db, Codecs) else Codecs(db)
+    db = dec.db
     try:
         fid = int(arbitration_id)  # type: ignore[call-overload]  # any object; caught below
         raw = bytes(data)  # type: ignore[call-overload]  # any object; caught below
@@ -119,8 +114,7 @@ def decode_frame(db: cantools.database.can.Database, name: str, link: str,
         raise GarbledFrame(name, link, f"garbled frame id 0x{fid:03x}: {len(raw)} bytes, "
                                        f"{spec.name} has {spec.length}")
     try:
-        sig = cast(dict[str, Any], spec.decode(raw, decode_choices=False))
-        ints = {k: int(v) for k, v in sig.items()}
+        ints = dec.decode(spec.name, raw)
     except (ValueError, TypeError, cantools.database.errors.DecodeError) as e:
         raise GarbledFrame(name, link, f"garbled frame id 0x{fid:03x}: {e}") from None
     if "Crc" in ints and spec.name != "IEU_CHECK" and not crc8_ok(spec, raw, ints["Crc"]):
@@ -226,7 +220,8 @@ class IeuDriver:
         cfg = dict(can_config)
         self.link = f"{cfg.get('interface')}:{cfg.get('channel')}"
         self.timeout = timeout
-        self.db = load_dbc()
+        self.codecs = codecs()
+        self.db = self.codecs.db
         try:
             self.bus = can.Bus(**cfg)
         except (can.CanError, OSError, ValueError, LookupError, TypeError) as e:
@@ -297,7 +292,7 @@ class IeuDriver:
         if m is None:
             raise LinkTimeout(self.name, self.link, f"no frame within {timeout:g} s")
         t = float(m.timestamp) if self.clock is None else self.clock.now()
-        return decode_frame(self.db, self.name, self.link, m.arbitration_id, m.data, t)
+        return decode_frame(self.codecs, self.name, self.link, m.arbitration_id, m.data, t)
 
     # ----- commands -----
     def _drain(self) -> None:
@@ -310,7 +305,7 @@ class IeuDriver:
                 return
             self.discarded += 1
             try:
-                decode_frame(self.db, self.name, self.link, m.arbitration_id, m.data, 0.0)
+                decode_frame(self.codecs, self.name, self.link, m.arbitration_id, m.data, 0.0)
             except FailedCheck:
                 self.failed_checks += 1
 
@@ -434,6 +429,10 @@ class IeuDriver:
 
     def _next_recovering(self, wait: float) -> IeuSample:
         asm = self._asm
+        if not asm.groups and not self._waited:
+            sample = self._in_order(wait)
+            if sample is not None:
+                return sample
         while True:
             exp = asm.expected
             sample = asm.take()
@@ -459,16 +458,60 @@ class IeuDriver:
                 self.failed_checks += isinstance(e, FailedCheck)
                 self._waited += 1
                 continue
-            self._waited += 1
-            if f.name == "IEU_ERROR":
-                if f.sig["Code"] == ERR_RESEND:
-                    raise self._error(
-                        f"sample {exp} lost (received only {sorted(asm.group().frames)}) "
-                        "and the IEU no longer holds it (RESEND refused, code 5)")
-                raise InstrumentRefused(self.name, self.link, f.sig["Code"],
-                                        f"frame 0x{f.sig['RefId']:03x} refused")
-            if f.name in PARTS:
-                asm.add(f)
+            self._absorb(f)
+
+    def _in_order(self, wait: float) -> IeuSample | None:
+        """The expected sample when its five frames come next, in order and intact (the
+        common case, checked frame by frame at little cost); None as soon as a frame does
+        not fit, with what was received handed to the assembler (``_absorb``), so the
+        recovering loop goes on exactly as if it had received them itself."""
+        asm = self._asm
+        exp = asm.expected
+        got: list[Frame] = []
+        for part in PARTS:
+            try:
+                f = self._recv(wait)
+            except LinkTimeout:
+                for g in got:
+                    self._absorb(g)
+                raise
+            except GarbledFrame as e:
+                for g in got:
+                    self._absorb(g)
+                self.garbled += 1
+                self.failed_checks += isinstance(e, FailedCheck)
+                self._waited += 1
+                return None
+            if f.name != part or f.sig["Seq"] != exp:
+                for g in (*got, f):
+                    self._absorb(g)
+                return None
+            got.append(f)
+        frames = dict(zip(PARTS, got, strict=True))
+        if crc32c(b"".join(g.data for g in got[:-1])) != frames["IEU_CHECK"].sig["Crc"]:
+            for g in got:
+                self._absorb(g)
+            return None
+        asm.expected = (exp + 1) % SEQ_MOD
+        if asm.newest_verified is None or _after(exp, asm.newest_verified):
+            asm.newest_verified = exp
+        self._resends.pop(exp, None)
+        self._asked_at.pop(exp, None)
+        return _sample(exp, frames)
+
+    def _absorb(self, f: Frame) -> None:
+        """One frame received in recover mode: a refusal raises, a sample's part is kept."""
+        self._waited += 1
+        if f.name == "IEU_ERROR":
+            exp = self._asm.expected
+            if f.sig["Code"] == ERR_RESEND:
+                raise self._error(
+                    f"sample {exp} lost (received only {sorted(self._asm.group().frames)}) "
+                    "and the IEU no longer holds it (RESEND refused, code 5)")
+            raise InstrumentRefused(self.name, self.link, f.sig["Code"],
+                                    f"frame 0x{f.sig['RefId']:03x} refused")
+        if f.name in PARTS:
+            self._asm.add(f)
 
     def _due(self, seq: int) -> bool:
         """Sample ``seq`` is incomplete while a later sample has come whole (first ask), or

@@ -92,6 +92,9 @@ class EsgPlan:
     # pickoff 2 adjusted the same way, then mounted back; after step 3 pickoff 3's tilt
     # towards mirror 1 measured and translated out (implies adjust_alignment)
     remount_alignment: bool = False
+    # with the remount: pickoff 3's tilt towards mirror 2 too, in a second remount after
+    # step 3 (procedures.esg.pickoff3_mirror2; implies remount_alignment)
+    pickoff3_mirror2: bool = False
     # a scan point whose count ratio is this far from the drawing's at the scan's nominal
     # colatitude is a mis-gated count (the logic gate meeting another line near a cosine
     # pattern's extremity): the scan ends there (docs/esg-options.md)
@@ -100,7 +103,12 @@ class EsgPlan:
     @property
     def adjusting(self) -> bool:
         """Shims and translations made (the remount's set-up needs the shims)."""
-        return self.adjust_alignment or self.remount_alignment
+        return self.adjust_alignment or self.remounting
+
+    @property
+    def remounting(self) -> bool:
+        """Sheet ESG-PA2 and pickoff 3's step after step 3 made."""
+        return self.remount_alignment or self.pickoff3_mirror2
 
 
 # ---------------------------------------------------------------- design mechanization
@@ -731,7 +739,7 @@ def rotor_setup(st: EsgDrivers, run: Run, plan: EsgPlan, sh: CheckSheetRun,
                         lambda a, e, g: _move_all(st, plan, a, e, g), lambda: _damp(st, plan),
                         plan.design_top_deg)
     cancel_drift(st, run, plan, sh, acq)
-    if plan.remount_alignment and pickoff3 is not None:
+    if plan.remounting and pickoff3 is not None:
         pickoff3(st, plan, sh, acq)
     s_lab = geo.drift_equilibrium(plan.latitude_deg, acq.unbalance_k_deg_hr)
     s_lab = equal_ratio_points(st, run, plan, sh, acq, s_lab)
@@ -778,7 +786,7 @@ def acquire(st: EsgDrivers, run: Run, plan: EsgPlan,
     acq = Acquisition()
     acq.t_zero_s = run.block("ESG-DP", lambda: processor_setup(st, run, plan)["t_zero_s"],
                              float)
-    if plan.remount_alignment:
+    if plan.remounting:
         if remount is None:
             raise ValueError("remount_alignment needs the ESG-PA2 sheet "
                              "(procedures.esg.remount.pickoff2_alignment)")

@@ -99,17 +99,29 @@ def tilt_measurement(st: EsgDrivers, plan: EsgPlan, along: tuple[float, float]) 
             / (2.0 * abs(slope)) * 3600.0}
 
 
+def first_tilt(st: EsgDrivers, plan: EsgPlan, sh: CheckSheetRun, acq: Acquisition
+               ) -> dict:
+    """Step ``3.p3-1``: the tilt towards mirror 1 with s at step 3's equilibrium."""
+    with sh.step("3.p3-1", "spindle along s (step 3's equilibrium), then reversed; pickoff "
+                 "3 count ratio over a spindle turn and back in each; half their means' "
+                 "difference = pickoff 3's tilt towards mirror 1") as s:
+        m = tilt_measurement(st, plan, step3_along(plan, acq))
+        s.reading = m
+    return m
+
+
+def step3_along(plan: EsgPlan, acq: Acquisition) -> tuple[float, float]:
+    """Table (azimuth, tilt) along step 3's drift equilibrium."""
+    s_lab = geo.drift_equilibrium(plan.latitude_deg, acq.unbalance_k_deg_hr)
+    return geo.azimuth_deg(s_lab), geo.elevation_deg(s_lab)
+
+
 def pickoff3_alignment(st: EsgDrivers, plan: EsgPlan, sh: CheckSheetRun,
                        acq: Acquisition) -> dict:
     """Steps ``3.p3-1`` and ``3.p3-translate-k`` (module doc); the last measurement's
     tilt and the number of translations."""
-    s_lab = geo.drift_equilibrium(plan.latitude_deg, acq.unbalance_k_deg_hr)
-    along = (geo.azimuth_deg(s_lab), geo.elevation_deg(s_lab))
-    with sh.step("3.p3-1", "spindle along s (step 3's equilibrium), then reversed; pickoff "
-                 "3 count ratio over a spindle turn and back in each; half their means' "
-                 "difference = pickoff 3's tilt towards mirror 1") as s:
-        m = tilt_measurement(st, plan, along)
-        s.reading = m
+    along = step3_along(plan, acq)
+    m = first_tilt(st, plan, sh, acq)
     moved = 0
     while abs(m["tilt_arcsec"]) > LEAVE_ARCSEC and moved < plan.alignment_iterations:
         moved += 1

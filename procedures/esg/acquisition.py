@@ -729,16 +729,22 @@ def _scan_block(st: EsgDrivers, run: Run, plan: EsgPlan, sh: CheckSheetRun, acq:
 Pickoff3 = Callable[[EsgDrivers, EsgPlan, CheckSheetRun, Acquisition], dict]
 
 
-def rotor_setup(st: EsgDrivers, run: Run, plan: EsgPlan, sh: CheckSheetRun,
-                acq: Acquisition, pickoff3: Pickoff3 | None = None) -> None:
-    """Steps 2-8 and ESG-PA: spin-up, drift offset, equal ratios, equator, tilt, lock;
-    ``pickoff3`` after step 3 (pickoff 3's tilt towards mirror 1, with the remount)."""
+def spin_and_offset(st: EsgDrivers, run: Run, plan: EsgPlan, sh: CheckSheetRun,
+                    acq: Acquisition) -> None:
+    """Steps 2 and 3 (with ESG-DPX after step 2): spin-up, s at the drift equilibrium."""
     start_gyro(st, run, plan, sh)
     if plan.extremity_setup:
         extremity_setup(st, run, plan.latitude_deg, plan.mirror_angle_deg,
                         lambda a, e, g: _move_all(st, plan, a, e, g), lambda: _damp(st, plan),
                         plan.design_top_deg)
     cancel_drift(st, run, plan, sh, acq)
+
+
+def rotor_setup(st: EsgDrivers, run: Run, plan: EsgPlan, sh: CheckSheetRun,
+                acq: Acquisition, pickoff3: Pickoff3 | None = None) -> None:
+    """Steps 2-8 and ESG-PA: spin-up, drift offset, equal ratios, equator, tilt, lock;
+    ``pickoff3`` after step 3 (pickoff 3's tilt towards mirror 1, with the remount)."""
+    spin_and_offset(st, run, plan, sh, acq)
     if plan.remounting and pickoff3 is not None:
         pickoff3(st, plan, sh, acq)
     s_lab = geo.drift_equilibrium(plan.latitude_deg, acq.unbalance_k_deg_hr)

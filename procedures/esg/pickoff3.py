@@ -13,8 +13,8 @@ half the difference of the two mean count ratios over the drawing's slope at the
 is the tilt, with no need of the equator's ratio (step 7's, measured with pickoff 2, was
 off by up to 7 arcsec in our trials). ``XLATE 3 -tilt 0`` (along c1) removes it; the tilt
 is measured again. The tilt towards mirror
-2 is not measured here: it needs s along the spindle with mirror 2 mounted, which no
-stationary set-up of ours gives (docs/esg-options.md).
+2 needs s along the spindle with mirror 2 mounted: procedures.esg.pickoff3_mirror2 does it
+in a second remount, with ``pickoff3_mirror2``.
 """
 
 from __future__ import annotations

@@ -38,6 +38,9 @@ REMOUNT_CASES = ((1, 40.0, -30.0), (2, 40.0, -30.0), (3, -70.0, 50.0), (4, 0.0, 
 # (seed, pickoff-3 translation along c1, c2), arcsec, with the remount cases' first set-up
 PICKOFF3_CASES = ((1, 40.0, 0.0), (2, -35.0, 0.0), (3, 60.0, 0.0), (4, -25.0, 0.0),
                   (5, 50.0, 0.0))
+# the same seeds with pickoff 3 translated along c2 too, for pickoff3_mirror2
+PICKOFF3_M2_CASES = ((1, 40.0, 30.0), (2, -35.0, 20.0), (3, 60.0, -40.0), (4, -25.0, -30.0),
+                     (5, 50.0, 35.0))
 
 
 def calibrated(seed: int, misalign: list[tuple[int, float, float]],
@@ -112,7 +115,33 @@ def pickoff3(seed: int, a: float, b: float) -> dict:
             "true_readout": [s["true_readout_rms_arcsec"] for s in res["schedules"]]}
 
 
+def pickoff3_m2(seed: int, a: float, b: float) -> dict:
+    """One calibration with pickoff 3 translated by (a, b) beforehand: both its tilts
+    measured and removed after step 3 (pickoff3_mirror2); the lab time of the run."""
+    rack, res, steps = calibrated(
+        seed, [(1, 40.0, -30.0), (2, 40.0, -30.0), (3, a, b)], (15.0, -10.0),
+        EsgPlan(latitude_deg=0.0, remount_alignment=True, pickoff3_mirror2=True),
+        lambda k: k.startswith("3.p3") or k in ("13",))
+    w = rack.world
+    turns = [k for k in steps if "tilt_arcsec" in steps[k]]
+    return {"before": true_pickoff3_tilts_arcsec(w, 0.0),
+            "turns": [(k, steps[k].get("translation_arcsec"), steps[k]["tilt_arcsec"],
+                       steps[k]["sigma_arcsec"],
+                       true_pickoff3_spindle_tilt_arcsec(w, steps[k]["along"]["t_s"][-1]),
+                       true_pickoff3_tilts_arcsec(w, steps[k]["along"]["t_s"][-1])[:2])
+                      for k in turns],
+            "p3_span_h": (steps[turns[-1]]["reversed"]["t_s"][-1]
+                          - steps[turns[0]]["along"]["t_s"][0]) / 3600.0,
+            "lab_h": w.now / 3600.0,
+            "after": true_pickoff3_tilts_arcsec(w),
+            "true_readout": [s["true_readout_rms_arcsec"] for s in res["schedules"]]}
+
+
 def main() -> None:
+    if sys.argv[1:2] == ["pickoff3m2"]:
+        for pcase in PICKOFF3_M2_CASES[int(sys.argv[2]) if len(sys.argv) > 2 else 0:]:
+            print(pcase, json.dumps(pickoff3_m2(*pcase), indent=None), flush=True)
+        return
     if sys.argv[1:] == ["pickoff3"]:
         for pcase in PICKOFF3_CASES:
             print(pcase, json.dumps(pickoff3(*pcase), indent=None), flush=True)

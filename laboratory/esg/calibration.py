@@ -46,6 +46,7 @@ from procedures.esg.calibration import SCHEDULES, ScheduleResult, assign, calibr
 from procedures.esg.cosine import CosineParams
 from procedures.esg.mechanization import Mechanization
 from procedures.esg.pickoff3 import pickoff3_alignment
+from procedures.esg.pickoff3_mirror2 import pickoff3_both
 from procedures.esg.remount import pickoff2_alignment
 from procedures.esg.table4 import REPORT_ORDER, order_trials, table4
 from sim.esg.pattern import PatternSpec, nominal_pattern
@@ -215,7 +216,8 @@ def procedure_record(plan: EsgPlan, variants_points: int | None) -> dict:
             "strategy_variants": variants_points is not None,
             "adjust_alignment": plan.adjust_alignment,
             "alignment_iterations": plan.alignment_iterations,
-            "remount_alignment": plan.remount_alignment}
+            "remount_alignment": plan.remount_alignment,
+            "pickoff3_mirror2": plan.pickoff3_mirror2}
     if variants_points is not None:
         used["strategy_variants_points"] = variants_points
     default = ProcedureConfig.model_validate({}).model_dump()
@@ -262,7 +264,8 @@ def run_esg_calibration(seed: int, out: Path, params: EsgParams | None = None,
             out, conn, resume, renew=RENEW, seed=seed, test="esg-calibration", order=order,
             extremity_setup=plan.extremity_setup, counters=plan.counters,
             **{k: True for k in ("strategy_variants", "adjust_alignment",
-                                      "remount_alignment") if procedure.get(k)},
+                                      "remount_alignment", "pickoff3_mirror2")
+               if procedure.get(k)},
             identify=Identifying("esg", "esg-calibration", seed, "esg", EsgConfig, params,
                                  tables={"procedure": procedure})) as (
             run, extra, t_start):
@@ -273,7 +276,8 @@ def run_esg_calibration(seed: int, out: Path, params: EsgParams | None = None,
             varied = plots.draw([(f"{VARIANTS}:variants_plot",
                                   {"path": out / "esg_figure3.png", "points": variants_points})],
                                 more=True)
-        acq = acquire(st, run, plan, pickoff2_alignment, pickoff3_alignment)
+        acq = acquire(st, run, plan, pickoff2_alignment,
+                      pickoff3_both if plan.pickoff3_mirror2 else pickoff3_alignment)
         points, bud = assign(acq, plan, plan.lines_per_setting)
         times = {(p.scan, p.offset_deg): p.times_s for p in points}
         nom = nominal(acq, plan)

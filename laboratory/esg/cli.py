@@ -72,6 +72,12 @@ def add_commands(app: typer.Typer) -> None:
                  "pickoff 3's tilt towards mirror 1 and translate it out (implies "
                  "--adjust-alignment; default off, or the config's \\[esg.procedure] "
                  "remount_alignment)")] = None,
+        mirror2: Annotated[bool | None, typer.Option(
+            "--pickoff3-mirror2/--no-pickoff3-mirror2",
+            help="with the remount, also measure pickoff 3's tilt towards mirror 2 in a "
+                 "second remount after step 3 and translate both tilts out (about 3 h more; "
+                 "implies --remount-alignment; default off, or the config's "
+                 "\\[esg.procedure] pickoff3_mirror2)")] = None,
         operator: OperatorOpt = None,
     ) -> None:
         """The strapdown ESG pattern calibration and readout study (report 004)."""
@@ -94,7 +100,8 @@ def add_commands(app: typer.Typer) -> None:
                                        "counters": counters,
                                        "strategy_variants": variants,
                                        "adjust_alignment": adjust,
-                                       "remount_alignment": remount})
+                                       "remount_alignment": remount,
+                                       "pickoff3_mirror2": mirror2})
         run_seed = 1 if args["seed"] is None else args["seed"]
         from station.config.identity import load_identity
 
@@ -112,6 +119,8 @@ def add_commands(app: typer.Typer) -> None:
                          is not None else proc.adjust_alignment)
         remounting = bool(args.get("remount_alignment") if args.get("remount_alignment")
                           is not None else proc.remount_alignment)
+        both3 = bool(args.get("pickoff3_mirror2") if args.get("pickoff3_mirror2")
+                     is not None else proc.pickoff3_mirror2)
         from dataclasses import replace
 
         n_counters = args.get("counters")
@@ -120,7 +129,7 @@ def add_commands(app: typer.Typer) -> None:
         # the site's latitude comes from the params (run_esg_calibration sets it)
         plan = EsgPlan(latitude_deg=0.0, extremity_setup=setup, adjust_alignment=adjusting,
                        alignment_iterations=proc.alignment_iterations,
-                       remount_alignment=remounting)
+                       remount_alignment=remounting, pickoff3_mirror2=both3)
         points = proc.strategy_variants_points if want_variants else None
         with invoked(operator, identity=unit):
             res, target = station_run(

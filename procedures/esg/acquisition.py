@@ -92,6 +92,9 @@ class EsgPlan:
     # pickoff 2 adjusted the same way, then mounted back; after step 3 pickoff 3's tilt
     # towards mirror 1 measured and translated out (implies adjust_alignment)
     remount_alignment: bool = False
+    # with the remount: pickoff 3's tilt towards mirror 2 too, in a second remount after
+    # step 3 (procedures.esg.pickoff3_mirror2; implies remount_alignment)
+    pickoff3_mirror2: bool = False
     # a scan point whose count ratio is this far from the drawing's at the scan's nominal
     # colatitude is a mis-gated count (the logic gate meeting another line near a cosine
     # pattern's extremity): the scan ends there (docs/esg-options.md)
@@ -100,7 +103,12 @@ class EsgPlan:
     @property
     def adjusting(self) -> bool:
         """Shims and translations made (the remount's set-up needs the shims)."""
-        return self.adjust_alignment or self.remount_alignment
+        return self.adjust_alignment or self.remounting
+
+    @property
+    def remounting(self) -> bool:
+        """Sheet ESG-PA2 and pickoff 3's step after step 3 made."""
+        return self.remount_alignment or self.pickoff3_mirror2
 
 
 # ---------------------------------------------------------------- design mechanization
@@ -721,17 +729,23 @@ def _scan_block(st: EsgDrivers, run: Run, plan: EsgPlan, sh: CheckSheetRun, acq:
 Pickoff3 = Callable[[EsgDrivers, EsgPlan, CheckSheetRun, Acquisition], dict]
 
 
-def rotor_setup(st: EsgDrivers, run: Run, plan: EsgPlan, sh: CheckSheetRun,
-                acq: Acquisition, pickoff3: Pickoff3 | None = None) -> None:
-    """Steps 2-8 and ESG-PA: spin-up, drift offset, equal ratios, equator, tilt, lock;
-    ``pickoff3`` after step 3 (pickoff 3's tilt towards mirror 1, with the remount)."""
+def spin_and_offset(st: EsgDrivers, run: Run, plan: EsgPlan, sh: CheckSheetRun,
+                    acq: Acquisition) -> None:
+    """Steps 2 and 3 (with ESG-DPX after step 2): spin-up, s at the drift equilibrium."""
     start_gyro(st, run, plan, sh)
     if plan.extremity_setup:
         extremity_setup(st, run, plan.latitude_deg, plan.mirror_angle_deg,
                         lambda a, e, g: _move_all(st, plan, a, e, g), lambda: _damp(st, plan),
                         plan.design_top_deg)
     cancel_drift(st, run, plan, sh, acq)
-    if plan.remount_alignment and pickoff3 is not None:
+
+
+def rotor_setup(st: EsgDrivers, run: Run, plan: EsgPlan, sh: CheckSheetRun,
+                acq: Acquisition, pickoff3: Pickoff3 | None = None) -> None:
+    """Steps 2-8 and ESG-PA: spin-up, drift offset, equal ratios, equator, tilt, lock;
+    ``pickoff3`` after step 3 (pickoff 3's tilt towards mirror 1, with the remount)."""
+    spin_and_offset(st, run, plan, sh, acq)
+    if plan.remounting and pickoff3 is not None:
         pickoff3(st, plan, sh, acq)
     s_lab = geo.drift_equilibrium(plan.latitude_deg, acq.unbalance_k_deg_hr)
     s_lab = equal_ratio_points(st, run, plan, sh, acq, s_lab)
@@ -778,7 +792,7 @@ def acquire(st: EsgDrivers, run: Run, plan: EsgPlan,
     acq = Acquisition()
     acq.t_zero_s = run.block("ESG-DP", lambda: processor_setup(st, run, plan)["t_zero_s"],
                              float)
-    if plan.remount_alignment:
+    if plan.remounting:
         if remount is None:
             raise ValueError("remount_alignment needs the ESG-PA2 sheet "
                              "(procedures.esg.remount.pickoff2_alignment)")

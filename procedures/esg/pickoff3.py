@@ -13,8 +13,8 @@ half the difference of the two mean count ratios over the drawing's slope at the
 is the tilt, with no need of the equator's ratio (step 7's, measured with pickoff 2, was
 off by up to 7 arcsec in our trials). ``XLATE 3 -tilt 0`` (along c1) removes it; the tilt
 is measured again. The tilt towards mirror
-2 is not measured here: it needs s along the spindle with mirror 2 mounted, which no
-stationary set-up of ours gives (docs/esg-options.md).
+2 needs s along the spindle with mirror 2 mounted: procedures.esg.pickoff3_mirror2 does it
+in a second remount, with ``pickoff3_mirror2``.
 """
 
 from __future__ import annotations
@@ -99,17 +99,29 @@ def tilt_measurement(st: EsgDrivers, plan: EsgPlan, along: tuple[float, float]) 
             / (2.0 * abs(slope)) * 3600.0}
 
 
+def first_tilt(st: EsgDrivers, plan: EsgPlan, sh: CheckSheetRun, acq: Acquisition
+               ) -> dict:
+    """Step ``3.p3-1``: the tilt towards mirror 1 with s at step 3's equilibrium."""
+    with sh.step("3.p3-1", "spindle along s (step 3's equilibrium), then reversed; pickoff "
+                 "3 count ratio over a spindle turn and back in each; half their means' "
+                 "difference = pickoff 3's tilt towards mirror 1") as s:
+        m = tilt_measurement(st, plan, step3_along(plan, acq))
+        s.reading = m
+    return m
+
+
+def step3_along(plan: EsgPlan, acq: Acquisition) -> tuple[float, float]:
+    """Table (azimuth, tilt) along step 3's drift equilibrium."""
+    s_lab = geo.drift_equilibrium(plan.latitude_deg, acq.unbalance_k_deg_hr)
+    return geo.azimuth_deg(s_lab), geo.elevation_deg(s_lab)
+
+
 def pickoff3_alignment(st: EsgDrivers, plan: EsgPlan, sh: CheckSheetRun,
                        acq: Acquisition) -> dict:
     """Steps ``3.p3-1`` and ``3.p3-translate-k`` (module doc); the last measurement's
     tilt and the number of translations."""
-    s_lab = geo.drift_equilibrium(plan.latitude_deg, acq.unbalance_k_deg_hr)
-    along = (geo.azimuth_deg(s_lab), geo.elevation_deg(s_lab))
-    with sh.step("3.p3-1", "spindle along s (step 3's equilibrium), then reversed; pickoff "
-                 "3 count ratio over a spindle turn and back in each; half their means' "
-                 "difference = pickoff 3's tilt towards mirror 1") as s:
-        m = tilt_measurement(st, plan, along)
-        s.reading = m
+    along = step3_along(plan, acq)
+    m = first_tilt(st, plan, sh, acq)
     moved = 0
     while abs(m["tilt_arcsec"]) > LEAVE_ARCSEC and moved < plan.alignment_iterations:
         moved += 1

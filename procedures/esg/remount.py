@@ -50,7 +50,7 @@ def gamma_c1_up() -> float:
                key=lambda g: float((geo.r_lc(0.0, 0.0, g) @ C1_IN_SPINDLE_FRAME)[2]))
 
 
-def _wait_speed(st: EsgDrivers, plan: EsgPlan, above: bool, rps: float) -> None:
+def wait_speed(st: EsgDrivers, plan: EsgPlan, above: bool, rps: float) -> None:
     """Poll the console each minute until the rotor is above (or at or below) ``rps``."""
     t_end = st.clock.now() + plan.spinup_timeout_s
     while (st.console.speed() < rps) if above else (st.console.speed() > rps):
@@ -84,7 +84,7 @@ def pickoff2_alignment(st: EsgDrivers, run: Run, plan: EsgPlan) -> dict:
     limit = plan.pickoff_coning_limit_arcsec
     with run.sheet("ESG-PA2", "Pickoff 2 alignment by coning, mirror 2 along the "
                    "spindle") as sh:
-        _remount_and_shim(st, plan, sh, 2)
+        remount_and_shim(st, plan, sh, 2)
         gamma0 = gamma_c1_up()
         with sh.step("PA2.spin", "spindle level and north, c1 up; spin up to operating "
                      "speed with damping; damping off") as s:
@@ -92,7 +92,7 @@ def pickoff2_alignment(st: EsgDrivers, run: Run, plan: EsgPlan) -> dict:
             gamma0 = _move_head(st, plan, gamma0)
             st.console.damping(True)
             st.console.spin_up()
-            _wait_speed(st, plan, True, plan.spin_ready_rps)
+            wait_speed(st, plan, True, plan.spin_ready_rps)
             st.clock.sleep(plan.damping_s)
             st.console.damping(False)
             s.reading = {"settings_deg": [0.0, 0.0, gamma0], **st.console.status()}
@@ -116,7 +116,7 @@ def pickoff2_alignment(st: EsgDrivers, run: Run, plan: EsgPlan) -> dict:
         with sh.step("PA2.remount", "rotor braked to rest; case mounted back with mirror 1 "
                      "along the spindle (step 1 shims it)") as s:
             st.console.spin_off()
-            _wait_speed(st, plan, False, 0.0)
+            wait_speed(st, plan, False, 0.0)
             _move_head(st, plan, 0.0)
             st.head.mount(1)
             s.reading = {"spin_rps": st.console.speed()}
@@ -124,13 +124,15 @@ def pickoff2_alignment(st: EsgDrivers, run: Run, plan: EsgPlan) -> dict:
             "translations": adjusted}
 
 
-def _remount_and_shim(st: EsgDrivers, plan: EsgPlan, sh: CheckSheetRun, mirror: int) -> None:
-    """The case set on the plate with ``mirror`` along the spindle, its coning in the
-    theodolite, and shims until it is within the limit."""
-    with sh.step("PA2.mount", f"rotor at rest; case set on the plate with mirror {mirror} "
+def remount_and_shim(st: EsgDrivers, plan: EsgPlan, sh: CheckSheetRun, mirror: int,
+                     prefix: str = "PA2") -> float:
+    """Steps ``<prefix>.mount``, ``<prefix>.shim-k``: the case set on the plate with
+    ``mirror`` along the spindle, its coning in the theodolite, and shims until it is
+    within the limit; the last coning radius."""
+    with sh.step(f"{prefix}.mount", f"rotor at rest; case set on the plate with mirror {mirror} "
                  "along the spindle; theodolite readings over one spindle turn") as s:
         _move_head(st, plan, 0.0)
         st.head.mount(mirror)
         turn = _mirror_coning(st, plan)
         s.reading = turn
-    shim_to_limit(st, plan, sh, turn, "PA2")
+    return shim_to_limit(st, plan, sh, turn, prefix)

@@ -85,6 +85,9 @@ class ProcedureConfig(BaseModel):
     # towards mirror 1 measured and translated out (report 004, "Mirror and Pickoff
     # Alignment"; implies adjust_alignment)
     remount_alignment: bool = False
+    # with the remount: pickoff 3's tilt towards mirror 2 measured and translated out too,
+    # in a second remount after step 3 (about 3 h more; implies remount_alignment)
+    pickoff3_mirror2: bool = False
 
 
 class EsgConfig(BaseModel):

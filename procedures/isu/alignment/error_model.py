@@ -33,6 +33,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Iterable
+from typing import TypeVar
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -146,6 +147,23 @@ def phi_of(t_ref: np.ndarray, make_t: Callable[[np.ndarray], np.ndarray]
            ) -> Callable[[np.ndarray], np.ndarray]:
     """x -> rotation error (U, E, N; rad) of make_t(x) against t_ref."""
     return lambda x: rotation_error(make_t(x), t_ref)
+
+
+R = TypeVar("R")
+
+
+def memoized(solve: Callable[[Constants], R]) -> Callable[[Constants], R]:
+    """``solve`` computed once per set of constant values: an error model's perturbation
+    passes (T, then scalars such as |g|) move the same constants by the same sigmas."""
+    memo: dict[tuple[float, ...], R] = {}
+
+    def once(cc: Constants) -> R:
+        key = tuple(cc.values.values())
+        if key not in memo:
+            memo[key] = solve(cc)
+        return memo[key]
+
+    return once
 
 
 def calibration_terms(constants: Constants, solve: Callable[[Constants], np.ndarray],

@@ -32,7 +32,7 @@ from procedures.isu.alignment.common import (
     survey_g,
     table_record,
 )
-from procedures.isu.alignment.level import ACCEL_KEYS, BIAS_KEYS, accel_x, check_record
+from procedures.isu.alignment.level import ACCEL_KEYS, BIAS_KEYS, check_record, x_of
 from procedures.isu.alignment.options import AlignmentOptions
 from procedures.isu.alignment.parameter_sheet import Tape, check_tape
 from procedures.isu.alignment.preprocess import (
@@ -69,6 +69,12 @@ def gyro_x(record: IeuRecord, c: Constants, inst: Instruments | None = None,
     absent (III-3.2), the gyros' g-sensitive terms take its component of g from the nominal
     attitude and the surveyed |g|."""
     _, _, u = accel_integrals(p_of(record.strings), record.dt, c)
+    return _gyro_x(record, c, u, inst, g_survey)
+
+
+def _gyro_x(record: IeuRecord, c: Constants, u: np.ndarray, inst: Instruments | None,
+            g_survey: float | None) -> np.ndarray:
+    """``gyro_x`` from the accelerometers' integrals ``u`` already at hand."""
     if inst is not None and inst.accels != ALL and inst.t_prior is not None and g_survey:
         for k in set(ALL) - set(inst.accels):
             u[:, k - 1] = g_survey * float(np.asarray(inst.t_prior)[0, k - 1])
@@ -99,8 +105,8 @@ def gyro_solution(record: IeuRecord, c: Constants, M: np.ndarray, b: np.ndarray,
                   opts: dict[str, float], inst: Instruments | None = None
                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(T, g_B in g, omega_B in deg/hr); ``inst``: the instruments used (all when None)."""
-    est = M @ np.concatenate((accel_x(record, c),
-                              gyro_x(record, c, inst, opts.get("g_survey")))) + b
+    int_b, _, u = accel_integrals(p_of(record.strings), record.dt, c)
+    est = M @ np.concatenate((x_of(int_b), _gyro_x(record, c, u, inst, opts.get("g_survey")))) + b
     g_b, w_b = est[:3] / es.G0, est[3:]
     return gyro_t(g_b, w_b, opts, inst), g_b, w_b
 
@@ -110,9 +116,11 @@ def gyro_error_model(record: IeuRecord, c: Constants, M: np.ndarray, b: np.ndarr
                      w_horizontal: float, inst: Instruments | None = None) -> dict:
     """Predicted phi covariance (U, E, N) and the physical limits (Chart III-11)."""
     t0, g_b, w_b = gyro_solution(record, c, M, b, opts, inst)
+    # the three perturbation passes below (T, |omega|, colatitude) share each solution
+    solution = em.memoized(lambda cc: gyro_solution(record, cc, M, b, opts, inst))
 
     def solve(cc: Constants) -> np.ndarray:
-        return gyro_solution(record, cc, M, b, opts, inst)[0]
+        return solution(cc)[0]
 
     cal = em.calibration_terms(c, solve, ACCEL_KEYS + GYRO_KEYS)
     cov_cal = em.correlated_cov(cal, c)
@@ -147,10 +155,8 @@ def gyro_error_model(record: IeuRecord, c: Constants, M: np.ndarray, b: np.ndarr
     def scalars(g: np.ndarray, w: np.ndarray) -> np.ndarray:
         return np.array([float(np.linalg.norm(w)), ck.angle_deg(w, g)])
 
-    cal_w = ck.cal_sigma(c, lambda cc: float(np.linalg.norm(gyro_solution(record, cc, M, b,
-                                                                          opts, inst)[2])))
-    cal_col = ck.cal_sigma(c, lambda cc: ck.angle_deg(*gyro_solution(record, cc, M, b,
-                                                                     opts, inst)[2:0:-1]))
+    cal_w = ck.cal_sigma(c, lambda cc: float(np.linalg.norm(solution(cc)[2])))
+    cal_col = ck.cal_sigma(c, lambda cc: ck.angle_deg(*solution(cc)[2:0:-1]))
     j_sw = em.jacobian(lambda w: scalars(g_b, w), w_b, 1e-4)
     j_sg = em.jacobian(lambda g: scalars(g, w_b), g_b, 1e-7)
     cov_s = j_sw @ cov_w @ j_sw.T + j_sg @ cov_g @ j_sg.T

@@ -72,6 +72,11 @@ def estimator_matrices(estimator: str, K: int, dt: float, tape: Tape | None
 def accel_x(record: IeuRecord, c: Constants) -> np.ndarray:
     """X of Chart III-6 (axis by axis, 3K) in m/s^2 s."""
     int_b, _, _ = accel_integrals(p_of(record.strings), record.dt, c)
+    return x_of(int_b)
+
+
+def x_of(int_b: np.ndarray) -> np.ndarray:
+    """X of Chart III-6 from the accelerometers' integrals (K x 3, g s)."""
     return int_b.T.reshape(-1) * es.G0
 
 
@@ -107,8 +112,12 @@ def level_error_model(record: IeuRecord, c: Constants, M: np.ndarray, b: np.ndar
     """Predicted phi covariance (U, E, N) of one level alignment and its physical limit."""
     t0, g_b = level_solution(record, c, M, b, alpha1, theta1, g_survey, inst)
 
+    # the two perturbation passes (T, |g|) share each solution
+    solution = em.memoized(lambda cc: level_solution(record, cc, M, b, alpha1, theta1,
+                                                     g_survey, inst))
+
     def solve(cc: Constants) -> np.ndarray:
-        return level_solution(record, cc, M, b, alpha1, theta1, g_survey, inst)[0]
+        return solution(cc)[0]
 
     cal = em.calibration_terms(c, solve, ACCEL_KEYS)
     cov_cal = em.correlated_cov(cal, c)
@@ -129,8 +138,7 @@ def level_error_model(record: IeuRecord, c: Constants, M: np.ndarray, b: np.ndar
              "autocollimator": em.as_enu_arcsec(cov_ac)}
     # |g|: the calibration constants and the estimator's error along the vertical
     u = g_b / np.linalg.norm(g_b)
-    g_cal = ck.cal_sigma(c, lambda cc: float(np.linalg.norm(
-        level_solution(record, cc, M, b, alpha1, theta1, g_survey, inst)[1])))
+    g_cal = ck.cal_sigma(c, lambda cc: float(np.linalg.norm(solution(cc)[1])))
     g_sigma = math.hypot(g_cal, math.sqrt(max(float(u @ cov_g @ u), 0.0)))
     return {"t": t0, "g_b": g_b, "cov": cov, "predicted": em.as_enu_arcsec(cov),
             "limit": [bias[0], bias[1], ac_sigma_arcsec(noise, n_alpha)], "parts": parts,

@@ -8,6 +8,7 @@ history at tc and appends the new plan, so the past is never rewritten.
 from __future__ import annotations
 
 import math
+from bisect import bisect_right
 from dataclasses import dataclass
 
 import numpy as np
@@ -39,6 +40,19 @@ class Trajectory:
         self._ts = np.array([s.ts for s in segs])
         self._kind = np.array([s.kind for s in segs])
         self._par = np.array([[s.p0, s.v0, s.a, s.pf, s.d, s.tau] for s in segs])
+        self._ts_list = [s.ts for s in segs]
+
+    def _at(self, t: float) -> tuple[float, float]:
+        """(angle, rate) at one instant: ``evaluate``'s arithmetic on floats, term by term
+        in the same order (the same bits), without numpy's cost per call (most calls ask
+        for one instant: a reading, a status, a command's cut)."""
+        s = self.segments[max(bisect_right(self._ts_list, t) - 1, 0)]
+        dt = t - s.ts
+        if s.kind != SETTLE:
+            return s.p0 + s.v0 * dt + 0.5 * s.a * dt * dt, s.v0 + s.a * dt
+        x = dt / s.tau
+        e = float(np.exp(-min(x, 700.0)))  # numpy's exp, as evaluate's
+        return s.pf + s.d * (1.0 + x) * e, -s.d * x / s.tau * e
 
     def state(self, t: float) -> tuple[float, float, float]:
         """(angle, rate, acceleration) at t."""
@@ -54,6 +68,9 @@ class Trajectory:
 
     def evaluate(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         t = np.asarray(t, dtype=float)
+        if t.size == 1:
+            p1, v1 = self._at(float(t.reshape(-1)[0]))
+            return np.full(t.shape, p1), np.full(t.shape, v1)
         i = np.searchsorted(self._ts, t, side="right") - 1
         i = np.maximum(i, 0)
         dt = t - self._ts[i]

@@ -54,4 +54,6 @@ def noise_spec(cfg: StationConfig) -> NoiseSpec:
         wobble_amplitude_arcsec=env.wobble.amplitude_arcsec,
         wobble_period_s=env.wobble.period_s,
         wobble_coherence_s=env.wobble.coherence_s,
+        gyro_sample_clock_ppm=(cfg.calibration.gyro_sample_clock_ppm
+                               if cfg.calibration is not None else None),
     )

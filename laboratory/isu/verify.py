@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import csv
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -24,7 +24,12 @@ from rich.console import Console
 
 from laboratory.campaign.summary import LEVEL, interval
 from laboratory.tables import Column, print_fitted
-from procedures.isu.accuracy import GATE_UNITS, Predictor
+from procedures.isu.accuracy import (
+    DAY_TURNING_FIRST_S,
+    DAY_TURNING_GAPS_S,
+    GATE_UNITS,
+    Predictor,
+)
 from procedures.isu.plan import DayPlan
 from station.config.assignment import named_item
 from station.config.isu import StationConfig
@@ -79,6 +84,9 @@ def predictor(cfg: StationConfig, plan: DayPlan | None = None) -> Predictor:
     plan = (plan or DayPlan()).model_copy(update={"requirements": cfg.plan})
     lab = planning_lab(plan, site_of(cfg), noise_spec(cfg), f0=cfg.isu.accels[0].f0_hz,
                        t_bi=mounting(cfg))
+    # positions 1-6 at the instants the campaign's days run them (the pier's 60 s wobble
+    # correlates a pair's gates through their spacing; procedures.isu.accuracy)
+    lab = replace(lab, turning_first_s=DAY_TURNING_FIRST_S, turning_gaps_s=DAY_TURNING_GAPS_S)
     return Predictor(lab, manual_times(plan))
 
 

@@ -51,6 +51,13 @@ POSITION_GAP_S = 23.0
 SPECIAL_EXPERIMENTS_S = 8389.0
 LEVEL_LEAD_S = 2.5
 SURVEY_S = 1000.0  # without level corrections the tilt counts from the survey's level reading
+# Positions 1-6 as the default day runs them at any number of turns (station day --only II-6,
+# min_turns 1..10, seeds 1 and 2: the same instants): the first gate opens on the rotation
+# pulse 17.5 s after the switch to operate, and a gate ends 46 s before the next opens (37 s
+# from position 2 to 3), not the nominal 23 s. Drift and pier tilt (the 60 s wobble) see the
+# pair's spacing; the static positions keep the nominal timeline (``Lab.turning_first_s``).
+DAY_TURNING_FIRST_S = 1993.5
+DAY_TURNING_GAPS_S = (46.0, 36.9, 46.0, 46.0, 46.0)
 
 GATES = ("gyro 1-6", "gyro 7-15", "accel vertical", "accel horizontal")
 GATE_OF = {  # requirement -> the gate whose collection time it sets (II-6.2)
@@ -115,6 +122,10 @@ class Lab:
     dphi_arcsec: float = 3.0
     d1: float = 2000.0
     t_bi: Matrix3 = SQUARE
+    # positions 1-6's first gate opening and the gaps between their gates (s); the nominal
+    # timeline by default, ``DAY_TURNING_*`` for the day's (station plan --verify)
+    turning_first_s: float = FIRST_GATE_S
+    turning_gaps_s: tuple[float, ...] = (POSITION_GAP_S,) * 5
 
     def geometry(self) -> TableGeometry:
         """The table geometry of a day on this mounting: Chart I-5 settings, position 0."""
@@ -157,13 +168,16 @@ def nominal_data(times: Times, lab: Lab, level: bool = True) -> CalibrationData:
              for g, o, s in NOMINAL_AXES]
     accels = [AccelModel(lab.d1, np.eye(3)[k].copy(), 0.0, 0.0, 0.0) for k in range(3)]
     gyro: dict[int, GyroPosition] = {}
-    t = FIRST_GATE_S
     T = times.turns * lab.turn_s()
+    t = lab.turning_first_s
     for m in range(1, 7):
         delta = tuple(g.turning_rate(FIRST_COLUMN[m], lab.table_rate_deg_s, c) * T
                       for g in gyros)
         gyro[m] = GyroPosition(n1=T / lab.s1, n_phi=times.turns * lab.pulses_per_rev,
                                delta=delta, t0=t, t1=t + T)
+        t += T + (lab.turning_gaps_s[m - 1] if m < 6 else 0.0)
+    t = FIRST_GATE_S  # the static positions keep the nominal timeline (summed as it was)
+    for _ in range(6):
         t += T + POSITION_GAP_S
     t += SPECIAL_EXPERIMENTS_S
     for m in range(7, 16):

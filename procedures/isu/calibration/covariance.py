@@ -2,7 +2,10 @@
 
 Per datum (rates in pulses/s; gate T = n1 S1^T):
 * gyro counts: quantization q (1 + (rho/f_s)^2) / T^2, the count being a difference of two
-  floors read at the rebalance loop's sampling instants (f_s the sampling rate); with
+  floors read at the rebalance loop's sampling instants (f_s the sampling rate); with the
+  sampling clock known against the counter's (``NoiseSpec.gyro_sample_clock_ppm``) the
+  edges' sampling offsets differ by frac(T f_s) and (rho/f_s)^2 takes E[c (1 - c)]
+  (``quantization``: zero for a gate of whole sampling periods); with
   II-5.2's pulse gate (a preset of gyro pulses, the clock counted) the count is exact and
   the gate's two edges fall on sampling instants: rho^2 (q_clk / n1^2 + 1 / (6 f_s^2 T^2));
   angle
@@ -41,6 +44,7 @@ from procedures.isu.calibration.kernels import (
     exp_gram,
 )
 from procedures.isu.calibration.noise_spec import ARCSEC, DAY, NoiseSpec
+from procedures.isu.calibration.quantization import edge_sampling_var
 from procedures.isu.calibration.reduce import Key, Record, Reduced
 from sim.frames import cross3
 
@@ -49,13 +53,19 @@ RAD2DEG = 180.0 / math.pi
 
 def gyro_quantization_var(rate: float, rec: Record, nz: NoiseSpec) -> float:
     """Variance (pulses/s)^2 of a gyro rate from the counter's quantization: a clock gate
-    reads the count to a pulse; a pulse gate (II-5.2) reads the time to a clock tick and
-    to a sampling period at each edge."""
+    reads the count to a pulse and each edge's phase at the last sampling instant (the two
+    edges' sampling offsets correlated when the sampling clock is known against the
+    counter's: ``quantization.edge_sampling_var``); a pulse gate (II-5.2) reads the time
+    to a clock tick and to a sampling period at each edge."""
     tau_s = 1.0 / nz.gyro_sample_rate_hz
     T = rec.length
     if rec.pulse_gate:
         return rate**2 * (nz.clock_quantization_var / rec.n1**2 + tau_s**2 / (6.0 * T**2))
-    return nz.count_quantization_var * (1.0 + (rate * tau_s) ** 2) / T**2
+    if nz.gyro_sample_clock_ppm is None:  # the edges independent: q for the sampling too
+        return nz.count_quantization_var * (1.0 + (rate * tau_s) ** 2) / T**2
+    edges = edge_sampling_var(T, rec.n1, nz.gyro_sample_rate_hz, nz.gyro_sample_clock_ppm,
+                              nz.clock_quantization_var)
+    return (nz.count_quantization_var + edges * (rate * tau_s) ** 2) / T**2
 
 
 def setting_of(key: Key) -> SettingKey | None:

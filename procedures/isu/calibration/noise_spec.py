@@ -38,6 +38,11 @@ class NoiseSpec(BaseModel):
     count_quantization_var: float = Field(
         1.0 / 6.0, ge=0, description="pulse^2: a count is a difference of two floors"
     )
+    gyro_sample_clock_ppm: float | None = Field(
+        None, ge=0, description="the rebalance sampling clock against the counter clock, "
+        "ppm; None: not known, a clock gate's two edges sample independently "
+        "(procedures.isu.calibration.quantization)"
+    )
     # --- accelerometers and counters ---
     accel_white_micro_g_rt_hz: float = Field(10.0, ge=0, description="white noise on f2 - f1")
     clock_quantization_var: float = Field(1.0 / 6.0, ge=0, description="tick^2 per clock count")

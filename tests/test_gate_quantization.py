@@ -81,16 +81,18 @@ def test_clock_gate_quantization_matches_direct_simulation(fraction):
 
 
 def test_day_and_predictor_sigma_use_the_correlated_edges(tmp_path):
-    """Positions 1-6 at 2 turns with [calibration] gyro_sample_clock_ppm = 0: the day's own
-    DeltaPhi sigma and `plan --verify`'s Predictor (the day's timeline) agree within 3 %,
-    both below the independent edges' Predictor by the sampling term (about 13 %)."""
-    cfg = load_config(seed=7, overrides={"calibration": {"gyro_sample_clock_ppm": 0.0}})
+    """Positions 1-6 at 2 turns with [calibration] gyro_sample_clock_ppm = 0 (the default):
+    the day's own DeltaPhi sigma and `plan --verify`'s Predictor (the day's timeline) agree
+    within 3 %, both below the independent edges' Predictor (ppm 1000) by the sampling term
+    (about 13 %)."""
+    cfg = load_config(seed=7)
     out = tmp_path / "day"
     run_day(DayRequest(cfg, out, only=("II-6",), plan=DayPlan(min_turns=2), align=False,
                        quiet=True), Console(quiet=True))
     rows = json.loads((out / "results.json").read_text())["calibration"]
     own = {r["instrument"]: r["sigma"] for r in rows if r["parameter"] == "DeltaPhi"}
-    known, unknown = predictor(cfg), predictor(load_config(seed=7))
+    independent = {"calibration": {"gyro_sample_clock_ppm": 1000.0}}
+    known, unknown = predictor(cfg), predictor(load_config(seed=7, overrides=independent))
     times = known.default.set("gyro 1-6", 2)
     for k in (1, 2, 3):
         p = known.sigma(known.covariance(times), f"gyro{k}", "DeltaPhi")

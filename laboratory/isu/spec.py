@@ -7,6 +7,7 @@ import numpy as np
 
 from procedures.isu.calibration import NoiseSpec
 from procedures.isu.site import Site
+from station.config.calibration import CalibrationOptions
 from station.config.isu import StationConfig
 
 
@@ -54,6 +55,5 @@ def noise_spec(cfg: StationConfig) -> NoiseSpec:
         wobble_amplitude_arcsec=env.wobble.amplitude_arcsec,
         wobble_period_s=env.wobble.period_s,
         wobble_coherence_s=env.wobble.coherence_s,
-        gyro_sample_clock_ppm=(cfg.calibration.gyro_sample_clock_ppm
-                               if cfg.calibration is not None else None),
+        gyro_sample_clock_ppm=(cfg.calibration or CalibrationOptions()).gyro_sample_clock_ppm,
     )

@@ -55,11 +55,12 @@ class CalibrationOptions(BaseModel):
     simultaneous: bool = False
     counters: int = Field(6, ge=6, le=12)
     # the error model (issue 18, beyond the manual): how well the gyros' rebalance sampling
-    # clock is known against the counter clock, ppm; None (the default): not known, each
-    # edge of a clock gate samples independently; a value: the edges' sampling offsets
-    # differ by frac(T f_s), known when T f_s times the ppm is well under one period
-    # (positions 1-6: whole turns of 24 s are whole periods of the default 19.2 kHz)
-    gyro_sample_clock_ppm: float | None = Field(None, ge=0, le=1000.0)
+    # clock is known against the counter clock, ppm. The edges' sampling offsets of a clock
+    # gate differ by frac(T f_s), known when T f_s times the ppm is well under one period
+    # (positions 1-6: whole turns of 24 s are whole periods of the default 19.2 kHz); 0,
+    # the default: the simulated ISU's rebalance loops and the counters both run on the
+    # master oscillator; a large value (1000) makes the edges independent (1/6 a period^2)
+    gyro_sample_clock_ppm: float = Field(0.0, ge=0, le=1000.0)
 
     @model_validator(mode="after")
     def _enough_counters(self) -> CalibrationOptions:

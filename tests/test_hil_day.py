@@ -22,12 +22,15 @@ from hil_helpers import start, stop, text
 
 from laboratory.isu.day import DayRequest, run_day
 from station.config.isu import StationConfig, load_config
-from station.hil.twin import compare_rehearsal
+from station.hil.twin import Tolerances, compare_rehearsal
 
 SPEED = 500.0
 SEED = 11
 DAY = ["--only", "II-11", "--only", "II-13", "--positions", "7", "--positions", "8"]
 RUN_DEADLINE_S = 240.0
+# the record, not the machine: how late the rehearsal ran depends on the load (an earlier
+# run than the twin is still refused)
+RECORD = Tolerances(check_late=False)
 
 
 def _serve(base: Path, extra: tuple[str, ...] = ()) -> tuple[Path, subprocess.Popen]:
@@ -89,9 +92,13 @@ def test_day_over_links_equals_its_virtual_twin(rehearsal, tmp_path):
     twin = tmp_path / "twin"
     run_day(DayRequest(load_config(seed=SEED), twin, quiet=True, only=("II-11", "II-13"),
                        positions=(7, 8), start_s=start["t_sim"]))
-    assert compare_rehearsal(run, twin) == []
+    assert compare_rehearsal(run, twin, RECORD) == []
     cmp = _station("compare", "--rehearsal", str(run), str(twin), timeout=60)
-    assert cmp.returncode == 0 and "equal within the real-time tolerances" in cmp.stdout
+    late = [p for p in compare_rehearsal(run, twin) if "from the twin" in p]
+    if late:  # the command line says why, naming the late steps
+        assert cmp.returncode == 1 and "from the twin" in cmp.stdout
+    else:
+        assert cmp.returncode == 0 and "equal within the real-time tolerances" in cmp.stdout
     sheets = {p.stem for p in (run / "sheets").glob("*.json")}
     assert {"check_I-1", "check_I-2", "check_II-11", "check_II-13", "survey_results",
             "counter_outputs"} <= sheets
@@ -108,14 +115,14 @@ def test_twin_comparison_can_fail(rehearsal, tmp_path):
     early = tmp_path / "early"
     run_day(DayRequest(load_config(seed=SEED), early, quiet=True, only=("II-11", "II-13"),
                        positions=(7, 8), start_s=0.0))
-    assert any("from the twin" in p for p in compare_rehearsal(run, early))
+    assert any("from the twin" in p for p in compare_rehearsal(run, early, RECORD))
     start = next(r for r in _journal(run) if r.get("event") == "start")["t_sim"]
     data = load_config(seed=SEED).model_dump()
     data["isu"]["gyros"][0]["R_deg_hr"] += 0.2  # 40 pulses in a 600 s gate
     other = tmp_path / "other"
     run_day(DayRequest(StationConfig.model_validate(data), other, quiet=True,
                        only=("II-11", "II-13"), positions=(7, 8), start_s=start))
-    problems = compare_rehearsal(run, other)
+    problems = compare_rehearsal(run, other, RECORD)
     assert problems and all("counter_outputs gyro" in p for p in problems), problems
 
 

@@ -33,6 +33,10 @@ class Tolerances:
     late_fraction: float = 0.25  # rehearsal may run late by this much of the elapsed time
     late_slack_s: float = 30.0  # plus this (the first exchanges, one journal flush)
     early_s: float = 1.0  # it may not run earlier than the twin by more than this
+    # lateness is the machine's: its load and speed set how far the served rack runs ahead
+    # of a client that computes (tests compare the record without it: no wall-clock
+    # assertion); `station compare --rehearsal` keeps it, to tell a rehearsal that fell behind
+    check_late: bool = True
     # net pulses of a 600 s gate: ARW 0.003 deg/rt-h is 1.5 pulses of 3 arcsec, the
     # quantization 0.6, the drift process 0.6: sigma 1.7 per reading, 2.4 for the
     # difference of two; 5 sigma. (Twenty seeds shifted by 400 s: std 1.8, max 5.)
@@ -87,7 +91,7 @@ def _check_sheet(name: str, a: dict, b: dict, t0: float, tol: Tolerances) -> lis
     for x, y in zip(a["steps"], b["steps"], strict=True):
         late = x["t_sim"] - y["t_sim"]
         bound = tol.late_fraction * (y["t_sim"] - t0) + tol.late_slack_s
-        if not -tol.early_s <= late <= bound:
+        if late < -tol.early_s or (tol.check_late and late > bound):
             out.append(f"{name} step {x['number']}: {late:+.2f} s from the twin "
                        f"(allowed {-tol.early_s:g} .. {bound:.1f} s)")
     return out

@@ -125,8 +125,10 @@ def test_more_positions_inform_these_constants(labs: list[dict]) -> None:
 
 
 def test_speed_series_sharpen_the_scale_factors(labs: list[dict]) -> None:
-    """The II-7 speeds in the fit: each gyro's DeltaPhi sigma at least 1.2x below the
-    positions-only fit's (1.26-1.32x measured), and the pooled errors no worse."""
+    """The II-7 speeds in the fit: each gyro's DeltaPhi sigma at least 1.15x below the
+    positions-only fit's (1.20-1.32x measured on these six labs since whole-turn gates lost
+    their sampling term, gyro_sample_clock_ppm = 0; 1.26-1.32x before), and the pooled
+    errors no worse."""
     e0: list[float] = []
     e1: list[float] = []
     for lab in labs:
@@ -134,7 +136,7 @@ def test_speed_series_sharpen_the_scale_factors(labs: list[dict]) -> None:
         assert f.dof > f0.dof
         for k in (1, 2, 3):
             r = (f"gyro{k}", "DeltaPhi")
-            assert f0.sigma(r) >= 1.2 * f.sigma(r), (lab["seed"], r)
+            assert f0.sigma(r) >= 1.15 * f.sigma(r), (lab["seed"], r)
             e0.append((f0.estimates[r] - truth[r]) / f0.sigma(r))
             e1.append((f.estimates[r] - truth[r]) / f0.sigma(r))
     assert float(np.mean(np.square(e1))) < float(np.mean(np.square(e0)))

@@ -115,7 +115,7 @@ def test_twin_comparison_can_fail(rehearsal, tmp_path):
     early = tmp_path / "early"
     run_day(DayRequest(load_config(seed=SEED), early, quiet=True, only=("II-11", "II-13"),
                        positions=(7, 8), start_s=0.0))
-    assert any("from the twin" in p for p in compare_rehearsal(run, early, RECORD))
+    assert any("from the twin" in p for p in compare_rehearsal(run, early))
     start = next(r for r in _journal(run) if r.get("event") == "start")["t_sim"]
     data = load_config(seed=SEED).model_dump()
     data["isu"]["gyros"][0]["R_deg_hr"] += 0.2  # 40 pulses in a 600 s gate

@@ -294,7 +294,10 @@ def gate_covariance(records: list[dict], counter: int, dphi_arcsec: float, g_r: 
         gap = spans[j + 1][0] - spans[j][1]
         d = (abs(rate) * gap / dphi_arcsec) % 1.0
         c = 0.5 * q * (1.0 - 6.0 * d * (1.0 - d))
-        cov[j, j + 1] = cov[j + 1, j] = -c
+        # added to the drift's and the tilt's covariance of the two gates, not in place of
+        # it: a pair's up and down gates share most of the pier's wobble (issue 19, i19j)
+        cov[j, j + 1] -= c
+        cov[j + 1, j] -= c
     return cov
 
 

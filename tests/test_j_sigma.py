@@ -127,8 +127,9 @@ def test_j_sigma_keeps_the_piers_correlation_across_gates():
     spec = noise_spec(cfg)
     accel, n_days = 5.0, 300
     recs = _records(0.0, oper=0.0)  # back to back: the chain's correlation is q/2
-    for r in recs:
+    for i, r in enumerate(recs):  # the table turns 100 deg in each gate, as in II-10
         r["t_pos_s"] += 5000.0
+        r["phi_start"] = 37.0 + 100.0 * i
     noise = JNoise(1 / 6, 0.0, 0.0, 3600.0, pier=spec)
     w = np.tile([1.0, -1.0], 4)
     predicted = float(w @ gate_covariance(recs, 2, DPHI, G_R, 10.0, accel, noise) @ w)

@@ -192,7 +192,9 @@ class JNoise:
     axis, turning with the table, sees int tilt_rate . G(t) dt (``tilt_functionals``), with
     the pier's covariance across the gates; taken per gate as the full tilt change (both
     horizontal axes, ``tilt_var``: the fallback for records without gate times) it was
-    about 1.4x pessimistic where the tilt dominates.
+    about 1.4x pessimistic where the tilt dominates. The up and down gates of a pair share
+    most of the wobble (their tilt angles correlate about +0.8): the quantization chain's
+    correlation adds to that, it does not replace it (i19j).
     """
 
     quantization_var: float

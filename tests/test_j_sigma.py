@@ -3,7 +3,11 @@
 (a) The count quantization of back-to-back gates: a Monte Carlo of the gyro's fractional
     phase across the gaps (the end of one gate and the start of the next a few tens of ms
     apart) against ``gate_covariance``'s correlation -(q/2)(1 - 6 d(1 - d)).
-(b) On the simulated laboratory at near-zero instrument noise (quantization only, where the
+(b) The pier's tilt through the gates (issue 19, i19j): the simulator's pier process
+    (``sim.isu.environment``) at 3x the default wobble and wander, integrated through each
+    gate's turning input axis, plus the quantization chain, against ``gate_covariance``'s
+    weighted variance: the adjacent gates' tilt covariance must survive the chain's term.
+(c) On the simulated laboratory at near-zero instrument noise (quantization only, where the
     independent-gates model was 1.3x optimistic): J within 4 predicted sigma on every gyro
     and the pooled error/sigma rms within its chi-square 99 % interval.
 """
@@ -20,8 +24,11 @@ from rich.console import Console
 from scipy.stats import chi2
 
 from laboratory.isu.day import DayRequest, run_day
-from procedures.isu.j_term import JNoise, gate_covariance, j_estimate
-from station.config.isu import load_config
+from laboratory.isu.spec import noise_spec
+from procedures.isu.calibration.noise_spec import ARCSEC
+from procedures.isu.j_term import DEG, JNoise, gate_covariance, j_estimate, profile
+from sim.isu.environment import Environment
+from station.config.isu import default_dict, load_config
 
 sys.path.insert(0, str(Path(__file__).parent))
 from random_lab import random_overrides  # noqa: E402
@@ -81,6 +88,65 @@ def test_j_sigma_without_gate_times_is_the_independent_model():
     var_gate = 1 / 6 + 0.1 + (0.005 * 20.0 / DPHI) ** 2
     expect = math.sqrt(8 * var_gate) * DPHI / 3600.0 / 20.0 / 3600.0 / 4
     assert abs(s / expect - 1) < 1e-12
+
+
+def _restless_pier(factor: float) -> dict:
+    """Config overrides scaling the wobble and the tilt wander as random_lab's pier factor."""
+    env = default_dict()["environment"]
+    return {"environment": {
+        **env,
+        "wobble": {**env["wobble"],
+                   "amplitude_arcsec": env["wobble"]["amplitude_arcsec"] * factor},
+        "pier_tilt": {**env["pier_tilt"],
+                      "wander_sigma_arcsec": env["pier_tilt"]["wander_sigma_arcsec"] * factor}}}
+
+
+def _gate_nodes(recs: list[dict], counter: int, accel: float
+                ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Per gate, Gauss nodes (absolute times), weights and the horizontal input axis (E, N)
+    there: the gyro's tilt angle is the sum of weight * (tilt rate . G) over its nodes."""
+    x, w = np.polynomial.legendre.leggauss(24)
+    ts, ws, ge, gn = [], [], [], []
+    for r in recs:
+        prof = profile(r["phi_start"], r["w_start"], r["w_end"], accel, r["t_cmd"])
+        t0 = r["t_oper"][str(counter)]
+        cuts = [t0, *prof.breaks, t0 + r["gate_s"]]
+        t = np.concatenate([0.5 * (b - a) * x + 0.5 * (a + b)
+                            for a, b in zip(cuts[:-1], cuts[1:], strict=True)])
+        ws.append(np.concatenate([0.5 * (b - a) * w
+                                  for a, b in zip(cuts[:-1], cuts[1:], strict=True)]))
+        p = np.array([prof(float(u)) for u in t]) * DEG
+        ge.append(G_R[1] * np.cos(p) - G_R[2] * np.sin(p))
+        gn.append(G_R[1] * np.sin(p) + G_R[2] * np.cos(p))
+        ts.append(r["t_pos_s"] + t)
+    return np.array(ts), np.array(ws), np.array(ge), np.array(gn)
+
+
+def test_j_sigma_keeps_the_piers_correlation_across_gates():
+    cfg = load_config(overrides=_restless_pier(3.0))
+    spec = noise_spec(cfg)
+    accel, n_days = 5.0, 300
+    recs = _records(0.0, oper=0.0)  # back to back: the chain's correlation is q/2
+    for i, r in enumerate(recs):  # the table turns 100 deg in each gate, as in II-10
+        r["t_pos_s"] += 5000.0
+        r["phi_start"] = 37.0 + 100.0 * i
+    noise = JNoise(1 / 6, 0.0, 0.0, 3600.0, pier=spec)
+    w = np.tile([1.0, -1.0], 4)
+    predicted = float(w @ gate_covariance(recs, 2, DPHI, G_R, 10.0, accel, noise) @ w)
+    ts, ws, ge, gn = _gate_nodes(recs, 2, accel)
+    rng = np.random.default_rng(19)
+    sums = []
+    for seed in range(1, n_days + 1):
+        env = Environment(cfg.world_params().environment, seed)
+        _, rate = env.tilt_and_rate(ts.ravel())
+        rate_e, rate_n = (rate[:, k].reshape(ts.shape) for k in (1, 2))
+        tilt = np.sum(ws * (rate_e * ge + rate_n * gn), axis=1) / ARCSEC / DPHI  # pulses
+        phase = rng.uniform(size=len(recs) + 1)  # one floor shared at each gate boundary
+        sums.append(float(w @ (tilt + phase[:-1] - phase[1:])))
+    observed = float(np.mean(np.square(sums)))
+    # the tilt as large as the quantization chain (alone is (8n - 2)/12 = 2.5 pulse^2)
+    assert predicted > 1.5 * (8 * 4 - 2) / 12, predicted
+    assert abs(observed / predicted - 1) < 0.2, (observed, predicted)
 
 
 def test_j_within_its_sigma_at_quantization_level():

@@ -192,7 +192,9 @@ class JNoise:
     axis, turning with the table, sees int tilt_rate . G(t) dt (``tilt_functionals``), with
     the pier's covariance across the gates; taken per gate as the full tilt change (both
     horizontal axes, ``tilt_var``: the fallback for records without gate times) it was
-    about 1.4x pessimistic where the tilt dominates.
+    about 1.4x pessimistic where the tilt dominates. The up and down gates of a pair share
+    most of the wobble (their tilt angles correlate about +0.8): the quantization chain's
+    correlation adds to that, it does not replace it (i19j).
     """
 
     quantization_var: float
@@ -294,7 +296,10 @@ def gate_covariance(records: list[dict], counter: int, dphi_arcsec: float, g_r: 
         gap = spans[j + 1][0] - spans[j][1]
         d = (abs(rate) * gap / dphi_arcsec) % 1.0
         c = 0.5 * q * (1.0 - 6.0 * d * (1.0 - d))
-        cov[j, j + 1] = cov[j + 1, j] = -c
+        # added to the drift's and the tilt's covariance of the two gates, not in place of
+        # it: a pair's up and down gates share most of the pier's wobble (issue 19, i19j)
+        cov[j, j + 1] -= c
+        cov[j + 1, j] -= c
     return cov
 
 

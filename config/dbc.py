@@ -10,9 +10,10 @@ cheaper, which matters at five frames per 0.1 s sample on both sides of the bus.
 from __future__ import annotations
 
 import struct
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from functools import cache
+from operator import itemgetter
 from typing import Any, cast
 
 import cantools
@@ -38,13 +39,24 @@ class StructCodec:
     names: tuple[str, ...]
     layout: struct.Struct
 
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "_values", _getter(self.names))
+
     def encode(self, values: Mapping[str, int]) -> bytes:
         """The frame's bytes; ``struct.error`` for a value outside its signal's width."""
-        return self.layout.pack(*(values[n] for n in self.names))
+        return self.layout.pack(*self._values(values))  # type: ignore[attr-defined]
 
     def decode(self, data: bytes) -> dict[str, int]:
         """The signals of a frame of the message's length."""
         return dict(zip(self.names, self.layout.unpack(data), strict=True))
+
+
+def _getter(names: tuple[str, ...]) -> Callable[[Mapping[str, int]], tuple[int, ...]]:
+    """The values of ``names`` from a mapping, as a tuple in that order."""
+    get = itemgetter(*names)
+    if len(names) == 1:
+        return lambda m: (get(m),)
+    return cast(Callable[[Mapping[str, int]], tuple[int, ...]], get)
 
 
 def struct_codec(msg: cantools.database.can.Message) -> StructCodec | None:
@@ -80,6 +92,8 @@ class Codecs:
         self.db = db
         self.ids = {m.name: m.frame_id for m in db.messages}
         self._fast = {m.name: struct_codec(m) for m in db.messages}
+        # frame identifier -> (message name, length): a received frame's message at once
+        self.by_id = {m.frame_id: (m.name, m.length) for m in db.messages}
 
     def encode(self, name: str, values: Mapping[str, int]) -> bytes:
         fast = self._fast[name]

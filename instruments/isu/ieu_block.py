@@ -35,6 +35,7 @@ class SampleBlocks:
         self._after: dict[float, float] = {}  # latch instant -> the next one
         self._index: dict[float, int] = {}  # latch instant -> column of ``_levels``
         self._levels = np.zeros((len(self.lines), 0), dtype=np.int64)
+        self._steps: list[list[int]] = []  # column i: the counts from latch i to latch i + 1
         self._revision = -1
 
     def next_latch(self, t: float) -> float:
@@ -54,6 +55,8 @@ class SampleBlocks:
             if i1 is None:  # t1 is not the latch after t0: count these two instants alone
                 lv = np.stack([ln.levels(np.array([t0, t1])) for ln in self.lines])
                 return [int(x) for x in lv[:, 1] - lv[:, 0]]
+        if i1 == i0 + 1:  # one sample: its counts are held as Python ints
+            return list(self._steps[i0])
         d = self._levels[:, i1] - self._levels[:, i0]
         return [int(x) for x in d]
 
@@ -70,5 +73,6 @@ class SampleBlocks:
         self._after = after
         t = np.array(times)
         self._levels = np.stack([ln.levels(t) for ln in self.lines])
+        self._steps = np.diff(self._levels, axis=1).T.tolist()
         self._index = {x: i for i, x in enumerate(times)}
         self._revision = self.world.revision

@@ -102,24 +102,24 @@ def decode_frame(db: cantools.database.can.Database | Codecs, name: str, link: s
     """Decode one received frame with the DBC; ``GarbledFrame`` for anything that is not an
     IEU frame of the right length, ``FailedCheck`` for a reply failing its CRC-8."""
     dec = db if isinstance(db, Codecs) else Codecs(db)
-    db = dec.db
     try:
         fid = int(arbitration_id)  # type: ignore[call-overload]  # any object; caught below
         raw = bytes(data)  # type: ignore[call-overload]  # any object; caught below
-        spec = db.get_message_by_frame_id(fid)
+        msg, length = dec.by_id[fid]
     except (KeyError, TypeError, ValueError, OverflowError):
         raise GarbledFrame(name, link, f"garbled frame id {_hex_id(arbitration_id)}: "
                                        "not an IEU frame") from None
-    if len(raw) != spec.length:
+    if len(raw) != length:
         raise GarbledFrame(name, link, f"garbled frame id 0x{fid:03x}: {len(raw)} bytes, "
-                                       f"{spec.name} has {spec.length}")
+                                       f"{msg} has {length}")
     try:
-        ints = dec.decode(spec.name, raw)
+        ints = dec.decode(msg, raw)
     except (ValueError, TypeError, cantools.database.errors.DecodeError) as e:
         raise GarbledFrame(name, link, f"garbled frame id 0x{fid:03x}: {e}") from None
-    if "Crc" in ints and spec.name != "IEU_CHECK" and not crc8_ok(spec, raw, ints["Crc"]):
-        raise FailedCheck(name, link, f"{spec.name} failed its CRC-8 check")
-    return Frame(spec.name, ints, raw, t)
+    if "Crc" in ints and msg != "IEU_CHECK" and not crc8_ok(
+            dec.db.get_message_by_name(msg), raw, ints["Crc"]):
+        raise FailedCheck(name, link, f"{msg} failed its CRC-8 check")
+    return Frame(msg, ints, raw, t)
 
 
 def _hex_id(x: object) -> str:

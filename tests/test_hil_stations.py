@@ -47,7 +47,10 @@ from station.hil.session import params_digest
 from station.racks.cigtf import CigtfRack, open_cigtf_drivers
 
 CIGTF_SEED, CIGTF_SPEED = 3, 50.0
-ESG_SEED, ESG_SPEED = 2, 500.0
+# 200x: a millisecond of the client's wall time is 0.2 s of rack time, not 0.5 s, so the
+# rotor drifts less between commands on a loaded machine (the suite's other worker beside
+# it); at 500x the coning measurement's unmodelled electric-drift bias reached 3.6 arcsec
+ESG_SEED, ESG_SPEED = 2, 200.0
 PLAN = Plan(samples=3)  # 4.1 with three 10-s averages per orientation: ~320 s of rack time
 GOAL_ARCSEC = 15.0
 
@@ -157,8 +160,8 @@ def test_esg_calibration_end_to_end_over_links(tmp_path):
     """`station esg-calibration --links` against a served ESG rack, against the virtual run.
 
     Same seed, same world (pattern, case, mount, rotor draws); what differs is when each
-    command lands: every exchange takes about a millisecond of wall time, 0.5 s of rack time
-    at 500x, so the run lasts longer in rack time, the rotor drifts on meanwhile and the
+    command lands: every exchange takes about a millisecond of wall time, 0.2 s of rack time
+    at 200x, so the run lasts longer in rack time, the rotor drifts on meanwhile and the
     line noise falls on other revolutions. The measurements therefore agree to within their
     noise, not exactly. Tolerances (observed spread over runs at 300-1000x in brackets):
     count ratios 3e-5, the plan's equal-ratio tolerance (<= 7e-6); fitted inclination 0.01

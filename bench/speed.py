@@ -14,6 +14,11 @@ and runs both trees alternately, repeat by repeat (same machine, same moment; th
 alternates too), and prints both side by side with the ratios REV / this tree: on a shared,
 noisy machine a ratio measured side by side is the figure that counts.
 
+Each tree is byte-compiled first (compileall) and its commands run with bytecode caches
+read, as after ``pip install`` or a user's first run: a machine with
+PYTHONDONTWRITEBYTECODE set (this one) otherwise compiles every module of the station on
+every start, 0.5-1 s that no user's run pays.
+
     python bench/speed.py [--repeat 5] [--commands day,gyrocompass,esg,help] [--against REV]
 """
 
@@ -93,12 +98,27 @@ def _run_json(out: Path) -> tuple[float | None, float | None]:
     return None, None
 
 
+def child_env(tree: Tree) -> dict[str, str]:
+    """The environment a tree's command runs in: its root first on the path, bytecode
+    caches used (PYTHONDONTWRITEBYTECODE dropped; ``byte_compile`` wrote them)."""
+    env = dict(os.environ, PYTHONPATH=str(tree.root), STATION_OPERATOR="bench")
+    env.pop("PYTHONDONTWRITEBYTECODE", None)
+    return env
+
+
+def byte_compile(tree: Tree) -> None:
+    """Every module of the tree compiled to its __pycache__, as pip install leaves it."""
+    subprocess.run([sys.executable, "-m", "compileall", "-q", "-j", "0", "-x",
+                    r"[/\\]\.git[/\\]", str(tree.root)], check=True,
+                   stdout=subprocess.DEVNULL)
+
+
 def run_once(tree: Tree, name: str, scratch: Path, i: int) -> Sample:
     """Run command ``name`` once in ``tree`` as a whole process; raise naming the command
     and the tree if it fails."""
     out = scratch / f"{tree.label}-{name}-{i}"
     args = [a.replace("{out}", str(out)) for a in COMMANDS[name]]
-    env = dict(os.environ, PYTHONPATH=str(tree.root), STATION_OPERATOR="bench")
+    env = child_env(tree)
     log = scratch / f"{tree.label}-{name}-{i}.log"
     with log.open("wb") as fh:
         t0 = time.perf_counter()
@@ -124,7 +144,7 @@ def cost(tree: Tree, module: str, call: str) -> str:
             f"try:\n    from {module} import {call.split('(')[0]}\n"
             f"except ImportError:\n    print('NA'); raise SystemExit(0)\n"
             f"print(repr({call}))")
-    env = dict(os.environ, PYTHONPATH=str(tree.root))
+    env = child_env(tree)
     r = subprocess.run([sys.executable, "-c", code], cwd=tree.root, env=env,
                        capture_output=True, text=True)
     if r.returncode != 0:
@@ -226,6 +246,7 @@ def main(argv: list[str] | None = None) -> None:
         for t in trees:
             t.samples = {n: [] for n in names}
             t.cli = cli_module(t.root)
+            byte_compile(t)
         for i in range(a.repeat):
             for name in names:
                 order = trees if i % 2 == 0 else trees[::-1]

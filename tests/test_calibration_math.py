@@ -721,3 +721,29 @@ def test_a_datum_moves_only_the_instruments_that_read_it():
             else:
                 assert estimate_of(z, c, inst) == base[inst], (key, inst)
     assert moved > len(z0) // 2  # the rule is not vacuous: the readers do move
+
+
+
+def test_a_held_covariance_is_the_one_its_inputs_give():
+    """constants_covariance hands out a held result only for inputs of the same content: the
+    same bits as a fresh computation, a copy the caller may change, and a count moved by
+    one (or a louder gyro) computed anew."""
+    from procedures.isu.calibration import compute
+
+    data = make_data(np.random.default_rng(11), NoiseSpec())
+    compute._HELD.clear()
+    est, rows, cov = compute.constants_covariance(data, NoiseSpec())
+    fresh = compute._constants_covariance(data, NoiseSpec())
+    assert est == fresh[0] and rows == fresh[1] and np.array_equal(cov, fresh[2])
+    cov[0, 0] = -1.0  # the caller's copy
+    est[rows[0]] = None
+    again = compute.constants_covariance(data.model_copy(deep=True), NoiseSpec())
+    assert again[0] == fresh[0] and np.array_equal(again[2], fresh[2])
+    m = max(data.gyro)  # a static position: gyro 1's count one more
+    pos = data.gyro[m]
+    delta = (pos.delta[0] + 1.0, *pos.delta[1:])
+    nudged = data.model_copy(update={"gyro": {**data.gyro, m: pos.model_copy(
+        update={"delta": delta})}})
+    assert compute.constants_covariance(nudged, NoiseSpec())[0] != fresh[0]
+    louder = NoiseSpec(gyro_arw_deg_rt_hr=2.0 * NoiseSpec().gyro_arw_deg_rt_hr)
+    assert not np.array_equal(compute.constants_covariance(data, louder)[2], fresh[2])

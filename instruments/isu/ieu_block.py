@@ -19,7 +19,7 @@ import numpy as np
 from sim.isu.pulses import PulseLine
 from sim.isu.world import World
 
-BLOCK_S = 20.0  # simulated seconds of samples computed at once
+BLOCK_S = 200.0  # simulated seconds of samples computed at once
 MAX_SAMPLES = 256  # samples in a block, at most
 
 

@@ -143,12 +143,30 @@ def estimator_jacobian(z: Mapping[Key, float], c: Constants, keys: list[Key], ro
     return jac
 
 
+# the last few constants_covariance results by the content of their inputs: a day asks for
+# the same one three times (the sheet, the all-positions side, the calibration file)
+_HELD: dict[str, tuple[dict[Row, float | None], list[Row], np.ndarray]] = {}
+HELD_RESULTS = 4
+
+
 def constants_covariance(
     data: CalibrationData, noise: NoiseSpec | None = None
 ) -> tuple[dict[Row, float | None], list[Row], np.ndarray]:
     """(estimates, the rows determined, their full covariance J Sigma_z J^T): J is the
-    estimator's numerical Jacobian, Sigma_z the counter data's covariance."""
+    estimator's numerical Jacobian, Sigma_z the counter data's covariance. A result is
+    held by its inputs' content (JSON: every float to the bit) and handed out as a copy."""
     noise = noise or NoiseSpec()
+    key = data.model_dump_json() + noise.model_dump_json()
+    if key not in _HELD:
+        if len(_HELD) >= HELD_RESULTS:
+            del _HELD[next(iter(_HELD))]
+        _HELD[key] = _constants_covariance(data, noise)
+    est, rows, cov = _HELD[key]
+    return dict(est), list(rows), cov.copy()
+
+
+def _constants_covariance(data: CalibrationData, noise: NoiseSpec
+                          ) -> tuple[dict[Row, float | None], list[Row], np.ndarray]:
     c = data.constants
     red = reduce(data)
     est = estimate(red.values, c)
@@ -204,7 +222,13 @@ def calibrate(data: CalibrationData, noise: NoiseSpec | None = None) -> list[Res
 def calibrate_with_correlation(data: CalibrationData, noise: NoiseSpec | None = None
                                ) -> tuple[list[ResultRow], ConstantsCorrelation]:
     """Chart II-5 rows and the correlation of the constants they determine."""
-    est, det, cov = constants_covariance(data, noise)
+    return results_rows(data, *constants_covariance(data, noise))
+
+
+def results_rows(data: CalibrationData, est: dict[Row, float | None], det: list[Row],
+                 cov: np.ndarray) -> tuple[list[ResultRow], ConstantsCorrelation]:
+    """``calibrate_with_correlation`` from ``constants_covariance``'s result, for a caller
+    that needs that result again (the all-positions sheet: ``side_by_side``)."""
     sig = _sigmas(est, det, cov)
     rows: list[ResultRow] = []
     for k in (1, 2, 3):

@@ -70,7 +70,9 @@ def nonlinearity_plot(points: dict[int, list[dict]], path: Path, noise: NoiseSpe
         ax.set_ylabel("P' - (a0 + a1 w) (pulses/s)")
         ax.legend(fontsize=7)
     fig.suptitle("Gyro scale-factor nonlinearity (Chart II-7)")
-    fig.tight_layout()
+    # fixed margins, not tight_layout: its extra pass over the text took half the drawing
+    fig.subplots_adjust(left=0.22 / len(points), right=0.985, bottom=0.075, top=0.9,
+                        wspace=0.32, hspace=0.3)
     fig.savefig(path, dpi=110)
     plt.close(fig)
 
@@ -102,7 +104,11 @@ def results_plot(rows: list[dict], path: Path) -> bool:
     ax.set_xlabel(xlabel)
     ax.set_title("Calibration Results Sheet (Chart II-5): "
                  + ("error over sigma" if sim else "estimate against limits"))
-    fig.tight_layout()
+    # fixed margins from the longest label (7 pt: about 0.058 in a character), not
+    # tight_layout, whose extra pass over the text took half the drawing
+    height = fig.get_figheight()
+    fig.subplots_adjust(left=min(0.6, (0.15 + 0.058 * max(map(len, labels))) / 8.0),
+                        right=0.97, bottom=0.55 / height, top=1.0 - 0.4 / height)
     fig.savefig(path, dpi=110)
     plt.close(fig)
     return True

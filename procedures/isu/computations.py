@@ -24,7 +24,7 @@ from procedures.isu.calibration import (
 )
 from procedures.isu.calibration.all_positions import chosen_correlation, side_by_side
 from procedures.isu.calibration.checks import K_RESULT, check_residuals, check_string_sums
-from procedures.isu.calibration.compute import constants_covariance, results_rows, without
+from procedures.isu.calibration.compute import calibrate_with_correlation, without
 from procedures.isu.calibration.forward import GyroModel
 from procedures.isu.calibration.geometry import FIRST_COLUMN
 from procedures.isu.calibration.inputs import ExtraAccelPosition
@@ -294,12 +294,11 @@ def compute_calibration(run: Run, data: DayData, plan: DayPlan, noise: NoiseSpec
             step7["source"] = prior.source
         sheet.done("7", "Last (D1 D3) for accelerometers without positions 13, 14", step7)
         with sheet.step("8", "Compute the constants") as s:
-            closed = constants_covariance(cd, noise)
-            rows, corr = results_rows(cd, *closed)
+            rows, corr = calibrate_with_correlation(cd, noise)
             # issue 19: the all-positions estimator beside the closed forms; the correlation
             # carried to the alignments is the laboratory's estimator's
             estimator = plan.options.estimator
-            chosen = side_by_side(rows, cd, noise, estimator, data.nonlinearity, closed)
+            chosen = side_by_side(rows, cd, noise, estimator, data.nonlinearity)
             if estimator != "closed-form":
                 corr = chosen_correlation(rows, chosen, estimator)
             carried = ([] if prior is None else

@@ -500,18 +500,16 @@ ESTIMATORS = ("closed-form", "all-positions")
 
 def side_by_side(rows: list[ResultRow], data: CalibrationData, noise: NoiseSpec | None,
                  estimator: str = "closed-form",
-                 series: Mapping[int, list[dict]] | None = None,
-                 closed_forms: tuple[dict[Row, float | None], list[Row], np.ndarray] | None
-                 = None) -> tuple[list[Row], np.ndarray]:
+                 series: Mapping[int, list[dict]] | None = None
+                 ) -> tuple[list[Row], np.ndarray]:
     """Fill the Calibration Results Sheet's rows (in place) with both estimators and the
     Cramer-Rao bound at the all-positions estimate; the rows' estimate and sigma become
     ``estimator``'s. Returns that estimator's rows and full covariance (calibration file).
-    ``series``: the II-7 speed series, which the fit takes too. ``closed_forms``: the
-    closed forms' ``constants_covariance(data, noise)`` where the caller has it already."""
+    ``series``: the II-7 speed series, which the fit takes too."""
     if estimator not in ESTIMATORS:
         raise ValueError(f"estimator: {estimator!r} is not one of {', '.join(ESTIMATORS)}")
     noise = noise or NoiseSpec()
-    closed, cf_rows, cf_cov = closed_forms or constants_covariance(data, noise)
+    closed, cf_rows, cf_cov = constants_covariance(data, noise)
     red = reduce_all(data)
     d = design(data, closed, red)
     cov_z = data_covariance(red, d.keys, data, noise, closed)

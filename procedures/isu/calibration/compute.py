@@ -222,13 +222,7 @@ def calibrate(data: CalibrationData, noise: NoiseSpec | None = None) -> list[Res
 def calibrate_with_correlation(data: CalibrationData, noise: NoiseSpec | None = None
                                ) -> tuple[list[ResultRow], ConstantsCorrelation]:
     """Chart II-5 rows and the correlation of the constants they determine."""
-    return results_rows(data, *constants_covariance(data, noise))
-
-
-def results_rows(data: CalibrationData, est: dict[Row, float | None], det: list[Row],
-                 cov: np.ndarray) -> tuple[list[ResultRow], ConstantsCorrelation]:
-    """``calibrate_with_correlation`` from ``constants_covariance``'s result, for a caller
-    that needs that result again (the all-positions sheet: ``side_by_side``)."""
+    est, det, cov = constants_covariance(data, noise)
     sig = _sigmas(est, det, cov)
     rows: list[ResultRow] = []
     for k in (1, 2, 3):

@@ -49,10 +49,6 @@ class SimBus(can.BusABC):
         the simulation to its time (``virtual.advance_to``)."""
         out = self._ep.output
         env = self._env
-        if out and ticks(out[0][0]) <= env.now:  # here already: the common case, at once
-            msg = self._take()
-            if msg is not None and self._matches_filters(msg):
-                return msg
         deadline = None if timeout is None else int(env.now) + ticks(timeout)
         while True:
             if not out:

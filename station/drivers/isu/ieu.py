@@ -197,6 +197,18 @@ class SampleAssembler:
             self.expected = (self.expected + 1) % SEQ_MOD
         return s
 
+    def take_whole(self, frames: dict[str, Frame]) -> IeuSample | None:
+        """The expected sample from its five frames received in order, none kept for it
+        yet: checked as any group is, and the assembler moved past it; None (nothing
+        changed) if they fail the check."""
+        seq = self.expected
+        s = _Group(frames=frames).verified(seq)
+        if s is not None:
+            if self.newest_verified is None or _after(seq, self.newest_verified):
+                self.newest_verified = seq
+            self.expected = (seq + 1) % SEQ_MOD
+        return s
+
     def failed(self) -> bool:
         """The expected sample is complete but conflicted or failing its CRC-32C."""
         g = self.group()
@@ -437,10 +449,7 @@ class IeuDriver:
             exp = asm.expected
             sample = asm.take()
             if sample is not None:
-                self._resends.pop(exp, None)
-                self._asked_at.pop(exp, None)
-                self._waited = 0
-                return sample
+                return self._received(exp, sample)
             if asm.failed():
                 self.failed_checks += 1
                 self._ask_again(exp, failed=True)
@@ -454,11 +463,22 @@ class IeuDriver:
             try:
                 f = self._recv(wait)
             except GarbledFrame as e:  # undecodable: the frame it replaced is asked for again
-                self.garbled += 1
-                self.failed_checks += isinstance(e, FailedCheck)
-                self._waited += 1
+                self._garbled(e)
                 continue
             self._absorb(f)
+
+    def _received(self, seq: int, sample: IeuSample) -> IeuSample:
+        """Sample ``seq`` received whole: nothing more to ask for it."""
+        self._resends.pop(seq, None)
+        self._asked_at.pop(seq, None)
+        self._waited = 0
+        return sample
+
+    def _garbled(self, e: GarbledFrame) -> None:
+        """An undecodable frame (or one failing its CRC-8) counted in recover mode."""
+        self.garbled += 1
+        self.failed_checks += isinstance(e, FailedCheck)
+        self._waited += 1
 
     def _in_order(self, wait: float) -> IeuSample | None:
         """The expected sample when its five frames come next, in order and intact (the
@@ -478,26 +498,19 @@ class IeuDriver:
             except GarbledFrame as e:
                 for g in got:
                     self._absorb(g)
-                self.garbled += 1
-                self.failed_checks += isinstance(e, FailedCheck)
-                self._waited += 1
+                self._garbled(e)
                 return None
             if f.name != part or f.sig["Seq"] != exp:
                 for g in (*got, f):
                     self._absorb(g)
                 return None
             got.append(f)
-        frames = dict(zip(PARTS, got, strict=True))
-        if crc32c(b"".join(g.data for g in got[:-1])) != frames["IEU_CHECK"].sig["Crc"]:
+        sample = asm.take_whole(dict(zip(PARTS, got, strict=True)))
+        if sample is None:  # failing its CRC-32C: the loop asks for it again
             for g in got:
                 self._absorb(g)
             return None
-        asm.expected = (exp + 1) % SEQ_MOD
-        if asm.newest_verified is None or _after(exp, asm.newest_verified):
-            asm.newest_verified = exp
-        self._resends.pop(exp, None)
-        self._asked_at.pop(exp, None)
-        return _sample(exp, frames)
+        return self._received(exp, sample)
 
     def _absorb(self, f: Frame) -> None:
         """One frame received in recover mode: a refusal raises, a sample's part is kept."""

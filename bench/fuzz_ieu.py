@@ -32,13 +32,15 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 from crccheck.crc import Crc8Autosar, Crc32C  # type: ignore[import-untyped]  # noqa: E402
 from fuzz_core import FuzzTarget  # noqa: E402
 
-from instruments.isu.ieu import load_dbc, sample_frames, seal  # noqa: E402
+from config.dbc import codecs  # noqa: E402
+from instruments.isu.ieu import sample_frames, seal  # noqa: E402
 from sim.timebase import ticks  # noqa: E402
 from station.config.isu import load_config  # noqa: E402
 from station.drivers.isu.ieu import PARTS, GarbledFrame, SampleAssembler, decode_frame  # noqa: E402
 from station.racks.isu import SimulatedRack  # noqa: E402
 
-DB = load_dbc()
+CODECS = codecs()
+DB = CODECS.db
 NAMES = {m.frame_id: m.name for m in DB.messages}
 LENGTH = {m.name: m.length for m in DB.messages}
 IDS = {m.name: m.frame_id for m in DB.messages}
@@ -219,14 +221,14 @@ class SampleTarget:
         seq = rng.getrandbits(16)
         g = [rng.randint(-32768, 32767) for _ in range(3)]
         a = [rng.randint(0, 65535) for _ in range(6)]
-        genuine_frames = sample_frames(DB, seq, g, a, rng.randint(15, 20000))
+        genuine_frames = sample_frames(CODECS, seq, g, a, rng.randint(15, 20000))
         frames = mutate(genuine_frames, rng)
         want = protocol_sample(frames, seq)
         truth = protocol_sample(genuine_frames, seq)
         asm = SampleAssembler(seq)
         for i, (fid, d) in enumerate(frames):
             try:
-                f = decode_frame(DB, "ieu", "fuzz", fid, d, float(i))
+                f = decode_frame(CODECS, "ieu", "fuzz", fid, d, float(i))
             except GarbledFrame:
                 continue
             if f.name in PARTS:
@@ -299,7 +301,7 @@ class ReplyTarget:
             self.collisions += ok
             self.chances += random_damage and len(data) == LENGTH[name]
         try:
-            f = decode_frame(DB, "ieu", "fuzz", fid, data, 0.0)
+            f = decode_frame(CODECS, "ieu", "fuzz", fid, data, 0.0)
         except GarbledFrame:
             return "wrong" if ok else "rejected"
         if not ok:

@@ -26,7 +26,7 @@ import numpy as np
 import pytest
 from rich.console import Console
 
-from instruments.isu.ieu import load_dbc
+from config.dbc import load_dbc
 from laboratory.isu.align import (
     AlignRequest,
     alignment_entries,

@@ -13,11 +13,12 @@ import can
 import pytest
 from rich.console import Console
 
+from config.dbc import load_dbc
 from laboratory.export import CAN_LOG, can_log, csv_cell, write_alignment_samples
 from laboratory.isu.day import DayRequest, run_day
 from procedures.isu.alignment.sampling import RAW_COLUMNS, collect
 from station.config.isu import load_config
-from station.drivers.isu.ieu import COUNT_PARTS, load_dbc
+from station.drivers.isu.ieu import COUNT_PARTS
 from station.racks.isu import SimulatedRack, open_isu_drivers
 
 QUIET = Console(quiet=True)

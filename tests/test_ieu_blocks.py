@@ -122,16 +122,18 @@ def test_table_crc32c_is_crccheck_crc32c_on_both_sides_of_the_bus() -> None:
 def test_sample_frames_are_the_strictly_encoded_frames() -> None:
     """Frames encoded without cantools' range check are byte for byte the checked ones,
     clipped counts and overflow flag included."""
-    from instruments.isu.ieu import COUNT_FRAMES, load_dbc, sample_crc, sample_frames
+    from config.dbc import codecs
+    from instruments.isu.ieu import COUNT_FRAMES, sample_crc, sample_frames
 
-    db = load_dbc()
+    enc = codecs()
+    db = enc.db
     rng = random.Random(7)
     for _ in range(200):
         seq = rng.randrange(65536)
         g = [rng.randint(-40000, 40000) for _ in range(3)]
         a = [rng.randint(-10, 70000) for _ in range(6)]
         timer = rng.randint(15, 20000)
-        got = sample_frames(db, seq, g, a, timer)
+        got = sample_frames(enc, seq, g, a, timer)
         gc = [max(-32768, min(32767, x)) for x in g]
         ac = [max(0, min(65535, x)) for x in a]
         flags = int(gc != g or ac != a)

@@ -21,7 +21,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from instruments.isu.ieu import frame_crc8, load_dbc, sample_crc, sample_frames, seal
+from config.dbc import codecs
+from instruments.isu.ieu import frame_crc8, sample_crc, sample_frames, seal
 from station.drivers.isu.ieu import (
     MAX_RESENDS,
     PARTS,
@@ -35,7 +36,8 @@ from station.drivers.isu.ieu import (
 )
 from station.hil.sniff import Checker, decode
 
-DB = load_dbc()
+CODECS = codecs()  # the IEU's codecs, as both sides of the bus use them
+DB = CODECS.db
 IDS = {m.name: m.frame_id for m in DB.messages}
 STATUS = DB.get_message_by_name("IEU_STATUS")
 ERROR = DB.get_message_by_name("IEU_ERROR")
@@ -50,7 +52,7 @@ counts = st.tuples(
 
 def genuine(seq: int = 7, g=(12, -345, 6789), a=(20001, 19999, 20010, 19990, 20005, 19995),
             timer: int = 1000) -> list[tuple[int, bytes]]:
-    return sample_frames(DB, seq, list(g), list(a), timer)
+    return sample_frames(CODECS, seq, list(g), list(a), timer)
 
 
 def assemble(frames: list[tuple[int, bytes]], expected: int):
@@ -58,7 +60,7 @@ def assemble(frames: list[tuple[int, bytes]], expected: int):
     asm = SampleAssembler(expected)
     for i, (fid, data) in enumerate(frames):
         try:
-            f = decode_frame(DB, "ieu", "test", fid, data, float(i))
+            f = decode_frame(CODECS, "ieu", "test", fid, data, float(i))
         except GarbledFrame:
             continue
         if f.name in PARTS:
@@ -149,7 +151,7 @@ def test_genuine_sample_is_taken_with_its_counts():
 @settings(max_examples=60, deadline=None)
 def test_any_sample_round_trips(c):
     seq, g, a, timer = c
-    s = assemble(sample_frames(DB, seq, g, a, timer), seq)
+    s = assemble(sample_frames(CODECS, seq, g, a, timer), seq)
     assert s is not None and values(s) == (seq, tuple(g), tuple(a), timer, 0)
 
 
@@ -202,7 +204,7 @@ def test_random_status_frames_pass_the_crc8_about_one_in_256():
     for _ in range(n):
         data = bytes(rng.getrandbits(8) for _ in range(8))
         try:
-            decode_frame(DB, "ieu", "test", STATUS.frame_id, data, 0.0)
+            decode_frame(CODECS, "ieu", "test", STATUS.frame_id, data, 0.0)
             passed += 1
         except FailedCheck:
             pass
@@ -212,14 +214,14 @@ def test_random_status_frames_pass_the_crc8_about_one_in_256():
 
 def test_sealed_replies_verify_and_any_altered_byte_fails():
     data = seal(STATUS, {"State": 1, "ErrorCode": 0, "PeriodTicks": 1000, "Seq": 42})
-    f = decode_frame(DB, "ieu", "test", STATUS.frame_id, data, 0.0)
+    f = decode_frame(CODECS, "ieu", "test", STATUS.frame_id, data, 0.0)
     assert (f.sig["State"], f.sig["PeriodTicks"], f.sig["Seq"]) == (1, 1000, 42)
     for i in range(len(data)):
         for x in (1, 0x80, 0xFF):
             bad = bytearray(data)
             bad[i] ^= x
             with pytest.raises(FailedCheck, match="IEU_STATUS failed its CRC-8"):
-                decode_frame(DB, "ieu", "test", STATUS.frame_id, bytes(bad), 0.0)
+                decode_frame(CODECS, "ieu", "test", STATUS.frame_id, bytes(bad), 0.0)
 
 
 @given(fid=st.integers(-5, 0x1FFFFFFF + 5), data=st.binary(max_size=12))
@@ -227,7 +229,7 @@ def test_sealed_replies_verify_and_any_altered_byte_fails():
 def test_decoder_refuses_any_frame_the_project_way(fid, data):
     """Any identifier and payload: a decoded Frame of the right length, or GarbledFrame."""
     try:
-        f = decode_frame(DB, "ieu", "test", fid, data, 0.0)
+        f = decode_frame(CODECS, "ieu", "test", fid, data, 0.0)
     except GarbledFrame as e:
         assert e.instrument == "ieu"
         assert "garbled frame id" in str(e) or "failed its CRC-8 check" in str(e)
@@ -249,7 +251,7 @@ class ScriptedIeu:
         self.first = first
         self.samples = {
             (first + k) % 65536: sample_frames(
-                DB, (first + k) % 65536, [rng.randint(-500, 500) for _ in range(3)],
+                CODECS, (first + k) % 65536, [rng.randint(-500, 500) for _ in range(3)],
                 [rng.randint(19000, 21000) for _ in range(6)], 1000)
             for k in range(n)}
         self.fault = fault

@@ -9,11 +9,11 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from config.dbc import load_dbc
 from instruments.isu.ieu import (
     SAMPLE_FRAMES,
     bus_bit_rate,
     can_frame_bits,
-    load_dbc,
     min_period_s,
 )
 from sim.timebase import ticks

@@ -9,8 +9,8 @@ import math
 import can
 import pytest
 
+from config.dbc import load_dbc
 from instruments.isu.autocollimator import angles
-from instruments.isu.ieu import load_dbc
 from station.config.isu import SERIAL_INSTRUMENTS
 from station.errors import DriverError, InstrumentRefused, LinkTimeout, current_step
 

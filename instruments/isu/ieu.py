@@ -32,7 +32,6 @@ import simpy
 from crccheck.crc import Crc8Autosar
 
 from config.dbc import Codecs, codecs
-from config.dbc import load_dbc as load_dbc
 from instruments.isu.ieu_block import SampleBlocks
 from instruments.isu.params import IeuParams
 from sim.isu.pulses import PulseLine
@@ -374,11 +373,10 @@ class Ieu:
         self.env.process(deliver())
 
 
-def sample_frames(db: cantools.database.can.Database | Codecs, seq: int, g: Sequence[int],
+def sample_frames(enc: Codecs, seq: int, g: Sequence[int],
                   a: Sequence[int], timer: int) -> list[tuple[int, bytes]]:
     """The five frames (identifier, data) of sample ``seq``: counts clipped to their
     registers (``Flags`` bit 0 set if any was), then IEU_CHECK over the four count frames."""
-    enc = db if isinstance(db, Codecs) else Codecs(db)
     overflow = any(not -32768 <= x <= 32767 for x in g) or any(not 0 <= x <= 65535 for x in a)
     sigs = (
         {"Seq": seq, "Gyro1": _clip(g[0]), "Gyro2": _clip(g[1]), "Gyro3": _clip(g[2])},

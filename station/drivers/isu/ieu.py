@@ -32,7 +32,6 @@ import cantools
 
 import station.links  # noqa: F401
 from config.dbc import Codecs, codecs
-from config.dbc import load_dbc as load_dbc
 from station.clock import Clock
 from station.drivers.isu.crc import crc8_autosar, crc32c
 from station.errors import DriverError, InstrumentRefused, LinkTimeout
@@ -97,11 +96,10 @@ def crc8_ok(msg: cantools.database.can.Message, data: bytes, crc: int) -> bool:
     return crc8_autosar(protected) == crc
 
 
-def decode_frame(db: cantools.database.can.Database | Codecs, name: str, link: str,
+def decode_frame(dec: Codecs, name: str, link: str,
                  arbitration_id: object, data: object, t: float) -> Frame:
     """Decode one received frame with the DBC; ``GarbledFrame`` for anything that is not an
     IEU frame of the right length, ``FailedCheck`` for a reply failing its CRC-8."""
-    dec = db if isinstance(db, Codecs) else Codecs(db)
     try:
         fid = int(arbitration_id)  # type: ignore[call-overload]  # any object; caught below
         raw = bytes(data)  # type: ignore[call-overload]  # any object; caught below

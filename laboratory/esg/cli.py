@@ -111,16 +111,16 @@ def add_commands(app: typer.Typer) -> None:
             run_order = (args["order"] if args["order"] is not None
                          else load_esg_reduction(config).order)
             proc = load_esg_procedure(config)
-        setup = (args["extremity_setup"] if args["extremity_setup"] is not None
-                 else proc.extremity_setup)
-        want_variants = bool(args.get("strategy_variants") if args.get("strategy_variants")
-                             is not None else proc.strategy_variants)
-        adjusting = bool(args.get("adjust_alignment") if args.get("adjust_alignment")
-                         is not None else proc.adjust_alignment)
-        remounting = bool(args.get("remount_alignment") if args.get("remount_alignment")
-                          is not None else proc.remount_alignment)
-        both3 = bool(args.get("pickoff3_mirror2") if args.get("pickoff3_mirror2")
-                     is not None else proc.pickoff3_mirror2)
+        def chosen(option: str) -> bool:
+            """The command line's choice of a procedure option, else the config's."""
+            given = args.get(option)
+            return bool(getattr(proc, option) if given is None else given)
+
+        setup = chosen("extremity_setup")
+        want_variants = chosen("strategy_variants")
+        adjusting = chosen("adjust_alignment")
+        remounting = chosen("remount_alignment")
+        both3 = chosen("pickoff3_mirror2")
         from dataclasses import replace
 
         n_counters = args.get("counters")

@@ -22,6 +22,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field, fields
+from typing import TypeVar, overload
 
 import numpy as np
 
@@ -40,6 +41,8 @@ from procedures.esg.setup import extremity_setup
 from procedures.runner import CheckSheetRun, Run
 from station.drivers.esg import EsgDrivers
 from station.errors import CheckFailed
+
+T = TypeVar("T")
 
 # blocks a new session of a served rack repeats (processor zero, rotor state)
 RENEW = ("ESG-DP", "ESG-CAL.rotor", "ESG-CAL.tilt-*", "ESG-CAL.scan-*")
@@ -306,6 +309,37 @@ def _damp(st: EsgDrivers, plan: EsgPlan) -> None:
     st.console.damping(False)
 
 
+def wait_speed(st: EsgDrivers, plan: EsgPlan, above: bool, rps: float) -> None:
+    """Poll the console each minute until the rotor is above (or at or below) ``rps``."""
+    t_end = st.clock.now() + plan.spinup_timeout_s
+    while (st.console.speed() < rps) if above else (st.console.speed() > rps):
+        if st.clock.now() > t_end:
+            raise CheckFailed(f"rotor {'below' if above else 'above'} {rps:g} rps after "
+                              f"{plan.spinup_timeout_s:g} s")
+        st.clock.sleep(60.0)
+
+
+@overload
+def spin_up_damped(st: EsgDrivers, plan: EsgPlan) -> None: ...
+
+
+@overload
+def spin_up_damped(st: EsgDrivers, plan: EsgPlan, at_speed: Callable[[], T]) -> T: ...
+
+
+def spin_up_damped(st: EsgDrivers, plan: EsgPlan, at_speed: Callable[[], T] | None = None
+                   ) -> T | None:
+    """Spin up with the damping coil on; at operating speed ``at_speed`` (the set-up's
+    moves there), then damped for ``damping_s`` and the damping off; ``at_speed``'s value."""
+    st.console.damping(True)
+    st.console.spin_up()
+    wait_speed(st, plan, True, plan.spin_ready_rps)
+    value = at_speed() if at_speed is not None else None
+    st.clock.sleep(plan.damping_s)
+    st.console.damping(False)
+    return value
+
+
 # ---------------------------------------------------------------- sheets
 def processor_setup(st: EsgDrivers, run: Run, plan: EsgPlan) -> dict:
     with run.sheet("ESG-DP", "Data processor adjustments") as sh:
@@ -382,16 +416,7 @@ def start_gyro(st: EsgDrivers, run: Run, plan: EsgPlan, sh: CheckSheetRun) -> No
     with sh.step("2", "spindle on the Earth's polar axis; spin up to operating speed "
                  "with damping; damping off") as s:
         _move_table(st, plan, az=0.0, tilt=plan.latitude_deg)
-        st.console.damping(True)
-        st.console.spin_up()
-        t_end = st.clock.now() + plan.spinup_timeout_s
-        while st.console.speed() < plan.spin_ready_rps:
-            if st.clock.now() > t_end:
-                raise CheckFailed(f"rotor below {plan.spin_ready_rps:g} rps after "
-                                  f"{plan.spinup_timeout_s:g} s")
-            st.clock.sleep(60.0)
-        st.clock.sleep(plan.damping_s)
-        st.console.damping(False)
+        spin_up_damped(st, plan)
         s.reading = st.console.status()
 
 

@@ -112,7 +112,11 @@ def first_tilt(st: EsgDrivers, plan: EsgPlan, sh: CheckSheetRun, acq: Acquisitio
 
 def step3_along(plan: EsgPlan, acq: Acquisition) -> tuple[float, float]:
     """Table (azimuth, tilt) along step 3's drift equilibrium."""
-    s_lab = geo.drift_equilibrium(plan.latitude_deg, acq.unbalance_k_deg_hr)
+    return spindle_along(geo.drift_equilibrium(plan.latitude_deg, acq.unbalance_k_deg_hr))
+
+
+def spindle_along(s_lab: np.ndarray) -> tuple[float, float]:
+    """Table (azimuth, tilt) with the spindle along ``s_lab``."""
     return geo.azimuth_deg(s_lab), geo.elevation_deg(s_lab)
 
 

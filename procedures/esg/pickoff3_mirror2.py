@@ -22,9 +22,22 @@ import math
 import numpy as np
 
 from procedures.esg import geometry as geo
-from procedures.esg.acquisition import Acquisition, EsgPlan, _move_head, _move_table
-from procedures.esg.pickoff3 import LEAVE_ARCSEC, PICKOFF, first_tilt, tilt_measurement
-from procedures.esg.remount import C1_IN_SPINDLE_FRAME, remount_and_shim, wait_speed
+from procedures.esg.acquisition import (
+    Acquisition,
+    EsgPlan,
+    _move_head,
+    _move_table,
+    spin_up_damped,
+    wait_speed,
+)
+from procedures.esg.pickoff3 import (
+    LEAVE_ARCSEC,
+    PICKOFF,
+    first_tilt,
+    spindle_along,
+    tilt_measurement,
+)
+from procedures.esg.remount import C1_IN_SPINDLE_FRAME, remount_and_shim
 from procedures.runner import CheckSheetRun
 from station.drivers.esg import EsgDrivers
 
@@ -45,10 +58,6 @@ def c1_onto(s_lab: np.ndarray) -> tuple[float, float]:
     d = C1_IN_SPINDLE_FRAME
     gamma = math.degrees(math.atan2(sc[2], sc[1]) - math.atan2(d[2], d[1])) % 360.0
     return az, gamma
-
-
-def _along(s_lab: np.ndarray) -> tuple[float, float]:
-    return geo.azimuth_deg(s_lab), geo.elevation_deg(s_lab)
 
 
 def _brake(st: EsgDrivers, plan: EsgPlan) -> None:
@@ -92,19 +101,18 @@ def both_tilts(st: EsgDrivers, plan: EsgPlan, sh: CheckSheetRun, acq: Acquisitio
     with sh.step(f"{PREFIX}.spin", "spin up with damping; at speed, table level and c1 "
                  "on step 3's drift equilibrium (k scaled by the speed); damped there; "
                  "damping off") as s:
-        st.console.damping(True)
-        st.console.spin_up()
-        wait_speed(st, plan, True, plan.spin_ready_rps)
-        az, gamma = c1_onto(equilibrium(plan, acq, k_rps, st.console.speed()))
-        _move_table(st, plan, az=az, tilt=0.0)
-        gamma = _move_head(st, plan, gamma)
-        st.clock.sleep(plan.damping_s)
-        st.console.damping(False)
+
+        def c1_on_equilibrium() -> tuple[float, float]:
+            az, gamma = c1_onto(equilibrium(plan, acq, k_rps, st.console.speed()))
+            _move_table(st, plan, az=az, tilt=0.0)
+            return az, _move_head(st, plan, gamma)
+
+        az, gamma = spin_up_damped(st, plan, c1_on_equilibrium)
         # the spin axis sits where c1 is (within the damping's residual)
         s_lab = geo.r_lc(az, 0.0, gamma) @ C1_IN_SPINDLE_FRAME
         s.reading = {"settings_deg": [az, 0.0, gamma], "s_lab": s_lab.tolist(),
                      **st.console.status()}
-    along = _along(s_lab)
+    along = spindle_along(s_lab)
     with sh.step(f"{PREFIX}-1", "spindle along s, then reversed; pickoff 3 count ratio "
                  "over a spindle turn and back in each; half their means' difference = "
                  "pickoff 3's tilt towards mirror 2") as s:
@@ -114,23 +122,22 @@ def both_tilts(st: EsgDrivers, plan: EsgPlan, sh: CheckSheetRun, acq: Acquisitio
             for t in (m1["tilt_arcsec"], m2["tilt_arcsec"]))
     first = (a, b)
     out2 = _loop(st, plan, sh, PREFIX, 1, m2, along, first if any(first) else None)
-    if out2["translations"] == 0:
-        out2 = {**out2, "tilt_arcsec": m2["tilt_arcsec"], "sigma_arcsec": m2["sigma_arcsec"]}
     with sh.step(f"{PREFIX}.brake-2", "rotor braked to rest") as s:
         _brake(st, plan)
         s.reading = {"spin_rps": st.console.speed()}
     acq.mount_coning_arcsec = remount_and_shim(st, plan, sh, 1, f"{PREFIX}.m1")
     with sh.step(f"{PREFIX}.respin", "spin up with damping; at speed, spindle on step 3's "
                  "drift equilibrium (k scaled by the speed); damped there; damping off") as s:
-        st.console.damping(True)
-        st.console.spin_up()
-        wait_speed(st, plan, True, plan.spin_ready_rps)
-        acq.unbalance_k_deg_hr *= k_rps / st.console.speed()  # k at the present speed
-        along1 = _along(geo.drift_equilibrium(plan.latitude_deg, acq.unbalance_k_deg_hr))
-        _move_table(st, plan, az=along1[0], tilt=along1[1])
-        _move_head(st, plan, 0.0)
-        st.clock.sleep(plan.damping_s)
-        st.console.damping(False)
+
+        def spindle_on_equilibrium() -> tuple[float, float]:
+            acq.unbalance_k_deg_hr *= k_rps / st.console.speed()  # k at the present speed
+            at = spindle_along(geo.drift_equilibrium(plan.latitude_deg,
+                                                     acq.unbalance_k_deg_hr))
+            _move_table(st, plan, az=at[0], tilt=at[1])
+            _move_head(st, plan, 0.0)
+            return at
+
+        along1 = spin_up_damped(st, plan, spindle_on_equilibrium)
         s.reading = {"settings_deg": [along1[0], along1[1], 0.0],
                      "unbalance_k_deg_hr": acq.unbalance_k_deg_hr, **st.console.status()}
     if a == 0.0:
@@ -142,8 +149,6 @@ def both_tilts(st: EsgDrivers, plan: EsgPlan, sh: CheckSheetRun, acq: Acquisitio
             m = tilt_measurement(st, plan, along1)
             s.reading = m
         out1 = _loop(st, plan, sh, "3.p3", 0, m, along1)
-        if out1["translations"] == 0:
-            out1 = {**out1, "tilt_arcsec": m["tilt_arcsec"], "sigma_arcsec": m["sigma_arcsec"]}
     return {"mirror1": out1, "mirror2": out2}
 
 

@@ -33,6 +33,8 @@ from procedures.esg.acquisition import (
     plan_slope_per_deg,
     refuse_coning,
     shim_to_limit,
+    spin_up_damped,
+    wait_speed,
 )
 from procedures.runner import CheckSheetRun, Run
 from station.drivers.esg import EsgDrivers
@@ -48,16 +50,6 @@ def gamma_c1_up() -> float:
     north (nominal geometry)."""
     return max((0.0, 90.0, 180.0, 270.0),
                key=lambda g: float((geo.r_lc(0.0, 0.0, g) @ C1_IN_SPINDLE_FRAME)[2]))
-
-
-def wait_speed(st: EsgDrivers, plan: EsgPlan, above: bool, rps: float) -> None:
-    """Poll the console each minute until the rotor is above (or at or below) ``rps``."""
-    t_end = st.clock.now() + plan.spinup_timeout_s
-    while (st.console.speed() < rps) if above else (st.console.speed() > rps):
-        if st.clock.now() > t_end:
-            raise CheckFailed(f"rotor {'below' if above else 'above'} {rps:g} rps after "
-                              f"{plan.spinup_timeout_s:g} s")
-        st.clock.sleep(60.0)
 
 
 def _psi_deg(turn: dict) -> float:
@@ -90,11 +82,7 @@ def pickoff2_alignment(st: EsgDrivers, run: Run, plan: EsgPlan) -> dict:
                      "speed with damping; damping off") as s:
             _move_table(st, plan, az=0.0, tilt=0.0)
             gamma0 = _move_head(st, plan, gamma0)
-            st.console.damping(True)
-            st.console.spin_up()
-            wait_speed(st, plan, True, plan.spin_ready_rps)
-            st.clock.sleep(plan.damping_s)
-            st.console.damping(False)
+            spin_up_damped(st, plan)
             s.reading = {"settings_deg": [0.0, 0.0, gamma0], **st.console.status()}
         with sh.step("PA2.1", "pickoff 2 count ratio over one spindle turn (and back to "
                      "the start); first harmonic = coning of pickoff 2") as s:

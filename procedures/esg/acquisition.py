@@ -319,6 +319,13 @@ def wait_speed(st: EsgDrivers, plan: EsgPlan, above: bool, rps: float) -> None:
         st.clock.sleep(60.0)
 
 
+def brake(st: EsgDrivers, plan: EsgPlan) -> None:
+    """Spin off until the rotor is at rest; the spindle back to 0 (to mount the case)."""
+    st.console.spin_off()
+    wait_speed(st, plan, False, 0.0)
+    _move_head(st, plan, 0.0)
+
+
 @overload
 def spin_up_damped(st: EsgDrivers, plan: EsgPlan) -> None: ...
 

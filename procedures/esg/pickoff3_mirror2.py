@@ -27,8 +27,8 @@ from procedures.esg.acquisition import (
     EsgPlan,
     _move_head,
     _move_table,
+    brake,
     spin_up_damped,
-    wait_speed,
 )
 from procedures.esg.pickoff3 import (
     LEAVE_ARCSEC,
@@ -60,12 +60,6 @@ def c1_onto(s_lab: np.ndarray) -> tuple[float, float]:
     return az, gamma
 
 
-def _brake(st: EsgDrivers, plan: EsgPlan) -> None:
-    st.console.spin_off()
-    wait_speed(st, plan, False, 0.0)
-    _move_head(st, plan, 0.0)
-
-
 def _loop(st: EsgDrivers, plan: EsgPlan, sh: CheckSheetRun, name: str, axis: int,
           m: dict, along: tuple[float, float], first: tuple[float, float] | None = None
           ) -> dict:
@@ -95,7 +89,7 @@ def both_tilts(st: EsgDrivers, plan: EsgPlan, sh: CheckSheetRun, acq: Acquisitio
     measurements of both tilts and the translations made."""
     k_rps = st.console.speed()  # step 3's k holds at this speed
     with sh.step(f"{PREFIX}.brake", "rotor braked to rest") as s:
-        _brake(st, plan)
+        brake(st, plan)
         s.reading = {"k_at_rps": k_rps, "spin_rps": st.console.speed()}
     remount_and_shim(st, plan, sh, 2, PREFIX)
     with sh.step(f"{PREFIX}.spin", "spin up with damping; at speed, table level and c1 "
@@ -123,7 +117,7 @@ def both_tilts(st: EsgDrivers, plan: EsgPlan, sh: CheckSheetRun, acq: Acquisitio
     first = (a, b)
     out2 = _loop(st, plan, sh, PREFIX, 1, m2, along, first if any(first) else None)
     with sh.step(f"{PREFIX}.brake-2", "rotor braked to rest") as s:
-        _brake(st, plan)
+        brake(st, plan)
         s.reading = {"spin_rps": st.console.speed()}
     acq.mount_coning_arcsec = remount_and_shim(st, plan, sh, 1, f"{PREFIX}.m1")
     with sh.step(f"{PREFIX}.respin", "spin up with damping; at speed, spindle on step 3's "

@@ -29,12 +29,12 @@ from procedures.esg.acquisition import (
     _move_head,
     _move_table,
     _pickoff_coning,
+    brake,
     plan_colatitude_deg,
     plan_slope_per_deg,
     refuse_coning,
     shim_to_limit,
     spin_up_damped,
-    wait_speed,
 )
 from procedures.runner import CheckSheetRun, Run
 from station.drivers.esg import EsgDrivers
@@ -103,9 +103,7 @@ def pickoff2_alignment(st: EsgDrivers, run: Run, plan: EsgPlan) -> dict:
         refuse_coning(turn, limit, PICKOFF)
         with sh.step("PA2.remount", "rotor braked to rest; case mounted back with mirror 1 "
                      "along the spindle (step 1 shims it)") as s:
-            st.console.spin_off()
-            wait_speed(st, plan, False, 0.0)
-            _move_head(st, plan, 0.0)
+            brake(st, plan)
             st.head.mount(1)
             s.reading = {"spin_rps": st.console.speed()}
     return {"coning_arcsec": turn["coning_arcsec"], "sigma_arcsec": turn["sigma_arcsec"],

@@ -43,8 +43,8 @@ from procedures.isu.calibration.geometry import FIRST_COLUMN, extra_t_br, t_br
 from procedures.isu.calibration.inputs import CalibrationData, Constants
 from procedures.isu.calibration.noise_spec import NoiseSpec
 from procedures.isu.calibration.reduce import Key, Reduced, reduce_all
+from procedures.isu.calibration.vectors import cross3, norm3
 from procedures.isu.sheets import ConstantsCorrelation, ResultRow
-from sim.frames import cross3, norm3
 
 GYRO_COEFS = ("R", "B_I", "B_O", "B_S", "C_II", "C_SS", "C_IS", "C_OS", "C_IO")
 Q_TERMS = ("Q_II", "Q_IS")

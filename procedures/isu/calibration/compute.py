@@ -31,8 +31,8 @@ from procedures.isu.calibration.inputs import CalibrationData, Constants
 from procedures.isu.calibration.neglected import corrected_gyro_estimates, spin_axis_variance
 from procedures.isu.calibration.noise_spec import NoiseSpec
 from procedures.isu.calibration.reduce import Key, Reduced, reduce
+from procedures.isu.calibration.vectors import cross3, norm3
 from procedures.isu.sheets import ConstantsCorrelation, ResultRow
-from sim.frames import cross3, norm3
 
 Row = tuple[str, str]  # (instrument, parameter)
 

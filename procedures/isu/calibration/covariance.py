@@ -46,7 +46,7 @@ from procedures.isu.calibration.kernels import (
 from procedures.isu.calibration.noise_spec import ARCSEC, DAY, NoiseSpec
 from procedures.isu.calibration.quantization import edge_sampling_var
 from procedures.isu.calibration.reduce import Key, Record, Reduced
-from sim.frames import cross3
+from procedures.isu.calibration.vectors import cross3
 
 RAD2DEG = 180.0 / math.pi
 

@@ -26,7 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from procedures.isu.calibration.inputs import Constants
-from sim.frames import cross3, norm3
+from procedures.isu.calibration.vectors import cross3, norm3
 
 E3 = np.eye(3)
 NOMINAL_AXES = (  # (G, O, S) of gyros 1, 2, 3 in body components (DOMAIN.md, Chart III-9)

@@ -23,7 +23,7 @@ import numpy as np
 
 from procedures.isu.calibration.inputs import CalibrationData, Constants, TableGeometry
 from procedures.isu.calibration.noise_spec import ARCSEC, NoiseSpec
-from sim.frames import cross3
+from procedures.isu.calibration.vectors import cross3
 
 E3 = np.eye(3)
 _S2 = 1.0 / math.sqrt(2.0)

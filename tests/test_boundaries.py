@@ -8,7 +8,7 @@ with a literal name. From them the graph of the project's modules is built, and:
   module imports a higher floor (a typing-only import counts: it is a dependency too);
 * procedures reach the laboratory only through drivers bound to links: nothing a procedure
   module imports, directly or through what those import, is in ``instruments`` or in
-  ``sim`` except the pure arithmetic of ``sim.timebase``, ``sim.units`` and ``sim.frames``;
+  ``sim`` except the pure arithmetic of ``sim.timebase`` and ``sim.units``;
   the drivers import neither ``sim`` nor ``instruments`` themselves;
 * no import cycle between modules (a package's ``__init__`` importing its own children is
   how a package is made, not a cycle);
@@ -32,7 +32,7 @@ ROOT = Path(__file__).resolve().parents[1]
 FLOORS = ("sim", "instruments", "station", "procedures", "laboratory")  # low to high
 RESOURCES = ("config",)  # data shipped with the code: any floor reads it, it imports no floor
 NOT_PACKAGES = {"tests", "bench", "docs", "build"}
-PURE_SIM = ("sim.timebase", "sim.units", "sim.frames")  # what procedures may use of sim
+PURE_SIM = ("sim.timebase", "sim.units")  # what procedures may use of sim
 PROCEDURES = "procedures"
 SIMULATOR = ("sim", "instruments")
 LAB_BOUNDARY = ("station.drivers",)  # import neither sim nor instruments themselves

@@ -6,7 +6,6 @@ anything is written; a procedure that stops says so on stderr, naming the step, 
 Both are operator errors (station/errors.py) and end a command in one place, ``end``.
 """
 
-from __future__ import annotations
 
 import json
 import sys
@@ -14,7 +13,6 @@ from pathlib import Path
 from typing import Annotated
 
 import typer
-from rich.table import Table
 
 from laboratory.app import (
     ConfigOpt,
@@ -22,11 +20,11 @@ from laboratory.app import (
     StationOpt,
     app,
     command,
-    console,
     end,
     fail,
     lab_config,
     one_line,
+    real_console,
     refused,
 )
 from station.errors import OperatorError, StopError
@@ -79,6 +77,8 @@ def check(
     if as_json:
         typer.echo(json.dumps(as_dicts(results), indent=2))
     else:
+        from rich.table import Table
+
         t = Table(title=f"Instrument check: {lab.title}")
         for col in ("instrument", "link", "ok", "identity / error"):
             t.add_column(col)
@@ -86,7 +86,7 @@ def check(
             t.add_row(
                 r.instrument, r.link, "[green]yes[/green]" if r.ok else "[red]NO[/red]", r.identity
             )
-        console.print(t)
+        real_console().print(t)
     bad = [r.instrument for r in results if not r.ok]
     if bad:
         typer.echo(f"not answering: {', '.join(bad)}", err=True)
@@ -118,8 +118,8 @@ def serve(
     can_port: Annotated[int, typer.Option("--can-port", help="socketcand TCP port (0: any "
                         "free port)")] = 0,
     station: Annotated[str, typer.Option("--station", help="which laboratory's rack: isu "
-                       "(default; its config carries the seed), cigtf (\\[cigtf] config) or "
-                       "esg (\\[esg] config; both seed 1 unless given)")] = "isu",
+                       "(default; its config carries the seed), cigtf ([cigtf] config) or "
+                       "esg ([esg] config; both seed 1 unless given)")] = "isu",
 ) -> None:
     """Serve a simulated rack in real time on ptys (the ISU's IEU also on socketcand and
     slcan), with a live status table; stop with Ctrl-C."""
@@ -158,6 +158,7 @@ def compare(
         from station.hil.twin import compare_rehearsal
 
         problems = compare_rehearsal(dir_a, dir_b)  # a refusal: exit 2 (_command)
+        console = real_console()
         for line in problems:
             console.print(line)
         console.print("equal within the real-time tolerances" if not problems
@@ -167,9 +168,9 @@ def compare(
         fail(f"--rel-tol must be 0 or more, got {rel_tol:g}")
     diffs = differences(dir_a, dir_b, rel_tol)  # a refusal: exit 2 (_command)
     if not diffs:
-        console.print("no differences")
+        real_console().print("no differences")
         return
-    render_differences(console, diffs, dir_a, dir_b)
+    render_differences(real_console(), diffs, dir_a, dir_b)
     raise typer.Exit(1)
 
 
@@ -185,8 +186,9 @@ def report(
     typer.echo(f"report written: {write_report(run_dir, out)}")
 
 
-regress_app = typer.Typer(no_args_is_help=True, help="Regression baselines: hold a new run "
-                          "against a stored earlier run (docs/regression.md).")
+regress_app = typer.Typer(no_args_is_help=True, rich_markup_mode=None,
+                          help="Regression baselines: hold a new run against a stored "
+                          "earlier run (docs/regression.md).")
 app.add_typer(regress_app, name="regress")
 
 
@@ -219,7 +221,7 @@ def regress_check(
         write_junit(junit, cases)
     failed = [c for c in cases if c.failure is not None]
     for c in failed:
-        console.print(c.failure, markup=False, highlight=False, soft_wrap=True)
+        real_console().print(c.failure, markup=False, highlight=False, soft_wrap=True)
     skipped = sum(c.skipped is not None for c in cases)
     typer.echo(f"{len(cases)} checked, {len(failed)} regressions, {skipped} skipped")
     if failed:

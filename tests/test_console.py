@@ -82,6 +82,7 @@ def test_help_texts_keep_their_brackets(command: str, words: tuple[str, ...]) ->
     assert p.returncode == 0, p.stderr
     for w in words:
         assert w in p.stdout
+        assert "\\" + w not in p.stdout  # no markup escape left in plain help
 
 
 @pytest.fixture

@@ -49,3 +49,19 @@ def test_the_day_before_its_run_loads_no_plots_reports_or_history() -> None:
     assert [m for m in mods if m.split(".")[0] != "scipy"] == []
     unused = ("scipy.signal", "scipy.integrate", "scipy.stats", "scipy.interpolate")
     assert [m for m in mods if m.startswith(unused)] == []
+
+
+def test_help_loads_no_rich() -> None:
+    """`station --help` (every command registered, the help printed) loads no part of rich:
+    the help is click's plain text, the console is made by the first command that prints."""
+    code = ("import contextlib, io, json, sys; sys.argv = ['station', '--help']\n"
+            "import laboratory.cli as c\n"
+            "with contextlib.redirect_stdout(io.StringIO()) as out, "
+            "contextlib.suppress(SystemExit):\n    c.main()\n"
+            "assert 'Commands:' in out.getvalue() and 'day' in out.getvalue()\n"
+            "print(json.dumps(sorted(m for m in sys.modules if m.split('.')[0] in "
+            "('rich', 'markdown_it'))))")
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    out = subprocess.run([sys.executable, "-c", code], cwd=ROOT, env=env, capture_output=True,
+                         text=True, check=True).stdout
+    assert json.loads(out) == []

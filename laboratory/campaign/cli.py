@@ -1,6 +1,5 @@
 """`station campaign SPEC.toml`: a Monte Carlo campaign of laboratory runs (docs/campaigns.md)."""
 
-from __future__ import annotations
 
 import math
 from datetime import UTC, datetime
@@ -8,9 +7,8 @@ from pathlib import Path
 from typing import Annotated
 
 import typer
-from rich.table import Table
 
-from laboratory.app import command, console, fail, one_line, refused
+from laboratory.app import command, fail, one_line, real_console, refused
 
 
 def add_commands(app: typer.Typer) -> None:
@@ -55,7 +53,8 @@ def add_commands(app: typer.Typer) -> None:
             out = Path("runs/campaign") / datetime.now(UTC).strftime("%Y%m%dT%H%M%SZ")
         try:
             res = run_campaign(spec, out, scheduler=scheduler, workers=workers,
-                               resume=resume, retries=retries, console=console, quiet=quiet)
+                               resume=resume, retries=retries, console=real_console(),
+                               quiet=quiet)
         except (SpecError, OSError) as e:
             refused(e)
         show(res.summary)
@@ -80,6 +79,8 @@ def show(summary: object) -> None:
     rows = summary[summary["ratio"].notna()] if not summary.empty else summary
     if rows.empty:
         return
+    from rich.table import Table
+
     from laboratory.campaign.summary import ESTIMATORS
 
     per = [e for e in ESTIMATORS if f"ratio_{e}" in rows.columns]
@@ -98,4 +99,4 @@ def show(summary: object) -> None:
                   _g(r["max_abs_z"]), *(_g(r[f"ratio_{e}"]) + (
                       "" if r[f"inside_{e}"] in (True, None) else " [red]outside[/red]")
                       for e in per))
-    console.print(t)
+    real_console().print(t)

@@ -1,6 +1,5 @@
 """The CIGTF laboratory's command: `station gyrocompass-test`."""
 
-from __future__ import annotations
 
 from pathlib import Path
 from typing import Annotated
@@ -12,9 +11,9 @@ from laboratory.app import (
     ResumeOpt,
     check_seed,
     command,
-    console,
     finished,
     new_or_resumed,
+    real_console,
     reported,
     station_run,
 )
@@ -34,11 +33,11 @@ def add_commands(app: typer.Typer) -> None:
             "--analyse", help="recompute the phase analysis from the journal in this "
             "directory (e.g. after a stop), with the run's own config.toml unless "
             "--config")] = None,
-        config: Annotated[Path | None, typer.Option("--config", help="TOML with a \\[cigtf] "
+        config: Annotated[Path | None, typer.Option("--config", help="TOML with a [cigtf] "
                           "section (latitude_deg, noise and misalignment magnitudes)")] = None,
         eq27: Annotated[bool, typer.Option(
             "--eq27", help="correct each phase's theta by eq. 27 (report 001, Appendix II) "
-            "with the \\[cigtf.eq27] values: levels' b, c, gyro's D_I, D_OS, the 180 deg "
+            "with the [cigtf.eq27] values: levels' b, c, gyro's D_I, D_OS, the 180 deg "
             "null's error")] = False,
         vary: Annotated[str | None, typer.Option(
             "--vary", help="section 1's variation study: rotor-voltage=V1,V2,... or "
@@ -100,6 +99,7 @@ def add_commands(app: typer.Typer) -> None:
                 lambda params, d: run_gyrocompass_test(run_seed, d, params=params, links=links,
                                                        resume=resume is not None, limits=limits,
                                                        eq27=e27))
+        console = real_console()
         render_tables(console, res)
         for p in res["phases"]:
             console.print(f"{p['phase']:>9}: theta {p['theta_arcsec']:+.2f} +/- "
@@ -133,6 +133,7 @@ def _vary(vary: str, seed: int | None, out: Path | None, config: Path | None,
     target = target_dir(out, f"gyrocompass-vary-{name}", run_seed)
     with reported(lambda: target):
         res = run_variation(run_seed, target, name, values, params, limits, e27)
+    console = real_console()
     for s in res["settings"]:
         console.print(f"{name} {s['value']:g}: theta {s['theta_arcsec']:+.2f} +/- "
                       f"{s['sigma_arcsec']:.2f} arcsec (both phases; truth "

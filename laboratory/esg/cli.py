@@ -1,6 +1,5 @@
 """The ESG laboratory's command: `station esg-calibration`."""
 
-from __future__ import annotations
 
 from pathlib import Path
 from typing import Annotated
@@ -12,10 +11,10 @@ from laboratory.app import (
     ResumeOpt,
     check_seed,
     command,
-    console,
     fail,
     finished,
     new_or_resumed,
+    real_console,
     reported,
     station_run,
 )
@@ -38,46 +37,46 @@ def add_commands(app: typer.Typer) -> None:
                         "resuming, the run's)")] = None,
         out: OutOpt = None,
         resume: ResumeOpt = None,
-        config: Annotated[Path | None, typer.Option("--config", help="TOML with an \\[esg] "
-                          "section (site, rotor, \\[esg.pattern], \\[esg.signal])")] = None,
+        config: Annotated[Path | None, typer.Option("--config", help="TOML with an [esg] "
+                          "section (site, rotor, [esg.pattern], [esg.signal])")] = None,
         links: Annotated[Path | None, typer.Option("--links", help="run against the rack "
                          "`station serve --station esg --links DIR` serves (real time)")] = None,
         order: Annotated[str | None, typer.Option("--order", help="eq. 11 polynomial order: "
                          "5..9 (the report's trials; default 7, or the config's "
-                         "\\[esg.reduction] order) or 'residuals' (each schedule's choice by "
+                         "[esg.reduction] order) or 'residuals' (each schedule's choice by "
                          "the order trials)")] = None,
         extremity: Annotated[bool | None, typer.Option(
             "--extremity-setup/--preset-processor",
             help="set the lamps, discriminator and delay up at the pattern extremity after "
-                 "spin-up (sheet ESG-DPX; default, or the config's \\[esg.procedure] "
+                 "spin-up (sheet ESG-DPX; default, or the config's [esg.procedure] "
                  "extremity_setup) or keep the processor's preset 20 us / 241 us")] = None,
         counters: Annotated[int | None, typer.Option(
             "--counters", help="the data processor's counters: 2 (the report's, pickoffs "
-            "read two at a time; default, or the config's \\[esg.procedure] counters) or 3 "
+            "read two at a time; default, or the config's [esg.procedure] counters) or 3 "
             "(the three pickoffs read at once)")] = None,
         variants: Annotated[bool | None, typer.Option(
             "--strategy-variants/--no-strategy-variants",
             help="add the strategy study's variants (pattern types, sets of lines, "
                  "pickoff arrangements) and Figure 3 to the record (default off, or the "
-                 "config's \\[esg.procedure] strategy_variants)")] = None,
+                 "config's [esg.procedure] strategy_variants)")] = None,
         adjust: Annotated[bool | None, typer.Option(
             "--adjust-alignment/--check-alignment",
             help="shim the mount and translate pickoff 1 when their coning exceeds 3 / 15 "
-                 "arcsec (default: check and stop; or the config's \\[esg.procedure] "
+                 "arcsec (default: check and stop; or the config's [esg.procedure] "
                  "adjust_alignment)")] = None,
         remount: Annotated[bool | None, typer.Option(
             "--remount-alignment/--no-remount-alignment",
             help="before step 1, remount the case with mirror 2 along the spindle and "
                  "align pickoff 2 by coning, then mount it back; after step 3 measure "
                  "pickoff 3's tilt towards mirror 1 and translate it out (implies "
-                 "--adjust-alignment; default off, or the config's \\[esg.procedure] "
+                 "--adjust-alignment; default off, or the config's [esg.procedure] "
                  "remount_alignment)")] = None,
         mirror2: Annotated[bool | None, typer.Option(
             "--pickoff3-mirror2/--no-pickoff3-mirror2",
             help="with the remount, also measure pickoff 3's tilt towards mirror 2 in a "
                  "second remount after step 3 and translate both tilts out (about 3 h more; "
                  "implies --remount-alignment; default off, or the config's "
-                 "\\[esg.procedure] pickoff3_mirror2)")] = None,
+                 "[esg.procedure] pickoff3_mirror2)")] = None,
         operator: OperatorOpt = None,
     ) -> None:
         """The strapdown ESG pattern calibration and readout study (report 004)."""
@@ -141,9 +140,9 @@ def add_commands(app: typer.Typer) -> None:
                                                       resume=resume is not None, limits=limits,
                                                       order=run_order, plan=plan,
                                                       variants_points=points))
-        render_tables(console, res)
+        render_tables(real_console(), res)
         if "served" in res:
-            console.print(f"served rack (session {res['served']['session']}): "
+            real_console().print(f"served rack (session {res['served']['session']}): "
                           f"{res['served']['note']} (pickoff-1 coning only: the true colatitudes "
                           "depend on the served rack's path and are left out)", markup=False)
         finished(res, target, ".1f")

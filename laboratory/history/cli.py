@@ -6,7 +6,6 @@ calibrations and the scatter across days, writes trend.png, and exits 1 when any
 flagged (as ``station compare`` does on differences).
 """
 
-from __future__ import annotations
 
 import datetime as dt
 from pathlib import Path
@@ -31,7 +30,7 @@ def _url(db: str | None) -> str | None:
     return db if "://" in db else sqlite_url(Path(db))
 
 
-def _write_page(path: Path, ts: list[Trend], unit: str, level: float, url: str | None,
+def _write_page(path: Path, ts: list["Trend"], unit: str, level: float, url: str | None,
                 since: str | None) -> None:
     """`--html FILE`: the unit's history as the report's section, on a page of its own."""
     from sqlalchemy.engine import make_url
@@ -55,8 +54,7 @@ def _write_page(path: Path, ts: list[Trend], unit: str, level: float, url: str |
 
 def add_commands(app: typer.Typer) -> None:
     """Register `history` and `trend` on the station's command line."""
-    from laboratory.app import command, console, fail
-    from laboratory.tables import Column, print_fitted
+    from laboratory.app import command, fail, real_console
 
     @command(app, "history")
     def history(
@@ -86,10 +84,12 @@ def add_commands(app: typer.Typer) -> None:
                      for r in runs]
         if not cells:
             fail(f"history: no runs of unit {unit} in the history")
+        from laboratory.tables import Column, print_fitted
+
         cols = [Column(c, right=c in ("seed", "constants"))
                 for c in ("date", "UTC", "lab", "command", "status", "verdict", "seed",
                           "constants", "record")]
-        print_fitted(console, f"Runs of {unit}", cols, cells)
+        print_fitted(real_console(), f"Runs of {unit}", cols, cells)
 
     @command(app, "trend")
     def trend(
@@ -124,13 +124,15 @@ def add_commands(app: typer.Typer) -> None:
         if not ts:
             fail(f"trend: unit {unit} has no constant determined on two or more completed "
                  "runs in the history")
+        from laboratory.tables import Column, print_fitted
+
         cols = [Column(c, right=c not in ("inst", "param", "units", "flag")) for c in COLUMNS]
         cells = []
         for t in ts:
             row = trend_cells(t)
             row[-1] = " ".join(f"[red]{f}[/]" for f in flags(t)) or "-"
             cells.append(row)
-        print_fitted(console, f"Trend of {unit}: changes between consecutive calibrations "
+        print_fitted(real_console(), f"Trend of {unit}: changes between consecutive calibrations "
                      f"(flag |z| > {zl:.2f}, level {level:g})", cols, cells)
         trend_plot(ts, plot, unit, level)
         flagged = [(t, c) for t in ts for c in t.changes if c.flagged]

@@ -1,6 +1,5 @@
 """The ISU calibration laboratory's commands: `station day` and `station align`."""
 
-from __future__ import annotations
 
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated
@@ -16,11 +15,11 @@ from laboratory.app import (
     SeedOpt,
     check_seed,
     command,
-    console,
     fail,
     finished,
     load_isu_config,
     new_or_resumed,
+    real_console,
     release,
     reported,
     target_dir,
@@ -32,7 +31,7 @@ if TYPE_CHECKING:
 
 TapeLibraryOpt = Annotated[Path | None, typer.Option("--tape-library", help="directory of "
                            "parameter tapes: take the one matching the experiment's Chart I-8 "
-                           "parameters, or make one and file it there (default \\[alignment] "
+                           "parameters, or make one and file it there (default [alignment] "
                            "tape_library)")]
 
 
@@ -50,7 +49,7 @@ def _instruments(option: str, text: str | None) -> list[int] | None:
         fail(f"{option}: {text!r} is not a list of instrument numbers such as 1,2")
 
 
-def required(cfg: StationConfig, items: list[str] | None) -> StationConfig:
+def required(cfg: "StationConfig", items: list[str] | None) -> "StationConfig":
     """The config with ``--require NAME=VALUE`` over its ``[plan]`` (ValueError naming an
     unknown name or a bad value)."""
     from station.config.plan import with_required
@@ -58,7 +57,7 @@ def required(cfg: StationConfig, items: list[str] | None) -> StationConfig:
     return cfg.model_copy(update={"plan": with_required(cfg.plan, items or [])})
 
 
-def without_bubble(cfg: StationConfig, kinds: list[str] | None) -> StationConfig:
+def without_bubble(cfg: "StationConfig", kinds: list[str] | None) -> "StationConfig":
     """The config with ``--no-bubble gyro|accel`` over its ``[calibration]`` (ValueError
     naming an unknown kind)."""
     from station.config.calibration import CalibrationOptions
@@ -74,7 +73,7 @@ def without_bubble(cfg: StationConfig, kinds: list[str] | None) -> StationConfig
         update={field[k]: False for k in kinds})})
 
 
-def with_gyro_gate(cfg: StationConfig, gate: str | None) -> StationConfig:
+def with_gyro_gate(cfg: "StationConfig", gate: str | None) -> "StationConfig":
     """The config with ``--gyro-gate clock|pulses`` over its ``[calibration]`` (ValueError
     naming an unknown gate)."""
     from station.config.calibration import CalibrationOptions
@@ -118,17 +117,17 @@ def add_commands(app: typer.Typer) -> None:
                           "whose Survey Results Sheet is used instead of Chart I-2")] = None,
         tape_library: TapeLibraryOpt = None,
         require: Annotated[list[str] | None, typer.Option("--require", help="a required "
-                           "accuracy over the config's \\[plan], NAME=VALUE (gyro_scale_factor, "
+                           "accuracy over the config's [plan], NAME=VALUE (gyro_scale_factor, "
                            "gyro_drift_deg_hr, accel_scale_factor_ppm, accel_bias_micro_g, "
                            "max_gate_minutes); repeatable")] = None,
         no_bubble: Annotated[list[str] | None, typer.Option("--no-bubble", help="set these "
                              "positions 7-15 without bubble-level corrections, keeping the "
                              "survey's (II-6.1): gyro, accel; over the config's "
-                             "\\[calibration]; repeatable")] = None,
+                             "[calibration]; repeatable")] = None,
         gyro_gate: Annotated[str | None, typer.Option("--gyro-gate", help="static gyro "
                              "positions 7-15: clock (counts over a clock preset) or pulses "
                              "(the time for a preset of pulses, II-5.2); over the config's "
-                             "\\[calibration]")] = None,
+                             "[calibration]")] = None,
         quiet: QuietOpt = False,
         operator: OperatorOpt = None,
     ) -> None:
@@ -166,7 +165,7 @@ def add_commands(app: typer.Typer) -> None:
                                          start_s=start_at, quiet=quiet,
                                          prior=args.get("prior"), survey=args.get("survey"),
                                          tape_library=_path(args.get("tape_library"))),
-                                 console)
+                                 real_console())
         except typer.Exit as e:
             release(target, fresh_dir and e.exit_code == 2)
             raise
@@ -179,7 +178,7 @@ def add_commands(app: typer.Typer) -> None:
         out: Annotated[Path | None, typer.Option("--out", help="directory for the charts, "
                        "accuracy.csv and times.json (default runs/plan/<UTC>-seed<N>)")] = None,
         require: Annotated[list[str] | None, typer.Option("--require", help="a required "
-                           "accuracy over the config's \\[plan], NAME=VALUE; repeatable")
+                           "accuracy over the config's [plan], NAME=VALUE; repeatable")
                            ] = None,
         verify: Annotated[bool, typer.Option("--verify", help="measure the curves too: a "
                           "campaign of partial days per chart (II-18, II-19, II-24) beside "
@@ -212,11 +211,11 @@ def add_commands(app: typer.Typer) -> None:
                 raise ValueError("--times, --scheduler and --workers go with --verify")
         target = target_dir(out, "plan", cfg.seed)
         with reported(lambda: target):
-            run_plan(cfg, target, console)
+            run_plan(cfg, target, real_console())
             if verify:
                 from laboratory.isu.verify import run_verify
 
-                run_verify(cfg, target, console, seeds=seeds, seed=cfg.seed,
+                run_verify(cfg, target, real_console(), seeds=seeds, seed=cfg.seed,
                            times=study_times, scheduler=scheduler, workers=workers,
                            config=config.resolve() if config else None, quiet=False)
         typer.echo(f"written {target}")
@@ -236,7 +235,7 @@ def add_commands(app: typer.Typer) -> None:
                         "Chart I-8 parameters")] = None,
         tape_library: TapeLibraryOpt = None,
         k: Annotated[int | None, typer.Option("--K", help="number of intervals K of the "
-                     "level or gyrocompass record (default \\[alignment] level_K / gyro_K)")
+                     "level or gyrocompass record (default [alignment] level_K / gyro_K)")
                      ] = None,
         dt: Annotated[float | None, typer.Option("--dt", help="interval Delta t, s")] = None,
         ieu_period: Annotated[float | None, typer.Option("--ieu-period", help="IEU sample "
@@ -281,7 +280,7 @@ def add_commands(app: typer.Typer) -> None:
     ) -> None:
         """One alignment (Part III): mirror, level or gyrocompass, with the chosen estimator.
 
-        Every choice of the alignment plan defaults to the config's \\[alignment] table.
+        Every choice of the alignment plan defaults to the config's [alignment] table.
         """
         from laboratory.isu.align import AlignRequest, command_plan, load_calibration, run_align
         from laboratory.isu.align import load_tape as read_tape_file
@@ -329,11 +328,11 @@ def add_commands(app: typer.Typer) -> None:
         target = target_dir(target, "align", cfg.seed)
         try:
             with reported(lambda: target), invoked(operator):
-                res = run_align(AlignRequest(cfg, target, method, estimator, calibration=cal,
-                                             tape=tape_file,
-                                             tape_library=_path(args.get("tape_library")),
-                                             plan=plan, links=links,
-                                             resume=resume is not None, quiet=quiet), console)
+                req = AlignRequest(cfg, target, method, estimator, calibration=cal,
+                                   tape=tape_file, tape_library=_path(args.get("tape_library")),
+                                   plan=plan, links=links, resume=resume is not None,
+                                   quiet=quiet)
+                res = run_align(req, real_console())
         except typer.Exit as e:
             release(target, fresh_dir and e.exit_code == 2)
             raise

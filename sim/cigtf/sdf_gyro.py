@@ -132,6 +132,22 @@ class SdfGyro:
         warm = self.dyn.warmup_amplitude * math.exp(-s / self.dyn.warmup_tau)
         return self._shift + warm + self._walk(s)
 
+    def _walks(self, since_on: np.ndarray) -> np.ndarray:
+        """:meth:`_walk` at many times since turn-on in one evaluation (same knots)."""
+        self._walk(float(since_on.max()))  # grows the knots as far as the latest time needs
+        return np.interp(since_on / self.dyn.knot_spacing, self._knot_x, self._knots)
+
+    def currents(self, t: np.ndarray) -> np.ndarray:
+        """:meth:`current` at each of the times t (s), in one evaluation, amperes."""
+        if self.on_since is None:
+            return np.zeros_like(t)
+        t0, i_from, i_to = self._attitude
+        settling = (i_from - i_to) * np.exp(-np.maximum(t - t0, 0.0) / self.dyn.settle_tau)
+        s = t - self.on_since
+        warm = self.dyn.warmup_amplitude * np.exp(-s / self.dyn.warmup_tau)
+        extra = self._shift + warm + self._walks(s)
+        return i_to + settling + extra / self.model.s_t
+
     def current(self, t: float) -> float:
         """Torquer current at time t (s), amperes; zero when off."""
         if self.on_since is None:

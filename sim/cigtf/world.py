@@ -162,7 +162,7 @@ class CigtfWorld:
     def average_current_ma(self, t0: float, t1: float) -> float:
         """Mean torquer current over [t0, t1] (Simpson, 21 nodes) plus the DVM's noise, mA."""
         tt = np.linspace(t0, t1, 21)
-        i = np.array([self.gyro.current(float(t)) for t in tt])
+        i = self.gyro.currents(tt)
         w = np.ones(21)
         w[1:-1:2], w[2:-1:2] = 4.0, 2.0
         mean = float(w @ i) / (3.0 * 20)

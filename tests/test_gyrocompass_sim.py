@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 import pytest
 
 from procedures.cigtf.analysis import run_values
@@ -108,3 +109,20 @@ def test_walk_is_independent_of_query_order():
     b.power_on(0.0, q)
     b.current(10_000.0)
     assert a.current(5_000.0) == b.current(5_000.0)
+
+
+def test_currents_at_many_times_are_current_at_each():
+    """The DVM's Simpson nodes in one evaluation give the scalar model's current at each
+    node (settling, warm-up, turn-on shift and walk all on), including before turn-on."""
+    dyn = Dynamics(settle_tau=15.0, warmup_amplitude=deg_per_hr(0.02), warmup_tau=900.0,
+                   drift_walk=deg_per_hr(0.001) / 60.0, turn_on_sd=deg_per_hr(0.01))
+    g, h = SdfGyro(MODEL, LAT, dyn, 11), SdfGyro(MODEL, LAT, dyn, 11)
+    tt = np.linspace(3_000.0, 3_010.0, 21)
+    assert not g.currents(tt).any()  # off: zero
+    for s in (g, h):
+        s.power_on(1_000.0, q_ge(MIS, 0.0, 0.0))
+        s.moved(2_995.0, q_ge(MIS, math.pi, 0.0))
+    many = g.currents(tt)
+    one = np.array([h.current(float(t)) for t in tt])
+    np.testing.assert_allclose(many, one, rtol=1e-14, atol=0.0)
+    assert np.ptp(many) > 0.0  # the settling and the walk move it across the aperture

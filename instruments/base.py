@@ -253,8 +253,9 @@ class ByteInstrument:
     def _done(self, n: int) -> None:
         if n:
             self.replies_done += n
-            ev, self._done_event = self._done_event, self.env.event()
-            ev.succeed()
+            if self._done_event.callbacks:  # a process waits on it (processes yield at once)
+                ev, self._done_event = self._done_event, self.env.event()
+                ev.succeed()  # unwaited, it would only cost the simulation a step
 
     def clear_output(self) -> None:
         """Drop every reply not yet sent (device clear); a waiting query is cancelled."""

@@ -66,8 +66,9 @@ class World:
 
     def notify(self) -> None:
         """Wake everything planning on the world (e.g. a re-patched counter); physics unchanged."""
-        ev, self._change = self._change, self.env.event()
-        ev.succeed()
+        ev, self._change = self._change, self.env.event()  # a new one: its identity is news
+        if ev.callbacks:  # processes yield at once; unwaited, it would only cost a step
+            ev.succeed()
 
     @property
     def change_event(self) -> simpy.Event:

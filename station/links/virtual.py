@@ -94,8 +94,8 @@ def run_until(env: simpy.Environment, done: Callable[[], bool], timeout_s: float
     while not done():
         nxt = env.peek()
         if deadline is not None and nxt > deadline:
-            if deadline > env.now:
-                env.run(until=deadline)
+            if deadline > env.now:  # nothing is scheduled up to it: what env.run(until=)
+                env._now = deadline  # would do, without its stop event (issue 17)
             return done()
         if nxt == math.inf:
             raise Deadlock("waiting with nothing scheduled in the simulation")

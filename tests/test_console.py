@@ -136,6 +136,18 @@ def test_nonlinearity_plot_has_error_bars_and_q_ii(figures: list[Figure],
     _non_blank(path)
 
 
+def test_series_scale_factor_is_the_gyros_within_a_part_in_a_thousand() -> None:
+    """The nonlinearity plot's DeltaPhi from the II-7 series alone (drawn before Chart
+    II-15 has one): a drawn scale factor, bias and Q_II at the series' rates."""
+    rng = np.random.default_rng(17)
+    for _ in range(20):
+        dphi = rng.uniform(1.0, 6.0)  # arcsec/pulse
+        bias, q = rng.uniform(-20.0, 20.0), rng.uniform(-5e-9, 5e-9)  # deg/hr, hr/deg
+        w = np.array([-15.0, -10.0, -5.0, 5.0, 10.0, 15.0]) * 3600.0
+        p = (w + bias + q * w * w) / dphi
+        assert plots.series_dphi_arcsec(w, p) == pytest.approx(dphi, rel=1e-3)
+
+
 def test_results_plot_error_over_sigma_or_limits(figures: list[Figure], tmp_path: Path) -> None:
     rows = [{"instrument": "gyro1", "parameter": "R", "units": "deg/hr", "estimate": 0.51,
              "truth": 0.5, "error": 0.01, "sigma": 0.005, "limit": 0.02},

@@ -41,7 +41,6 @@ from procedures.isu.settings import collection_times
 from procedures.isu.sheets import (
     ISU_SHEETS,
     CalibrationResults,
-    scale_factor_arcsec,
 )
 from procedures.journal import Journal
 from procedures.runner import Run
@@ -227,16 +226,14 @@ def _day(req: DayRequest, conn: Connection, journal: Journal, console: Console,
                  links=None if links is None else str(links), **carried.note())
         data = measure_day(st, run, req.plan, site, cfg.isu.accels[0].f0_hz, req.only,
                            req.positions, noise=noise, survey=carried.survey)
+        plotter.draw([  # drawn during the calibration's computations (issue 17)
+            (f"{PLOTS}:nonlinearity_plot", {"points": data.nonlinearity, "noise": noise,
+                                            "path": out / "nonlinearity.png"})], more=True)
         calib = compute_calibration(run, data, req.plan, noise, site, prior=carried.prior)
-        dphi = {int(r.instrument[4:]): scale_factor_arcsec(r.estimate) for r in calib.rows
-                if r.parameter == "DeltaPhi" and r.estimate is not None}
         world = conn.coefficient_world
         rows = judge_constants(results_rows(calib, calibration_truth(world) if world else {}),
                                cfg.limits)
         plotter.draw([  # drawn during the alignments; waited for before the end note
-            (f"{PLOTS}:nonlinearity_plot", {"points": data.nonlinearity, "noise": noise,
-                                            "path": out / "nonlinearity.png",
-                                            "dphi_arcsec": dphi}),
             (f"{PLOTS}:results_plot", {"rows": rows, "path": out / "results.png"})])
         alignment = []
         if req.align and data.survey is not None:

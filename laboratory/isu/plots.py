@@ -32,11 +32,20 @@ def pyplot() -> ModuleType:
     return plt
 
 
+def series_dphi_arcsec(w_deg_hr: np.ndarray, p_dot: np.ndarray) -> float:
+    """A gyro's scale factor (arcsec/pulse) from its own II-7 series: the slope of w on P'
+    through the origin (deg/hr per pulse/s is arcsec/pulse). Enough for the counts' sigma,
+    which needs it to a part in a thousand; the bias leaves 1e-4 at the series' rates."""
+    return float(np.sum(np.abs(w_deg_hr) * np.abs(p_dot)) / np.sum(p_dot * p_dot))
+
+
 def nonlinearity_plot(points: dict[int, list[dict]], path: Path, noise: NoiseSpec | None = None,
                       dphi_arcsec: dict[int, float] | None = None) -> None:
     """Chart II-7 step 16: output frequency against total rate for each gyro with 1-sigma
     error bars, and what is left after a straight line with the fitted Q_II (w.G)^2 curve
-    (the weighted quadratic of step 17, Q_II = a2/a1 in the legend)."""
+    (the weighted quadratic of step 17, Q_II = a2/a1 in the legend). ``dphi_arcsec``: each
+    gyro's DeltaPhi for the counts' sigma; by default its series' own (the plot is drawn
+    beside the calibration's computations, before Chart II-15 has DeltaPhi)."""
     if not points:
         return
     noise = noise or NoiseSpec.model_validate({})
@@ -46,7 +55,7 @@ def nonlinearity_plot(points: dict[int, list[dict]], path: Path, noise: NoiseSpe
         w = np.array([r["w_deg_hr"] for r in rows])
         p = np.array([r["p_dot"] for r in rows])
         gates = np.abs(np.array([r["counts"] for r in rows]) / p)
-        dphi = (dphi_arcsec or {}).get(k, 3.0)
+        dphi = (dphi_arcsec or {}).get(k) or series_dphi_arcsec(w, p)
         sig_counts = np.array([speed_count_sigma(noise, g, abs(pp), dphi)
                                for g, pp in zip(gates, p, strict=True)])
         sig_p = sig_counts / gates  # pulses/s

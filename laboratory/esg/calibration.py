@@ -35,7 +35,7 @@ from laboratory.esg.study import (  # noqa: F401 - re-exported
 from laboratory.esg.truth import true_pickoff1_coning_arcsec
 from laboratory.export import write_results_csv
 from laboratory.identity import Identifying
-from laboratory.plot_worker import Job, PlotWorker
+from laboratory.plot_worker import PlotWorker
 from laboratory.record import write_json, write_sheets
 from laboratory.rundir import prepare
 from laboratory.seeded import Seeded
@@ -297,6 +297,8 @@ def run_esg_calibration(seed: int, out: Path, params: EsgParams | None = None,
             truth(res)
             run.save_sheet(f"esg_calibration_{res.name}", res.calibration)
             run.save_sheet(f"esg_readout_{res.name}", res.readout)
+        plots.draw([(f"{PLOTS}:schedule_plot", {"schedules": plain_schedules(results),
+                                                 "path": out / "esg_calibration.png"})])
         schedules = judge_schedules([schedule_summary(r) for r in results],
                                     limits or EsgLimits())
         run.save_sheet("esg_schedules", schedules)
@@ -327,7 +329,6 @@ def run_esg_calibration(seed: int, out: Path, params: EsgParams | None = None,
             "verdict": run_verdict(schedules),
             **extra,
         }
-        jobs: list[Job] = []
         if with_study:
             curve, amp, edge = plots.values(studied)[0]
             res_json["amplification"] = amp
@@ -338,9 +339,6 @@ def run_esg_calibration(seed: int, out: Path, params: EsgParams | None = None,
             res_json["strategy_variants"] = plots.values(varied)[0]
             run.save_sheet("esg_strategy_variants", res_json["strategy_variants"]["table"])
             run.save_sheet("esg_figure3", res_json["strategy_variants"]["figure3"])
-        jobs.append((f"{PLOTS}:schedule_plot", {"schedules": plain_schedules(results),
-                                                 "path": out / "esg_calibration.png"}))
-        plots.draw(jobs)  # drawn beside the rest of the record; waited for before the end
         write_sheets(out, run)
         res_json["sim_seconds"] = st.clock.now() - t_start
         res_json["wall_seconds"] = time.perf_counter() - wall0

@@ -199,6 +199,8 @@ class Multitone:
         self.w = 2.0 * math.pi * rng.uniform(f_lo, f_hi, n)
         self.amp = np.full(n, rms * math.sqrt(2.0 / n))
         self.psi = rng.uniform(0.0, 2.0 * math.pi, n)
+        self._c = self.amp / self.w  # the integral's amplitudes, and its value at 0
+        self._at_zero = float(np.sin(self.psi) @ self._c)
 
     @overload
     def value(self, t: float) -> float: ...
@@ -222,16 +224,14 @@ class Multitone:
     def integral(self, t: float | np.ndarray) -> float | np.ndarray:
         """Integral from 0 to t."""
         ta = np.asarray(t, dtype=float)
-        c = self.amp / self.w
-        v = np.sin(np.multiply.outer(ta, self.w) + self.psi) @ c - float(np.sin(self.psi) @ c)
+        v = np.sin(np.multiply.outer(ta, self.w) + self.psi) @ self._c - self._at_zero
         return v if ta.ndim else float(v)
 
     def integral_each(self, t: np.ndarray) -> np.ndarray:
         """:meth:`integral` at each of the times t, each with the bits it has asked for alone
         (a stack of one-row products: BLAS sums the rows of one big product otherwise)."""
-        c = self.amp / self.w
         s = np.sin(np.multiply.outer(np.asarray(t, dtype=float), self.w) + self.psi)
-        return np.matmul(s[:, None, :], c)[:, 0] - float(np.sin(self.psi) @ c)
+        return np.matmul(s[:, None, :], self._c)[:, 0] - self._at_zero
 
     def covariance(self, tau: float | np.ndarray) -> np.ndarray:
         """Covariance at lag(s) tau."""

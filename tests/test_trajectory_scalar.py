@@ -27,3 +27,23 @@ def test_one_instant_equals_the_array_evaluation_bit_for_bit() -> None:
         for i, x in enumerate(ts):
             p1, v1 = tr.evaluate(np.array([x]))
             assert p1[0] == p_all[i] and v1[0] == v_all[i]
+            p2, v2, _ = tr.state(float(x))
+            assert p2 == p_all[i] and v2 == v_all[i]
+
+
+
+def test_rotation_phase_at_one_instant_equals_the_array_evaluation(rack, station) -> None:
+    """The rotary axis's pulse phase (the TROT line a counter's edge search asks one
+    instant at a time) against the same instants in one array, bit for bit, through a move,
+    a turn at rate and the settle."""
+    station.table.move(1, 90.0)
+    station.table.rotate(2, -12.0)
+    station.table.wait_still()
+    station.clock.sleep(40.0)
+    table = rack.world.table
+    assert table.rotation_output
+    ts = np.linspace(0.0, station.clock.now(), 501)
+    many = table.rotation_phase(ts)
+    assert np.ptp(many) > 1.0  # it turned
+    for i, x in enumerate(ts):
+        assert float(table.rotation_phase(float(x))) == many[i]

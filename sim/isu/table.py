@@ -187,6 +187,10 @@ class FourAxisTable:
 
     def rotation_phase(self, t: float | np.ndarray) -> np.ndarray:
         """Phase (cycles) of the rotary-axis pulse output: one pulse per 1/n turn of resolver 2."""
+        if isinstance(t, float) and self.rotation_output:  # one instant (a counter's edge
+            q, _ = self.axes[2]._at(t)  # search): evaluate's bits without its arrays
+            return np.asarray((q + self.resolver_error(2, q)) * self.pulses_per_rev
+                              / (2 * math.pi))
         t = np.asarray(t, dtype=float)
         if not self.rotation_output:  # no pulse output: no trajectory to evaluate
             return np.zeros(t.shape)

@@ -56,7 +56,7 @@ class Trajectory:
 
     def state(self, t: float) -> tuple[float, float, float]:
         """(angle, rate, acceleration) at t."""
-        p, v = self.evaluate(np.array([t]))
+        p, v = self._at(t)  # evaluate's bits at one instant
         i = int(np.searchsorted(self._ts, t, side="right") - 1)
         s = self.segments[i]
         if s.kind == POLY:
@@ -64,7 +64,7 @@ class Trajectory:
         else:
             dt = t - s.ts
             acc = s.d * (dt / s.tau - 1.0) / s.tau**2 * math.exp(-dt / s.tau)
-        return float(p[0]), float(v[0]), acc
+        return p, v, acc
 
     def evaluate(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         t = np.asarray(t, dtype=float)

@@ -198,10 +198,10 @@ class ElectricField:
         q = rng.normal(0.0, 1.0, (3, 3))
         self.q = 0.5 * (q + q.T)
         self.a = float(rng.normal(0.0, 1.0))
+        self._qt = tuple(tuple(float(x) for x in row) for row in self.q)  # floats: no numpy
         pts = self._fibonacci(400)
         rms = math.sqrt(np.mean([sum(x * x for x in self._raw(tuple(p))) for p in pts]))
         self.scale = rate / rms if rms > 0 else 0.0
-        self._qt = tuple(tuple(float(x) for x in row) for row in self.q)
 
     @staticmethod
     def _fibonacci(n: int) -> np.ndarray:
@@ -212,9 +212,11 @@ class ElectricField:
         return np.column_stack([r * np.cos(ph), r * np.sin(ph), z])
 
     def _raw(self, s: Vec) -> Vec:
-        q = self.q
-        grad = tuple(2.0 * (q[i][0] * s[0] + q[i][1] * s[1] + q[i][2] * s[2])
-                     + 4.0 * self.a * s[i] ** 3 for i in range(3))
+        (q0, q1, q2), a4 = self._qt, 4.0 * self.a  # written out per axis, floats: no
+        # generator and no numpy scalar per call
+        grad = (2.0 * (q0[0] * s[0] + q0[1] * s[1] + q0[2] * s[2]) + a4 * s[0] ** 3,
+                2.0 * (q1[0] * s[0] + q1[1] * s[1] + q1[2] * s[2]) + a4 * s[1] ** 3,
+                2.0 * (q2[0] * s[0] + q2[1] * s[1] + q2[2] * s[2]) + a4 * s[2] ** 3)
         return _cross(s, grad)
 
     def drift(self, s: Vec) -> Vec:
@@ -289,16 +291,21 @@ class Rotor:
         w = (self.omega[0], self.omega[1], self.omega[2] - k)
         d = _cross(s, w)
         if self.field.scale:
-            sc = tuple(r[0][i] * s[0] + r[1][i] * s[1] + r[2][i] * s[2] for i in range(3))
+            r0, r1, r2 = r  # the products written out per axis (the same order of terms)
+            sc = (r0[0] * s[0] + r1[0] * s[1] + r2[0] * s[2],
+                  r0[1] * s[0] + r1[1] * s[1] + r2[1] * s[2],
+                  r0[2] * s[0] + r1[2] * s[1] + r2[2] * s[2])
             e = self.field.drift(sc)
             g = self.spec.spin_rps / f  # a fixed torque: drift inversely as the speed
-            d = tuple(d[i] + g * (r[i][0] * e[0] + r[i][1] * e[1] + r[i][2] * e[2])
-                      for i in range(3))
+            d = (d[0] + g * (r0[0] * e[0] + r0[1] * e[1] + r0[2] * e[2]),
+                 d[1] + g * (r1[0] * e[0] + r1[1] * e[1] + r1[2] * e[2]),
+                 d[2] + g * (r2[0] * e[0] + r2[1] * e[1] + r2[2] * e[2]))
         g = (1.0 / self.spec.damping_tau_s if damp else 0.0) + drive / f
         if g:
             c1 = (r[0][0], r[1][0], r[2][0])
             dot = c1[0] * s[0] + c1[1] * s[1] + c1[2] * s[2]
-            d = tuple(d[i] + g * (c1[i] - dot * s[i]) for i in range(3))
+            d = (d[0] + g * (c1[0] - dot * s[0]), d[1] + g * (c1[1] - dot * s[1]),
+                 d[2] + g * (c1[2] - dot * s[2]))
         return d
 
     def _step(self, t0: float, s0: np.ndarray, t1: float) -> np.ndarray:
@@ -319,7 +326,10 @@ class Rotor:
         k2 = self._deriv(mid, add(s, k1, 0.5 * h), r, damp, drive)
         k3 = self._deriv(mid, add(s, k2, 0.5 * h), r, damp, drive)
         k4 = self._deriv(t1, add(s, k3, h), r, damp, drive)
-        out = [s[i] + h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]) for i in range(3)]
+        h6 = h / 6.0
+        out = [s[0] + h6 * (k1[0] + 2.0 * k2[0] + 2.0 * k3[0] + k4[0]),
+               s[1] + h6 * (k1[1] + 2.0 * k2[1] + 2.0 * k3[1] + k4[1]),
+               s[2] + h6 * (k1[2] + 2.0 * k2[2] + 2.0 * k3[2] + k4[2])]
         return _unit(out)
 
     def _advance(self, t: float) -> None:

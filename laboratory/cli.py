@@ -289,6 +289,9 @@ def main() -> None:
     try:
         rc = app(standalone_mode=False)
     except usage_error as e:
+        if type(e).__name__ == "NoArgsIsHelpError":  # a group without its command: the help
+            typer.echo(e.format_message())  # type: ignore[attr-defined]
+            sys.exit(2)
         msg = one_line(e.format_message()) if e.format_message() else ""  # type: ignore[attr-defined]
         if msg:  # (empty: no arguments, the help was shown)
             ctx = getattr(e, "ctx", None)

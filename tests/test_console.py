@@ -85,6 +85,19 @@ def test_help_texts_keep_their_brackets(command: str, words: tuple[str, ...]) ->
         assert "\\" + w not in p.stdout  # no markup escape left in plain help
 
 
+@pytest.mark.parametrize(("args", "first"), [
+    ((), "Usage: python -m laboratory.cli [OPTIONS] COMMAND"),
+    (("regress",), "Usage: python -m laboratory.cli regress [OPTIONS] COMMAND"),
+])
+def test_a_group_without_its_command_shows_its_help(args: tuple[str, ...], first: str) -> None:
+    """`station` or `station regress` alone: the group's help on stdout (exit 2, as click
+    has it), not an error line."""
+    p = station(*args)
+    assert p.returncode == 2
+    assert p.stdout.startswith(first) and "Commands:" in p.stdout
+    assert p.stderr == ""
+
+
 @pytest.fixture
 def figures(monkeypatch: pytest.MonkeyPatch) -> list[Figure]:
     """The figures the plot functions close (kept to read their texts back)."""

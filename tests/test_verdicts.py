@@ -1,6 +1,7 @@
 """Limits and verdicts (issue 15): every result row judged against its [limits] entry, the
 run's outcome, exit 3 with one line for a failed verdict, the default limits passing the
-laboratories as configured (seeds drawn at random, named in any failure), "NO LIMIT" where
+CIGTF as configured and judging the ESG by the report's readout goal (seeds drawn at random,
+named in any failure), "NO LIMIT" where
 no limit is set, and bad [limits] entries refused naming the field."""
 
 from __future__ import annotations
@@ -122,7 +123,14 @@ def test_default_limits_pass_the_default_day(tmp_path: Path, seed: int) -> None:
     assert {a["verdict"] for a in res["alignment"]} == {"PASS"}
 
 
-def test_default_limits_pass_cigtf_and_esg_at_random_seeds(tmp_path: Path) -> None:
+def test_default_limits_pass_cigtf_and_judge_esg_by_the_goal_at_random_seeds(
+        tmp_path: Path) -> None:
+    """The CIGTF passes its default limits at any seed. The ESG's default limit is the
+    report's 15 arcsec readout goal, which some random laboratories miss (2026-11-24: 5 of
+    80 seeds, and seed 242942, true readout rms 17.3 and 18.5 arcsec): its verdict follows
+    the measured rms, and a FAIL is never a false alarm on a laboratory well inside the
+    goal (true readout rms above 10 arcsec; over 160 schedules the measured rms exceeded
+    the true by at most 2.3 arcsec)."""
     seed = SEEDS.randrange(1, 10**6)
     res = run_gyrocompass_test(seed, tmp_path / "cigtf", limits=load_cigtf_limits(None))
     assert res["verdict"] == {"outcome": "PASS", "failed": []}, seed
@@ -135,7 +143,10 @@ def test_default_limits_pass_cigtf_and_esg_at_random_seeds(tmp_path: Path) -> No
     for s in res["schedules"]:
         assert s["limit_text"] == "readout rms <= 15 arcsec"
         assert s["verdict"] == ("PASS" if s["readout_rms_arcsec"] <= 15.0 else "FAIL"), seed
-    assert res["verdict"]["outcome"] == "PASS", seed
+        if s["verdict"] == "FAIL":
+            assert s["true_readout_rms_arcsec"] > 10.0, (seed, s)
+    failed = [s for s in res["schedules"] if s["verdict"] == "FAIL"]
+    assert res["verdict"]["outcome"] == ("FAIL" if failed else "PASS"), seed
 
 
 def test_a_tight_cigtf_limit_fails_and_exits_3(tmp_path: Path) -> None:

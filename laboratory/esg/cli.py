@@ -140,9 +140,10 @@ def add_commands(app: typer.Typer) -> None:
                                                       resume=resume is not None, limits=limits,
                                                       order=run_order, plan=plan,
                                                       variants_points=points))
-        render_tables(real_console(), res)
+        console = real_console()
+        render_tables(console, res)
         if "served" in res:
-            real_console().print(f"served rack (session {res['served']['session']}): "
+            console.print(f"served rack (session {res['served']['session']}): "
                           f"{res['served']['note']} (pickoff-1 coning only: the true colatitudes "
                           "depend on the served rack's path and are left out)", markup=False)
         finished(res, target, ".1f")

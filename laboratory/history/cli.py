@@ -132,8 +132,8 @@ def add_commands(app: typer.Typer) -> None:
             row = trend_cells(t)
             row[-1] = " ".join(f"[red]{f}[/]" for f in flags(t)) or "-"
             cells.append(row)
-        print_fitted(real_console(), f"Trend of {unit}: changes between consecutive calibrations "
-                     f"(flag |z| > {zl:.2f}, level {level:g})", cols, cells)
+        print_fitted(real_console(), f"Trend of {unit}: changes between consecutive "
+                     f"calibrations (flag |z| > {zl:.2f}, level {level:g})", cols, cells)
         trend_plot(ts, plot, unit, level)
         flagged = [(t, c) for t in ts for c in t.changes if c.flagged]
         for t, c in flagged:

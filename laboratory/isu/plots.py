@@ -39,13 +39,13 @@ def series_dphi_arcsec(w_deg_hr: np.ndarray, p_dot: np.ndarray) -> float:
     return float(np.sum(np.abs(w_deg_hr) * np.abs(p_dot)) / np.sum(p_dot * p_dot))
 
 
-def nonlinearity_plot(points: dict[int, list[dict]], path: Path, noise: NoiseSpec | None = None,
-                      dphi_arcsec: dict[int, float] | None = None) -> None:
+def nonlinearity_plot(points: dict[int, list[dict]], path: Path,
+                      noise: NoiseSpec | None = None) -> None:
     """Chart II-7 step 16: output frequency against total rate for each gyro with 1-sigma
     error bars, and what is left after a straight line with the fitted Q_II (w.G)^2 curve
-    (the weighted quadratic of step 17, Q_II = a2/a1 in the legend). ``dphi_arcsec``: each
-    gyro's DeltaPhi for the counts' sigma; by default its series' own (the plot is drawn
-    beside the calibration's computations, before Chart II-15 has DeltaPhi)."""
+    (the weighted quadratic of step 17, Q_II = a2/a1 in the legend). The counts' sigma
+    takes each gyro's DeltaPhi from its own series: the plot is drawn beside the
+    calibration's computations, before Chart II-15 has DeltaPhi."""
     if not points:
         return
     noise = noise or NoiseSpec.model_validate({})
@@ -55,7 +55,7 @@ def nonlinearity_plot(points: dict[int, list[dict]], path: Path, noise: NoiseSpe
         w = np.array([r["w_deg_hr"] for r in rows])
         p = np.array([r["p_dot"] for r in rows])
         gates = np.abs(np.array([r["counts"] for r in rows]) / p)
-        dphi = (dphi_arcsec or {}).get(k) or series_dphi_arcsec(w, p)
+        dphi = series_dphi_arcsec(w, p)
         sig_counts = np.array([speed_count_sigma(noise, g, abs(pp), dphi)
                                for g, pp in zip(gates, p, strict=True)])
         sig_p = sig_counts / gates  # pulses/s

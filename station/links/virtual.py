@@ -89,14 +89,13 @@ def resolve_can(channel: str, rack_id: str | None) -> tuple[CanEndpoint, simpy.E
 
 def run_until(env: simpy.Environment, done: Callable[[], bool], timeout_s: float | None) -> bool:
     """Step ``env`` until ``done()`` or until ``timeout_s`` simulated seconds have passed."""
-    deadline = None if timeout_s is None else env.now + ticks(timeout_s)
+    deadline = None if timeout_s is None else int(env.now) + ticks(timeout_s)
     still, last = 0, env.now
     while not done():
         nxt = env.peek()
         if deadline is not None and nxt > deadline:
-            if deadline > env.now:  # nothing is scheduled up to it: what env.run(until=)
-                env._now = deadline  # would do, without its stop event (issue 17)
-            return done()
+            advance_to(env, deadline)  # nothing is scheduled up to it: env.run(until=)
+            return done()  # without its stop event (issue 17)
         if nxt == math.inf:
             raise Deadlock("waiting with nothing scheduled in the simulation")
         env.step()

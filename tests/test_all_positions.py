@@ -22,7 +22,9 @@ from laboratory.calfile import load
 from procedures.isu.alignment.preprocess import Constants
 from procedures.isu.calibration import CalibrationData, NoiseSpec, calibrate
 from procedures.isu.calibration.all_positions import (
+    LINEAR,
     cramer_rao,
+    design,
     fit,
     internal_from_rows,
     rows_from_internal,
@@ -148,6 +150,30 @@ def test_internal_parameters_round_trip(labs: list[dict]) -> None:
         back = rows_from_internal(internal_from_rows(truth, inst), inst)
         for name, v in back.items():
             assert math.isclose(v, truth[(inst, name)], rel_tol=1e-12, abs_tol=1e-18), name
+
+
+def test_linear_columns_match_central_differences(labs: list[dict]) -> None:
+    """The Jacobian's exact columns (the drift coefficients, D1 D0, D1 D2, D1 D3, issue 17)
+    agree with central differences of the model at each lab's estimate, II-7 rows too."""
+    from procedures.isu.calibration.all_positions import speed_points
+
+    checked = 0
+    for lab in labs:
+        d = design(lab["data"], lab["est"],
+                   speeds=speed_points(lab["series"], lab["data"].constants))
+        theta = lab["fit"].theta
+        cols = d.linear_columns(theta)
+        assert sorted(cols) == [j for j, (_, n) in enumerate(d.params) if n in LINEAR]
+        for j, col in cols.items():
+            h = 1e-3 * max(abs(theta[j]), 1e-6)
+            tp, tm = theta.copy(), theta.copy()
+            tp[j] += h
+            tm[j] -= h
+            num = (d.model(tp) - d.model(tm)) / (2 * h)
+            scale = max(float(np.max(np.abs(num))), 1e-300)
+            assert np.max(np.abs(col - num)) <= 1e-6 * scale, d.params[j]
+            checked += 1
+    assert checked >= 6 * 40
 
 
 @pytest.mark.parametrize("estimator", ["closed-form", "all-positions"])

@@ -31,7 +31,7 @@ from procedures.isu.calibration.inputs import ExtraAccelPosition
 from procedures.isu.calibration.neglected import g_terms
 from procedures.isu.carry_forward import PriorSheet
 from procedures.isu.day import DayData
-from procedures.isu.j_term import JNoise, j_estimate, j_pairs
+from procedures.isu.j_term import JNoise, gate_covariance, j_estimate, j_pairs
 from procedures.isu.nonlinearity import NonlinearityFit, fit_nonlinearity, q_is_from_fit
 from procedures.isu.plan import DayPlan
 from procedures.isu.plausibility import Implausible
@@ -130,8 +130,7 @@ def _tilt_seen_turning_arcsec(noise: NoiseSpec, gate_s: float, rate_deg_s: float
     does not average out over whole turns."""
     t = np.linspace(0.0, gate_s, steps + 1)
     ee, _, _ = noise.tilt_covariance(np.subtract.outer(t, t))
-    d = np.diff(np.eye(steps + 1), axis=0)  # the tilt change over each step
-    cov = d @ ee @ d.T
+    cov = np.diff(np.diff(ee, axis=0), axis=1)  # of the tilt changes over the steps
     w = math.radians(rate_deg_s) * 0.5 * (t[1:] + t[:-1])
     c, s = np.cos(w), np.sin(w)
     var = 0.5 * float(c @ cov @ c + s @ cov @ s)
@@ -251,10 +250,10 @@ def special_experiments(rows: list[ResultRow], data: DayData, plan: DayPlan, sit
             gate = recs[0]["gate_s"]
             dphi_as = scale_factor_arcsec(rdp.estimate)
             jn = _j_noise(rows, k, m, noise, gate, dphi_as, sv.g)
-            j, sj = j_estimate(recs, c, dphi_as, g_r, site.omega_sin_lambda,
-                               plan.j_accel_deg_s2, jn)
-            zs = j_pairs(recs, c, dphi_as, g_r, site.omega_sin_lambda,
-                         plan.j_accel_deg_s2, jn)
+            args = (c, dphi_as, g_r, site.omega_sin_lambda, plan.j_accel_deg_s2, jn)
+            cov = gate_covariance(recs[: len(recs) // 2 * 2], *args)  # one for both
+            j, sj = j_estimate(recs, *args, cov=cov)
+            zs = j_pairs(recs, *args, cov=cov)
             checks[f"II-10 gyro{k}"] = zs
             for i, z in enumerate(zs):
                 if abs(z) > K_RESULT:

@@ -81,6 +81,7 @@ def profile(phi0_deg: float, w0: float, w1: float, acc: float, t_cmd: float) -> 
 
 
 GAUSS_NODES = 32  # per smooth piece: sin and cos of a phase sweeping a few radians, to 1e-15
+_GAUSS = np.polynomial.legendre.leggauss(GAUSS_NODES)
 
 
 def gate_integrals(phi: Callable[[float], float], t0: float,
@@ -88,7 +89,7 @@ def gate_integrals(phi: Callable[[float], float], t0: float,
     """theta (deg), int sin(phi2) dt, int cos(phi2) dt over [t0, t1] (times relative):
     Gauss-Legendre on each smooth piece of the profile (split at its ``breaks``)."""
     cuts = [t0, *sorted(b for b in getattr(phi, "breaks", ()) if t0 < b < t1), t1]
-    x, w = np.polynomial.legendre.leggauss(GAUSS_NODES)
+    x, w = _GAUSS
     s = c = 0.0
     for lo, hi in zip(cuts[:-1], cuts[1:], strict=True):
         half, mid = 0.5 * (hi - lo), 0.5 * (hi + lo)
@@ -303,20 +304,13 @@ def gate_covariance(records: list[dict], counter: int, dphi_arcsec: float, g_r: 
     return cov
 
 
-def j_estimate(records: list[dict], counter: int, dphi_arcsec: float, g_r: np.ndarray,
-               omega_sin_lambda: float, accel: float, noise: JNoise
-               ) -> tuple[float, float]:
-    """J (hours) and its sigma from the up/down gate pairs of one gyro.
-
-    g_r: the gyro's input axis in rotary-frame components (G.R1, G.R2, G.R3); the rotary
-    frame at phi2 has R2 = cos(phi2) E + sin(phi2) N, R3 = -sin(phi2) E + cos(phi2) N.
-    """
+def _pair_js(records: list[dict], counter: int, dphi_arcsec: float, g_r: np.ndarray,
+             omega_sin_lambda: float, accel: float) -> tuple[list[float], list[float]]:
+    """Each up/down pair's J (hours) and the weight w of its counts: J = w (up - down)."""
     dphi = dphi_arcsec / 3600.0  # deg per pulse
     w_sin = omega_sin_lambda / 3600.0  # deg/s
-    js = []
-    weights = np.zeros(len(records))
-    pairs = len(records) // 2
-    for i, (up, down) in enumerate(zip(records[0::2], records[1::2], strict=True)):
+    js, ws = [], []
+    for up, down in zip(records[0::2], records[1::2], strict=True):
         terms = []
         for rec in (up, down):
             prof = profile(rec["phi_start"], rec["w_start"], rec["w_end"], accel, rec["t_cmd"])
@@ -328,21 +322,49 @@ def j_estimate(records: list[dict], counter: int, dphi_arcsec: float, g_r: np.nd
             terms.append(angle - known)
         dw = up["w_end"] - up["w_start"] - (down["w_end"] - down["w_start"])  # deg/s
         js.append((terms[0] - terms[1]) / dw / 3600.0)  # deg / (deg/s) = s -> hours
-        weights[2 * i: 2 * i + 2] = np.array([1.0, -1.0]) * dphi / dw / 3600.0 / pairs
+        ws.append(dphi / dw / 3600.0)
+    return js, ws
+
+
+def j_estimate(records: list[dict], counter: int, dphi_arcsec: float, g_r: np.ndarray,
+               omega_sin_lambda: float, accel: float, noise: JNoise,
+               cov: np.ndarray | None = None) -> tuple[float, float]:
+    """J (hours) and its sigma from the up/down gate pairs of one gyro (``cov``: the gates'
+    ``gate_covariance``, computed here when not given).
+
+    g_r: the gyro's input axis in rotary-frame components (G.R1, G.R2, G.R3); the rotary
+    frame at phi2 has R2 = cos(phi2) E + sin(phi2) N, R3 = -sin(phi2) E + cos(phi2) N.
+    """
+    js, ws = _pair_js(records, counter, dphi_arcsec, g_r, omega_sin_lambda, accel)
+    pairs = len(js)
+    weights = np.zeros(len(records))
+    for i, w in enumerate(ws):
+        weights[2 * i: 2 * i + 2] = np.array([1.0, -1.0]) * w / pairs
     j = float(np.mean(js))
-    cov = gate_covariance(records[: 2 * pairs], counter, dphi_arcsec, g_r, omega_sin_lambda,
-                          accel, noise)
-    return j, math.sqrt(max(float(weights @ cov @ weights), 0.0))
+    if cov is None:
+        cov = gate_covariance(records[: 2 * pairs], counter, dphi_arcsec, g_r,
+                              omega_sin_lambda, accel, noise)
+    c = cov[: 2 * pairs, : 2 * pairs]
+    return j, math.sqrt(max(float(weights[: 2 * pairs] @ c @ weights[: 2 * pairs]), 0.0))
 
 
 def j_pairs(records: list[dict], counter: int, dphi_arcsec: float, g_r: np.ndarray,
-            omega_sin_lambda: float, accel: float, noise: JNoise) -> list[float]:
+            omega_sin_lambda: float, accel: float, noise: JNoise,
+            cov: np.ndarray | None = None) -> list[float]:
     """Each up/down pair's J against the others' mean, in units of its sigma (the pairs
-    are independent measurements of one J; a garbled count makes one pair stand out)."""
-    one = [j_estimate(records[i:i + 2], counter, dphi_arcsec, g_r, omega_sin_lambda, accel,
-                      noise) for i in range(0, len(records) - 1, 2)]
-    js = np.array([j for j, _ in one])
-    sig = float(np.sqrt(np.mean([s * s for _, s in one]))) if one else 0.0
+    are independent measurements of one J; a garbled count makes one pair stand out).
+    ``cov``: the gates' ``gate_covariance``; a pair's sigma is from its 2 x 2 block."""
+    js_, ws = _pair_js(records, counter, dphi_arcsec, g_r, omega_sin_lambda, accel)
+    if cov is None:
+        cov = gate_covariance(records[: 2 * len(js_)], counter, dphi_arcsec, g_r,
+                              omega_sin_lambda, accel, noise)
+    var = []
+    for i, w in enumerate(ws):
+        b = cov[2 * i: 2 * i + 2, 2 * i: 2 * i + 2]
+        v = np.array([w, -w])
+        var.append(max(float(v @ b @ v), 0.0))
+    js = np.array(js_)
+    sig = float(np.sqrt(np.mean(var))) if var else 0.0
     n = len(js)
     if n < 3 or not sig > 0:
         return []

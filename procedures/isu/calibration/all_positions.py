@@ -50,6 +50,7 @@ GYRO_COEFS = ("R", "B_I", "B_O", "B_S", "C_II", "C_SS", "C_IS", "C_OS", "C_IO")
 Q_TERMS = ("Q_II", "Q_IS")
 ACCEL_INTERNAL = ("P1", "P2", "P3", "b0", "b2", "b3")
 Param = tuple[str, str]  # (instrument, internal name)
+LINEAR = frozenset((*GYRO_COEFS, *Q_TERMS, "b0", "b2", "b3"))  # the model is linear in these
 MAX_ITERATIONS = 8
 
 
@@ -302,10 +303,60 @@ class Design:
             a[idx, index[("w", 0, m)]] -= (up - dn) / (2 * h)
         return a
 
+    def terms(self, key: Key, models: _Models, w: float | None) -> dict[str, float]:
+        """d(datum)/d(each internal parameter it is linear in): a gyro's drift coefficients,
+        an accelerometer's D1 D0, D1 D2, D1 D3, a supplied G/DeltaPhi component."""
+        kind, k, m = key
+        c = self.data.constants
+        if kind == "G":
+            gm = models.gyro(k)
+            if m <= 6:
+                return gm.turning_terms(FIRST_COLUMN[m], float(w or 0.0), c)
+            t = self._t_br(m)
+            return gm.static_terms(t[:, 0], t[:, 1], c)
+        if kind == "F":
+            return models.accel(k).difference_terms(self._t_br(m)[:, 0], c)
+        if kind == "X":
+            return {"b3": 1.0}
+        if kind == "P":
+            return {f"g{m}": 1.0}
+        raise ValueError(f"no model for datum {key}")
+
+    def linear_columns(self, theta: np.ndarray) -> dict[int, np.ndarray]:
+        """The Jacobian's columns of the parameters the model is linear in (``terms``),
+        exact where central differences carry rounding: index -> column."""
+        p = self.values(theta)
+        models = _Models(p)
+        tw = {m: self.red.values[("w", 0, m)] for (kind, _, m) in self.keys if kind == "w"}
+        rows = len(self.combos) + len(self.speeds)
+        cols: dict[int, np.ndarray] = {}
+        index = {par: j for j, par in enumerate(self.params) if par[1] in LINEAR}
+        n = len(self.combos)
+        c = self.data.constants
+        for i in range(rows):
+            if i >= n:
+                sp = self.speeds[i - n]
+                parts = [(f"gyro{sp.k}", 1.0, models.gyro(sp.k).turning_terms(
+                    FIRST_COLUMN[sp.position], sp.w_t_deg_s, c))]
+            else:
+                parts = [(f"{'gyro' if key[0] in ('G', 'P') else 'accel'}{key[1]}", a,
+                          self.terms(key, models, tw.get(key[2])))
+                         for key, a in self.combos[i].items()]
+            for inst, a, d in parts:
+                for name, x in d.items():
+                    j = index.get((inst, name))
+                    if j is not None:
+                        cols.setdefault(j, np.zeros(rows))[i] += a * x
+        return {j: cols.get(j, np.zeros(rows)) for j in index.values()}
+
     def jacobian(self, theta: np.ndarray) -> np.ndarray:
         out = np.zeros((len(self.combos) + len(self.speeds), len(theta)))
         rows = {inst: self.combos_of(inst) for inst in self.base}
+        for j, col in self.linear_columns(theta).items():
+            out[:, j] = col
         for j, (inst, n) in enumerate(self.params):
+            if n in LINEAR:
+                continue
             h = _step(n, theta[j])
             tp, tm = theta.copy(), theta.copy()
             tp[j] += h

@@ -79,19 +79,38 @@ class GyroModel:
             + c["Q_IS"] * wgs
         )
 
-    def static_rate(self, u: np.ndarray, n: np.ndarray, c: Constants) -> float:
-        """Pulses/s at rest with up u and north n (body components)."""
+    def _static_args(self, u: np.ndarray, n: np.ndarray, c: Constants) -> tuple[float, ...]:
         a = c.g * u
         w = c.w_cos_lambda * u + c.w_sin_lambda * n
         ag, ao, as_ = a @ self.G, a @ self.O, a @ self.S
         wg, ws = w @ self.G, w @ self.S
-        r = self._deg_hr(
-            ag, ao, as_, wg, ws, ag * ag, as_ * as_, ag * as_, ao * as_, ag * ao, wg * wg, wg * ws
-        )
-        return r / 3600.0 / self.dphi_deg
+        return (ag, ao, as_, wg, ws, ag * ag, as_ * as_, ag * as_, ao * as_, ag * ao, wg * wg,
+                wg * ws)
+
+    def static_rate(self, u: np.ndarray, n: np.ndarray, c: Constants) -> float:
+        """Pulses/s at rest with up u and north n (body components)."""
+        return self._deg_hr(*self._static_args(u, n, c)) / 3600.0 / self.dphi_deg
+
+    def static_terms(self, u: np.ndarray, n: np.ndarray, c: Constants) -> dict[str, float]:
+        """d(static_rate)/d(each of GYRO_TERMS): the model is linear in them."""
+        return self._terms(self._static_args(u, n, c))
 
     def turning_rate(self, r: np.ndarray, w_t_deg_s: float, c: Constants) -> float:
         """Pulses/s averaged over whole turns of the table about r (body), w_T in deg/s."""
+        return self._deg_hr(*self._turning_args(r, w_t_deg_s, c)) / 3600.0 / self.dphi_deg
+
+    def turning_terms(self, r: np.ndarray, w_t_deg_s: float, c: Constants) -> dict[str, float]:
+        """d(turning_rate)/d(each of GYRO_TERMS): the model is linear in them."""
+        return self._terms(self._turning_args(r, w_t_deg_s, c))
+
+    def _terms(self, args: tuple[float, ...]) -> dict[str, float]:
+        ag, ao, as_, _, _, agg, ass, ags, aos, ago, wgg, wgs = args
+        scale = 1.0 / 3600.0 / self.dphi_deg
+        return {t: x * scale for t, x in zip(GYRO_TERMS, (1.0, ag, ao, as_, agg, ass, ags,
+                                                          aos, ago, wgg, wgs), strict=True)}
+
+    def _turning_args(self, r: np.ndarray, w_t_deg_s: float, c: Constants
+                      ) -> tuple[float, ...]:
         wr = 3600.0 * w_t_deg_s - c.w_sin_lambda
         g2h, w2h = 0.5 * c.g**2, 0.5 * c.w_cos_lambda**2
         G, O, S = self.G, self.O, self.S  # noqa: E741
@@ -100,7 +119,7 @@ class GyroModel:
         def aa(x: np.ndarray, y: np.ndarray, xr: float, yr: float) -> float:
             return g2h * (x @ y - xr * yr)
 
-        r_deg_hr = self._deg_hr(
+        return (
             0.0,
             0.0,
             0.0,
@@ -114,7 +133,6 @@ class GyroModel:
             wr * wr * gr * gr + w2h * (1.0 - gr * gr),
             wr * wr * gr * sr + w2h * (G @ S - gr * sr),
         )
-        return r_deg_hr / 3600.0 / self.dphi_deg
 
 
 @dataclass
@@ -142,3 +160,8 @@ class AccelModel:
         """f2 - f1, pulses/s, with up u (body components)."""
         x = c.g * (self.A @ u)
         return self.D1 * (x + self.D0 + self.D2 * x * x + self.D3 * x**3)
+
+    def difference_terms(self, u: np.ndarray, c: Constants) -> dict[str, float]:
+        """d(difference)/d(D1 D0, D1 D2, D1 D3): linear in those products."""
+        x = c.g * (self.A @ u)
+        return {"b0": 1.0, "b2": x * x, "b3": x**3}

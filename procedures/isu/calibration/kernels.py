@@ -116,6 +116,9 @@ def cosine_gram(fs: list[Functional], freqs: np.ndarray, weights: np.ndarray) ->
     return np.real((lam * np.asarray(weights)[None, :]) @ lam.conj().T)
 
 
+_GAUSS8 = np.polynomial.legendre.leggauss(8)  # the panel rule's nodes, computed once
+
+
 def band_nodes(f_lo: float, f_hi: float, span_s: float) -> tuple[np.ndarray, np.ndarray]:
     """Gauss-Legendre nodes and weights for a uniform density over [f_lo, f_hi].
 
@@ -123,7 +126,7 @@ def band_nodes(f_lo: float, f_hi: float, span_s: float) -> tuple[np.ndarray, np.
     time separations up to ``span_s``; the weights sum to 1.
     """
     panels = int(min(5000, 4 + math.ceil(2.0 * (f_hi - f_lo) * max(span_s, 1.0))))
-    x, wt = np.polynomial.legendre.leggauss(8)
+    x, wt = _GAUSS8
     edges = np.linspace(f_lo, f_hi, panels + 1)
     mid, half = 0.5 * (edges[1:] + edges[:-1]), 0.5 * np.diff(edges)
     f = (mid[:, None] + half[:, None] * x[None, :]).ravel()

@@ -28,6 +28,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass, field
+from typing import cast
 
 import numpy as np
 
@@ -227,21 +228,34 @@ class Design:
     def datum(self, key: Key, p: Mapping[str, dict[str, float]], w: float | None,
               models: _Models | None = None) -> float:
         """Forward model of one reduced datum (``w``: the measured table rate, 1-6)."""
+        models = models if models is not None else _Models(p)
+        return cast(float, self._at(key, models, w, terms=False))
+
+    def terms(self, key: Key, models: _Models, w: float | None) -> dict[str, float]:
+        """d(datum)/d(each internal parameter it is linear in): a gyro's drift coefficients,
+        an accelerometer's D1 D0, D1 D2, D1 D3, a supplied G/DeltaPhi component."""
+        return cast(dict[str, float], self._at(key, models, w, terms=True))
+
+    def _at(self, key: Key, models: _Models, w: float | None, terms: bool
+            ) -> float | dict[str, float]:
+        """A datum's model value, or (``terms``) its exact linear derivatives."""
         kind, k, m = key
         c = self.data.constants
-        models = models if models is not None else _Models(p)
         if kind == "G":
             gm = models.gyro(k)
             if m <= 6:
-                return gm.turning_rate(FIRST_COLUMN[m], float(w or 0.0), c)
+                turning = gm.turning_terms if terms else gm.turning_rate
+                return turning(FIRST_COLUMN[m], float(w or 0.0), c)
             t = self._t_br(m)
-            return gm.static_rate(t[:, 0], t[:, 1], c)
+            static = gm.static_terms if terms else gm.static_rate
+            return static(t[:, 0], t[:, 1], c)
         if kind == "F":
-            return models.accel(k).difference(self._t_br(m)[:, 0], c)
+            am = models.accel(k)
+            return (am.difference_terms if terms else am.difference)(self._t_br(m)[:, 0], c)
         if kind == "X":
-            return p[f"accel{k}"]["b3"]
+            return {"b3": 1.0} if terms else models.p[f"accel{k}"]["b3"]
         if kind == "P":
-            return p[f"gyro{k}"][f"g{m}"]
+            return {f"g{m}": 1.0} if terms else models.p[f"gyro{k}"][f"g{m}"]
         raise ValueError(f"no model for datum {key}")
 
     def _t_br(self, m: int) -> np.ndarray:
@@ -302,25 +316,6 @@ class Design:
             dn = self.model(theta, {**rates, m: w - h}, idx)
             a[idx, index[("w", 0, m)]] -= (up - dn) / (2 * h)
         return a
-
-    def terms(self, key: Key, models: _Models, w: float | None) -> dict[str, float]:
-        """d(datum)/d(each internal parameter it is linear in): a gyro's drift coefficients,
-        an accelerometer's D1 D0, D1 D2, D1 D3, a supplied G/DeltaPhi component."""
-        kind, k, m = key
-        c = self.data.constants
-        if kind == "G":
-            gm = models.gyro(k)
-            if m <= 6:
-                return gm.turning_terms(FIRST_COLUMN[m], float(w or 0.0), c)
-            t = self._t_br(m)
-            return gm.static_terms(t[:, 0], t[:, 1], c)
-        if kind == "F":
-            return models.accel(k).difference_terms(self._t_br(m)[:, 0], c)
-        if kind == "X":
-            return {"b3": 1.0}
-        if kind == "P":
-            return {f"g{m}": 1.0}
-        raise ValueError(f"no model for datum {key}")
 
     def linear_columns(self, theta: np.ndarray) -> dict[int, np.ndarray]:
         """The Jacobian's columns of the parameters the model is linear in (``terms``),

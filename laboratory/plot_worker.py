@@ -17,7 +17,7 @@ import os
 import pickle
 import subprocess
 import sys
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
 from types import TracebackType
@@ -191,14 +191,18 @@ class PlotWorker:
                 self._here.add(i)
         return out
 
-    def wait(self) -> None:
-        """Every job's plot is in place once this returns."""
+    def wait(self, meanwhile: Callable[[], None] | None = None) -> None:
+        """Every job's plot is in place once this returns; ``meanwhile`` runs here while
+        the child may still be drawing (work the run needs next, e.g. the report's
+        template)."""
         p = self._proc
         if p is not None and p.stdin is not None and not p.stdin.closed:
             try:
                 p.stdin.close()  # no more batches
             except OSError:
                 pass
+        if meanwhile is not None:
+            meanwhile()
         self._read_answers(len(self._batches) - 1)
         self._end_child()
         again = []

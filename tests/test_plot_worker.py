@@ -81,3 +81,14 @@ def test_a_plot_beside_a_record_file_of_its_stem_leaves_it_alone(tmp_path: Path)
     assert (tmp_path / ".results.png.plot-1.png").exists()
     assert sorted(p.name for p in tmp_path.iterdir() if not p.name.startswith(".")) == [
         "results.json", "results.png"]
+
+
+def test_meanwhile_runs_once_before_the_plots_are_in_place(tmp_path: Path) -> None:
+    """wait(meanwhile=...) runs the caller's next work while the child may still draw
+    (a run prepares its report's template there): once, before any plot is installed."""
+    seen: list[bool] = []
+    with PlotWorker("laboratory.isu.plots") as w:
+        w.draw([(RESULTS, {"rows": ROWS, "path": tmp_path / "r.png"})])
+        w.wait(meanwhile=lambda: seen.append((tmp_path / "r.png").exists()))
+    assert seen == [False]
+    assert (tmp_path / "r.png").stat().st_size > 1000

@@ -224,3 +224,22 @@ def test_a_stopped_run_has_its_report(tmp_path: Path) -> None:
     assert "stopped: " in html and "dvm" in html
     assert "results: no results.json" in html
     assert 'data-sheet="check_4.0"' in html and 'data-sheet="check_4.3-R01"' in html
+
+
+def test_prepare_report_leaves_a_broken_template_to_report_after(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """prepare_report (run while the plots are drawn) raises nothing; the report that cannot
+    be rendered is report_after's warning, as without it, and no report.html is left."""
+    from laboratory.report import html as report_html
+
+    def broken() -> None:
+        raise OSError("templates unreadable")
+
+    monkeypatch.setattr(report_html, "_environment", broken)
+    report_html.prepare_report()
+    (tmp_path / "journal.jsonl").write_text("", encoding="utf-8")
+    report_html.report_after(tmp_path)
+    err = capsys.readouterr().err
+    assert "warning" in err and "templates unreadable" in err
+    assert not (tmp_path / "report.html").exists()

@@ -23,6 +23,7 @@ from laboratory.export import write_results_csv
 from laboratory.identity import Identifying
 from laboratory.plot_worker import PlotWorker
 from laboratory.record import write_json, write_sheets
+from laboratory.report import prepare_report
 from laboratory.rundir import JOURNAL, RunDirError, prepare
 from laboratory.seeded import Seeded
 from laboratory.verdicts import judge_phases, run_verdict, truth_check
@@ -332,6 +333,9 @@ def run_gyrocompass_test(seed: int, out: Path, params: CigtfParams | None = None
         truth = world.truth_theta_arcsec() if world is not None else None
         budget = world.truth_budget() if world is not None else None
         judge_phases(phases, truth, limits or CigtfLimits())
+        plots.draw([(f"{PLOTS}:theta_plot", {  # drawn while the record is written
+            "res": {"runs": runs, "phases": phases, "truth": {"theta_arcsec": truth}},
+            "path": out / "gyrocompass.png"})])
         budget_table, corrected = budget_record(budget, lab27, phases)
         setup = setup_record(data.setup, world)
         if setup is not None:
@@ -359,9 +363,8 @@ def run_gyrocompass_test(seed: int, out: Path, params: CigtfParams | None = None
             "wall_seconds": time.perf_counter() - wall0,
             **extra,
         }
-        plots.draw([(f"{PLOTS}:theta_plot", {"res": res, "path": out / "gyrocompass.png"})])
         write_json(out / "gyrocompass.json", res)
         write_results_csv(out, res["runs"], "gyrocompass.csv")
-        plots.wait()
+        plots.wait(meanwhile=prepare_report)  # the report's template while it draws
         run.note(event="end", sim_seconds=st.clock.now() - t_start)
         return res

@@ -37,6 +37,7 @@ from laboratory.export import write_results_csv
 from laboratory.identity import Identifying
 from laboratory.plot_worker import PlotWorker
 from laboratory.record import write_json, write_sheets
+from laboratory.report import prepare_report
 from laboratory.rundir import prepare
 from laboratory.seeded import Seeded
 from laboratory.tables import Column, print_fitted
@@ -289,16 +290,24 @@ def run_esg_calibration(seed: int, out: Path, params: EsgParams | None = None,
                 no_truth(res.calibration)
                 no_truth(res.readout)
 
+        def reduced(trials: list[dict]) -> list[ScheduleResult]:
+            """Each schedule reduced at its order, its truth added, and sent to be drawn."""
+            out_ = [calibrate(points, nom, s, order=used_order(trials, s, order))
+                    for s in SCHEDULES]
+            for res in out_:
+                truth(res)
+            plots.draw([(f"{PLOTS}:schedule_plot", {"schedules": plain_schedules(out_),
+                                                     "path": out / "esg_calibration.png"})])
+            return out_
+
+        # a fixed order needs no trial: the schedules are drawn while the trials run
+        results = None if order == "residuals" else reduced([])
         trials = order_trials(points, nom, SCHEDULES, truth, goal_arcsec=GOAL_ARCSEC)
         run.save_sheet("esg_order_trials", trials)
-        results = [calibrate(points, nom, s, order=used_order(trials, s, order))
-                   for s in SCHEDULES]
+        results = results if results is not None else reduced(trials)
         for res in results:
-            truth(res)
             run.save_sheet(f"esg_calibration_{res.name}", res.calibration)
             run.save_sheet(f"esg_readout_{res.name}", res.readout)
-        plots.draw([(f"{PLOTS}:schedule_plot", {"schedules": plain_schedules(results),
-                                                 "path": out / "esg_calibration.png"})])
         schedules = judge_schedules([schedule_summary(r) for r in results],
                                     limits or EsgLimits())
         run.save_sheet("esg_schedules", schedules)
@@ -344,6 +353,6 @@ def run_esg_calibration(seed: int, out: Path, params: EsgParams | None = None,
         res_json["wall_seconds"] = time.perf_counter() - wall0
         write_json(out / "esg.json", res_json)
         write_results_csv(out, schedules, "esg.csv")
-        plots.wait()
+        plots.wait(meanwhile=prepare_report)  # the report's template while it draws
         run.note(event="end", sim_seconds=st.clock.now() - t_start)
         return res_json

@@ -29,7 +29,7 @@ from laboratory.isu.spec import mounting, noise_spec, site_of
 from laboratory.isu.truth import calibration_truth
 from laboratory.plot_worker import PlotWorker
 from laboratory.record import write_results, write_sheets
-from laboratory.report import report_after
+from laboratory.report import prepare_report, report_after
 from laboratory.rundir import opened_journal, prepare, resume_note
 from laboratory.tables import Column, print_fitted
 from laboratory.verdicts import judge_constants, run_verdict
@@ -258,7 +258,7 @@ def _day(req: DayRequest, conn: Connection, journal: Journal, console: Console,
     if alignment:
         write_results_csv(out, alignment, "alignment.csv")
     write_day_calibration(out, calib, cfg, data, req.plan, site, noise)  # calibration.json
-    plotter.wait()
+    plotter.wait(meanwhile=prepare_report)  # the report's template while it draws
     run.note(event="end", sim_seconds=st.clock.now())
     if not req.quiet:
         render_results(console, rows)

@@ -6,11 +6,12 @@ state; Jinja2 templates in ``templates/``, images inline as data: URIs, a print 
 from laboratory.report.html import (
     REPORT_NAME,
     ReportError,
+    prepare_report,
     render_history_page,
     render_report,
     report_after,
     write_report,
 )
 
-__all__ = ["REPORT_NAME", "ReportError", "render_history_page", "render_report", "report_after",
-           "write_report"]
+__all__ = ["REPORT_NAME", "ReportError", "prepare_report", "render_history_page", "render_report",
+           "report_after", "write_report"]

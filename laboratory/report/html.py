@@ -8,6 +8,7 @@ template ``templates/report.html.j2`` lays them out. Nothing here looks at a liv
 from __future__ import annotations
 
 import base64
+import functools
 import json
 import math
 import sys
@@ -357,14 +358,25 @@ def _history(d: Path) -> dict[str, Any]:
     return safe_history_section(d)
 
 
+@functools.cache
 def _environment() -> Environment:
-    """The templates' environment; jinja2 is imported here, when a report is written after
-    the record is closed, not when a command starts."""
+    """The templates' environment, one per process; jinja2 is imported here, when a report
+    is about to be written, not when a command starts."""
     from jinja2 import Environment, PackageLoader, StrictUndefined, select_autoescape
 
     return Environment(loader=PackageLoader("laboratory.report", "templates"),
                        autoescape=select_autoescape(default=True, default_for_string=True),
                        undefined=StrictUndefined, trim_blocks=True, lstrip_blocks=True)
+
+
+def prepare_report() -> None:
+    """Import jinja2 and compile the report's template now: a run calls it while its plot
+    child draws, so that ``report_after`` does not pay for it after the record closes. An
+    error is left for ``report_after`` to meet and report."""
+    try:
+        _environment().get_template("report.html.j2")
+    except Exception:  # noqa: BLE001, S110 - report_after reports it when it writes
+        pass
 
 
 def render_report(run_dir: Path) -> str:

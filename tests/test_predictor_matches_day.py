@@ -80,3 +80,29 @@ def test_survey_finds_the_mounting_the_plan_assumed(day):
     worst = max(abs(a - b) for ra, rb in zip(survey["t_bi"], mounting(cfg).tolist(), strict=True)
                 for a, b in zip(ra, rb, strict=True))
     assert worst < 5e-5  # 10 arcsec
+
+
+@pytest.mark.parametrize("seed", [3, 41, 77, 105])
+def test_printed_forms_jacobian_is_the_corrected_one_at_the_nominal_unit(seed):
+    """The Predictor takes the estimator's Jacobian of the printed gyro forms alone (issue
+    17): at the nominal unit (no drift coefficients) the neglected terms vanish, so on a
+    random station it is the corrected forms' to rounding."""
+    import numpy as np
+
+    from procedures.isu.accuracy import nominal_data
+    from procedures.isu.calibration.compute import data_covariance, estimator_jacobian
+    from procedures.isu.calibration.reduce import reduce
+
+    cfg = load_config(seed=seed, overrides=random_station(seed))
+    pred = predictor(cfg)
+    data = nominal_data(pred.default, pred.lab)
+    red = reduce(data)
+    cov = data_covariance(red, pred.keys, data, pred.lab.noise, pred.est)
+    steps = np.sqrt(np.maximum(np.diag(cov), 0.0))
+    steps = np.where(steps > 0, steps, 1e-9)
+    printed = estimator_jacobian(red.values, data.constants, pred.keys, pred.rows, steps,
+                                 corrected=False)
+    corrected = estimator_jacobian(red.values, data.constants, pred.keys, pred.rows, steps)
+    scale = np.max(np.abs(corrected))
+    assert np.max(np.abs(printed - corrected)) <= 1e-12 * scale
+    np.testing.assert_array_equal(pred.jac, printed)

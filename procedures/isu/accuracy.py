@@ -229,7 +229,11 @@ class Predictor:
         z0 = np.array([red.values[k] for k in self.keys])
         steps = np.sqrt(np.maximum(np.diag(cov), 0.0))
         steps = np.where(steps > 0, steps, 1e-9 * np.maximum(np.abs(z0), 1.0))
-        jac = estimator_jacobian(red.values, data.constants, self.keys, self.rows, steps)
+        # the nominal unit has no drift coefficients, so the terms the printed gyro forms
+        # neglect vanish and their correction (three passes of the forms) changes this
+        # Jacobian by rounding only (1e-15 relative): the printed forms alone (issue 17)
+        jac = estimator_jacobian(red.values, data.constants, self.keys, self.rows, steps,
+                                 corrected=False)
         self.jac = jac
         self._cache[(self.default, True)] = jac @ cov @ jac.T  # what _covariance would give
 

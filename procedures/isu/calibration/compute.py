@@ -26,7 +26,7 @@ from procedures.isu.calibration.geometry import (
     extra_t_br,
     t_br,
 )
-from procedures.isu.calibration.gyro_equations import GYRO_PARAMS
+from procedures.isu.calibration.gyro_equations import GYRO_PARAMS, gyro_estimates
 from procedures.isu.calibration.inputs import CalibrationData, Constants
 from procedures.isu.calibration.neglected import corrected_gyro_estimates, spin_axis_variance
 from procedures.isu.calibration.noise_spec import NoiseSpec
@@ -48,11 +48,15 @@ def _central_difference(plus: float | None, minus: float | None, h: float, row: 
 INSTRUMENTS = ("gyro1", "gyro2", "gyro3", "accel1", "accel2", "accel3")
 
 
-def estimate_of(z: Mapping[Key, float], c: Constants, inst: str) -> dict[Row, float | None]:
-    """One instrument's Chart II-5 constants (``estimate``'s, for that instrument only)."""
+def estimate_of(z: Mapping[Key, float], c: Constants, inst: str,
+                corrected: bool = True) -> dict[Row, float | None]:
+    """One instrument's Chart II-5 constants (``estimate``'s, for that instrument only);
+    ``corrected`` False: the gyros' printed forms alone, without the neglected terms put
+    back (``neglected``: they vanish with the drift coefficients)."""
     k = int(inst[-1])
     if inst.startswith("gyro"):
-        return {(inst, p): v for p, v in corrected_gyro_estimates(z, c, k).items()}
+        forms = corrected_gyro_estimates if corrected else gyro_estimates
+        return {(inst, p): v for p, v in forms(z, c, k).items()}
     return {(inst, p): v for p, v in accel_estimates(z, c.g, k).items()}
 
 
@@ -125,10 +129,10 @@ def data_covariance_model(
 
 
 def estimator_jacobian(z: Mapping[Key, float], c: Constants, keys: list[Key], rows: list[Row],
-                       steps: np.ndarray) -> np.ndarray:
+                       steps: np.ndarray, corrected: bool = True) -> np.ndarray:
     """d(rows)/d(data) of the closed forms by central differences of ``steps``. Only the
     instruments that read a datum are estimated again: the others' rows would come out
-    identical, their differences exactly zero."""
+    identical, their differences exactly zero. ``corrected``: as ``estimate_of``."""
     jac = np.zeros((len(rows), len(keys)))
     index = {r: n for n, r in enumerate(rows)}
     for i, h in enumerate(steps):
@@ -136,7 +140,7 @@ def estimator_jacobian(z: Mapping[Key, float], c: Constants, keys: list[Key], ro
         zp[keys[i]] = z[keys[i]] + h
         zm[keys[i]] = z[keys[i]] - h
         for inst in readers(keys[i]):
-            ep, em = estimate_of(zp, c, inst), estimate_of(zm, c, inst)
+            ep, em = estimate_of(zp, c, inst, corrected), estimate_of(zm, c, inst, corrected)
             for r in ep:
                 if r in index:
                     jac[index[r], i] = _central_difference(ep[r], em[r], h, r, keys[i])

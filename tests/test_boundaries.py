@@ -431,6 +431,28 @@ def test_procedures_do_not_reach_the_simulator():
     )
 
 
+def matplotlib_imports(path: Path) -> list[int]:
+    """Lines of ``path`` importing matplotlib (at any level: module, function)."""
+    lines = []
+    for n in ast.walk(ast.parse(path.read_text(), str(path))):
+        names = ([a.name for a in n.names] if isinstance(n, ast.Import)
+                 else [n.module or ""] if isinstance(n, ast.ImportFrom) and not n.level else [])
+        if any(x == "matplotlib" or x.startswith("matplotlib.") for x in names):
+            lines.append(n.lineno)
+    return lines
+
+
+def test_procedures_draw_no_plots(tmp_path):
+    """Plots are the application's (laboratory/, drawn by the plot child): no procedure
+    imports matplotlib, not even inside a function."""
+    bad = {str(p.relative_to(ROOT)): hits for p in python_files("procedures")
+           if (hits := matplotlib_imports(p))}
+    assert not bad, f"procedures importing matplotlib: {bad}"
+    toy = tmp_path / "toy.py"
+    toy.write_text("def f():\n    import matplotlib.pyplot as plt\n    from matplotlib import cm\n")
+    assert matplotlib_imports(toy) == [2, 3]
+
+
 def test_drivers_import_neither_sim_nor_instruments():
     for p in LAB_BOUNDARY:
         assert any(m.startswith(p + ".") for m in MODULES), f"no modules in {p}: vacuous check"

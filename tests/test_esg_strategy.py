@@ -7,6 +7,7 @@ import math
 import numpy as np
 import pytest
 
+from laboratory.esg.study import figure2_plot
 from procedures.esg import mechanization as me
 from procedures.esg import readout as ro
 from procedures.esg import strategy as st
@@ -201,7 +202,7 @@ def test_figure2_table_and_plot(tmp_path):
     assert {(r["pattern"], r["strategy"]) for r in rows} == {
         (p, s) for p in st.PATTERNS for s in st.STRATEGIES}
     path = tmp_path / "figure2.png"
-    st.figure2_plot(rows, path)
+    figure2_plot(rows, path)
     assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     with pytest.raises(ValueError):
         st.amplification("colatitude", "two_pickoff", 40.0)

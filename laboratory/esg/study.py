@@ -45,8 +45,41 @@ def study() -> tuple[list[dict], list[dict], dict]:
 
 def study_plot(path: Path) -> tuple[list[dict], list[dict], dict]:
     """The study, with Figure 2 drawn to ``path``: what the run records of it."""
-    from procedures.esg import strategy
-
     curve, points, edge = study()
-    strategy.figure2_plot(rows=curve, path=path)
+    figure2_plot(rows=curve, path=path)
     return curve, points, edge
+
+
+def figure2_plot(rows: list[dict], path: Path, report_points: bool = True) -> None:
+    """Figure 2 as a PNG: factor against the pattern's top-edge colatitude."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(7, 4.5))
+    styles = {("great_circle", "two_pickoff"): ("tab:red", "--"),
+              ("great_circle", "mixed"): ("tab:red", "-"),
+              ("cosine", "two_pickoff"): ("tab:blue", "--"),
+              ("cosine", "mixed"): ("tab:blue", "-")}
+    for (pattern, strategy), (colour, ls) in styles.items():
+        sel = sorted((r for r in rows if r["pattern"] == pattern and r["strategy"] == strategy),
+                     key=lambda r: r["range_deg"])
+        if sel:
+            ax.plot([r["range_deg"] for r in sel], [r["factor"] for r in sel], color=colour,
+                    ls=ls, marker=".", label=f"{pattern.replace('_', ' ')}, {strategy}")
+    if report_points:
+        ax.plot([43.0], [1.55], "k^", label="report: great circle 43 deg, 1.55")
+        ax.plot([37.0], [1.20], "kv", label="report: cosine mixed 37 deg, 1.20")
+    ax.axvline(45.0, color="0.6", lw=0.8)
+    ax.invert_xaxis()
+    ax.set_xlabel("pattern top-edge colatitude theta0 (deg); range grows to the right")
+    ax.set_ylabel("RMS amplification of line-edge error")
+    conv = {r.get("convention", "sphere") for r in rows}
+    ax.set_title("ESG readout strategy (report 004, Figure 2); " + ", ".join(sorted(conv)))
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7)
+    # fixed margins, not tight_layout: its extra pass over the text took a third of the drawing
+    fig.subplots_adjust(left=0.095, right=0.98, bottom=0.13, top=0.92)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)

@@ -31,7 +31,7 @@ from procedures.isu.calibration.inputs import ExtraAccelPosition
 from procedures.isu.calibration.neglected import g_terms
 from procedures.isu.carry_forward import PriorSheet
 from procedures.isu.day import DayData
-from procedures.isu.j_term import JNoise, gate_covariance, j_estimate, j_pairs
+from procedures.isu.j_term import JNoise, j_result
 from procedures.isu.nonlinearity import NonlinearityFit, fit_nonlinearity, q_is_from_fit
 from procedures.isu.plan import DayPlan
 from procedures.isu.plausibility import Implausible
@@ -250,10 +250,8 @@ def special_experiments(rows: list[ResultRow], data: DayData, plan: DayPlan, sit
             gate = recs[0]["gate_s"]
             dphi_as = scale_factor_arcsec(rdp.estimate)
             jn = _j_noise(rows, k, m, noise, gate, dphi_as, sv.g)
-            args = (c, dphi_as, g_r, site.omega_sin_lambda, plan.j_accel_deg_s2, jn)
-            cov = gate_covariance(recs[: len(recs) // 2 * 2], *args)  # one for both
-            j, sj = j_estimate(recs, *args, cov=cov)
-            zs = j_pairs(recs, *args, cov=cov)
+            j, sj, zs = j_result(recs, c, dphi_as, g_r, site.omega_sin_lambda,
+                                 plan.j_accel_deg_s2, jn)
             checks[f"II-10 gyro{k}"] = zs
             for i, z in enumerate(zs):
                 if abs(z) > K_RESULT:

@@ -327,37 +327,36 @@ def _pair_js(records: list[dict], counter: int, dphi_arcsec: float, g_r: np.ndar
 
 
 def j_estimate(records: list[dict], counter: int, dphi_arcsec: float, g_r: np.ndarray,
-               omega_sin_lambda: float, accel: float, noise: JNoise,
-               cov: np.ndarray | None = None) -> tuple[float, float]:
-    """J (hours) and its sigma from the up/down gate pairs of one gyro (``cov``: the gates'
-    ``gate_covariance``, computed here when not given).
+               omega_sin_lambda: float, accel: float, noise: JNoise) -> tuple[float, float]:
+    """J (hours) and its sigma from the up/down gate pairs of one gyro (``j_result``).
 
     g_r: the gyro's input axis in rotary-frame components (G.R1, G.R2, G.R3); the rotary
     frame at phi2 has R2 = cos(phi2) E + sin(phi2) N, R3 = -sin(phi2) E + cos(phi2) N.
     """
+    j, sigma, _ = j_result(records, counter, dphi_arcsec, g_r, omega_sin_lambda, accel, noise)
+    return j, sigma
+
+
+def j_result(records: list[dict], counter: int, dphi_arcsec: float, g_r: np.ndarray,
+             omega_sin_lambda: float, accel: float, noise: JNoise
+             ) -> tuple[float, float, list[float]]:
+    """J (hours), its sigma, and each up/down pair's J against the others' mean in units
+    of its sigma (the pairs are independent measurements of one J; a garbled count makes
+    one pair stand out): the pairs' J and the gates' covariance computed once for both."""
     js, ws = _pair_js(records, counter, dphi_arcsec, g_r, omega_sin_lambda, accel)
     pairs = len(js)
-    weights = np.zeros(len(records))
+    cov = gate_covariance(records[: 2 * pairs], counter, dphi_arcsec, g_r, omega_sin_lambda,
+                          accel, noise)
+    weights = np.zeros(2 * pairs)
     for i, w in enumerate(ws):
         weights[2 * i: 2 * i + 2] = np.array([1.0, -1.0]) * w / pairs
-    j = float(np.mean(js))
-    if cov is None:
-        cov = gate_covariance(records[: 2 * pairs], counter, dphi_arcsec, g_r,
-                              omega_sin_lambda, accel, noise)
-    c = cov[: 2 * pairs, : 2 * pairs]
-    return j, math.sqrt(max(float(weights[: 2 * pairs] @ c @ weights[: 2 * pairs]), 0.0))
+    sigma = math.sqrt(max(float(weights @ cov @ weights), 0.0))
+    return float(np.mean(js)), sigma, _pair_z(js, ws, cov)
 
 
-def j_pairs(records: list[dict], counter: int, dphi_arcsec: float, g_r: np.ndarray,
-            omega_sin_lambda: float, accel: float, noise: JNoise,
-            cov: np.ndarray | None = None) -> list[float]:
-    """Each up/down pair's J against the others' mean, in units of its sigma (the pairs
-    are independent measurements of one J; a garbled count makes one pair stand out).
-    ``cov``: the gates' ``gate_covariance``; a pair's sigma is from its 2 x 2 block."""
-    js_, ws = _pair_js(records, counter, dphi_arcsec, g_r, omega_sin_lambda, accel)
-    if cov is None:
-        cov = gate_covariance(records[: 2 * len(js_)], counter, dphi_arcsec, g_r,
-                              omega_sin_lambda, accel, noise)
+def _pair_z(js_: list[float], ws: list[float], cov: np.ndarray) -> list[float]:
+    """Each pair's J against the others' mean in units of its sigma (from its 2 x 2 block of
+    the gates' covariance); none with fewer than three pairs."""
     var = []
     for i, w in enumerate(ws):
         b = cov[2 * i: 2 * i + 2, 2 * i: 2 * i + 2]

@@ -34,17 +34,30 @@ STATIC = range(7, 16)
 SPIN_AXIS_SIGMA_ARCSEC = 100.0
 
 
-def _g_args(m: GyroModel, u: np.ndarray, g: float) -> tuple[float, ...]:
-    a = g * u
-    ag, ao, as_ = float(a @ m.G), float(a @ m.O), float(a @ m.S)
+def _dot(a: list[float], b: list[float]) -> float:
+    """a . b of 3-vectors, summed left to right as numpy's 3-element dot sums them (no FMA:
+    the same bits, without a numpy scalar per product)."""
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+
+
+def _g_args(axes: tuple[list[float], list[float], list[float]], up: list[float],
+            g: float) -> tuple[float, ...]:
+    """``GyroModel._deg_hr``'s arguments for the g terms with up ``up`` and axes (G, O, S)."""
+    a = [g * x for x in up]
+    ag, ao, as_ = (_dot(a, x) for x in axes)
     return (ag, ao, as_, 0.0, 0.0, ag * ag, as_ * as_, ag * as_, ao * as_, ag * ao, 0.0, 0.0)
+
+
+def _axes(m: GyroModel) -> tuple[list[float], list[float], list[float]]:
+    return m.G.tolist(), m.O.tolist(), m.S.tolist()
 
 
 def g_terms(m: GyroModel, u: np.ndarray, g: float) -> float:
     """R and the g, g^2 terms of Chart IV-2 (deg/hr) with up ``u`` (body), no input rate."""
-    return m._deg_hr(*_g_args(m, u, g))
+    return m._deg_hr(*_g_args(_axes(m), u.tolist(), g))
 
 
+_UP = {m: FIRST_COLUMN[m].tolist() for m in STATIC}
 # the nominal axes' g terms per (gyro, g): fixed, whatever the coefficients (issue 17)
 _NOMINAL_ARGS: dict[tuple[int, float], dict[int, tuple[float, ...]]] = {}
 
@@ -54,35 +67,19 @@ def _nominal_args(k: int, g: float) -> dict[int, tuple[float, ...]]:
         if len(_NOMINAL_ARGS) > 64:
             _NOMINAL_ARGS.clear()
         g0, o0, s0 = NOMINAL_AXES[k - 1]
-        unit = GyroModel(1.0, g0, o0, s0, {})
-        _NOMINAL_ARGS[(k, g)] = {m: _g_args(unit, FIRST_COLUMN[m], g) for m in STATIC}
+        axes = (g0.tolist(), o0.tolist(), s0.tolist())
+        _NOMINAL_ARGS[(k, g)] = {m: _g_args(axes, _UP[m], g) for m in STATIC}
     return _NOMINAL_ARGS[(k, g)]
 
 
-_UP = {m: tuple(FIRST_COLUMN[m].tolist()) for m in STATIC}
-
-
-def _dot(a: tuple[float, ...], b: list[float]) -> float:
-    """a . b of 3-vectors, summed left to right as numpy's 3-element dot sums them."""
-    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-
-
 def neglected(est: Mapping[str, Value], c: Constants, k: int) -> dict[int, float]:
-    """Pulses/s the printed forms leave out at each static position, at estimates ``est``
-    (the full model's g terms in plain floats: the same sums as ``g_terms``, to the bit)."""
+    """Pulses/s the printed forms leave out at each static position, at estimates ``est``."""
     full = GyroModel.from_estimates(k, dict(est))
     nominal = _nominal_args(k, c.g)
     scale = 1.0 / (3600.0 * full.dphi_deg)
-    G, O, S = full.G.tolist(), full.O.tolist(), full.S.tolist()  # noqa: E741
-    g = c.g
-    out = {}
-    for m in STATIC:
-        a = tuple(g * x for x in _UP[m])
-        ag, ao, as_ = _dot(a, G), _dot(a, O), _dot(a, S)
-        mine = full._deg_hr(ag, ao, as_, 0.0, 0.0, ag * ag, as_ * as_, ag * as_, ao * as_,
-                            ag * ao, 0.0, 0.0)
-        out[m] = (mine - full._deg_hr(*nominal[m])) * scale
-    return out
+    axes = _axes(full)
+    return {m: (full._deg_hr(*_g_args(axes, _UP[m], c.g)) - full._deg_hr(*nominal[m]))
+            * scale for m in STATIC}
 
 
 def corrected_gyro_estimates(z: Mapping[Key, float], c: Constants, k: int

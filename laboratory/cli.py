@@ -304,5 +304,19 @@ def main() -> None:
     sys.exit(rc if isinstance(rc, int) else 0)
 
 
+def run() -> None:
+    """The `station` script: ``main``, then the process ends without the interpreter's
+    teardown (laboratory.process_exit). ``main`` itself only raises SystemExit, for the
+    callers that stay (tests)."""
+    from laboratory.process_exit import finish
+
+    try:
+        main()
+    except SystemExit as e:
+        if e.code is None or isinstance(e.code, int):
+            finish(e.code or 0)
+        raise  # a message as the code: exit prints it
+    finish(0)
+
 if __name__ == "__main__":
-    main()
+    run()

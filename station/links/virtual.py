@@ -89,24 +89,28 @@ def resolve_can(channel: str, rack_id: str | None) -> tuple[CanEndpoint, simpy.E
 
 def run_until(env: simpy.Environment, done: Callable[[], bool], timeout_s: float | None) -> bool:
     """Step ``env`` until ``done()`` or until ``timeout_s`` simulated seconds have passed."""
+    if done():
+        return True
     deadline = None if timeout_s is None else int(env.now) + ticks(timeout_s)
     still, last = 0, env.now
-    while not done():
-        nxt = env.peek()
+    queue, step = env._queue, env.step  # simpy's own peek() and step(), looked up once
+    while True:
+        nxt = queue[0][0] if queue else math.inf
         if deadline is not None and nxt > deadline:
             advance_to(env, deadline)  # nothing is scheduled up to it: env.run(until=)
             return done()  # without its stop event (issue 17)
         if nxt == math.inf:
             raise Deadlock("waiting with nothing scheduled in the simulation")
-        env.step()
-        if env.now == last:
+        step()
+        if env._now == last:
             still += 1
             if still > LIVELOCK_STEPS:
                 raise Deadlock(f"simulation stuck at t = {env.now} ns: {still} events "
                                "without time advancing (livelock)")
         else:
-            still, last = 0, env.now
-    return True
+            still, last = 0, env._now
+        if done():
+            return True
 
 
 def advance_to(env: simpy.Environment, at: int) -> None:

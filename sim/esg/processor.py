@@ -47,6 +47,7 @@ from sim.rng import stream
 from sim.timebase import ticks
 
 LOGIC, LINE1, LINE2, NOISE = 0, 1, 2, -1
+_KINDS = np.array([LOGIC, LINE1, LINE2])
 TWO_PI = 2.0 * math.pi
 
 
@@ -153,11 +154,12 @@ def _genuine(phi: np.ndarray, vis: np.ndarray, ch: Channel, w: float
         return empty, empty, np.zeros(0, dtype=int)
     m = np.arange(n_rev)
     first = int(np.argmax(vis))
-    ref = phi[[1, 3, 5], first]
+    trails = phi[1::2]  # rows 1, 3, 5: the trailing edges (0, 2, 4 lead)
+    ref = trails[:, first]
     delta = ((ref - ch.view_end) % TWO_PI) - TWO_PI
-    trail = (delta[:, None] + (phi[[1, 3, 5]] - ref[:, None]) - TWO_PI * m[None, :]) / w
-    lead = trail - (phi[[1, 3, 5]] - phi[[0, 2, 4]]) / w
-    kind = np.repeat(np.array([LOGIC, LINE1, LINE2]), n_rev)
+    trail = (delta[:, None] + (trails - ref[:, None]) - TWO_PI * m[None, :]) / w
+    lead = trail - (trails - phi[0::2]) / w
+    kind = np.repeat(_KINDS, n_rev)
     keep = np.tile(vis, 3)
     return lead.ravel()[keep], trail.ravel()[keep], kind[keep]
 

@@ -37,6 +37,7 @@ from laboratory.seeded import Seeded
 from procedures.cigtf.procedure import TestPlan as Plan
 from procedures.cigtf.procedure import scale_factor
 from procedures.journal import Journal
+from procedures.quantiles import t_quantile
 from procedures.runner import Run
 from sim.cigtf.world import CigtfParams
 from station.drivers.cigtf import FixtureDriver
@@ -162,9 +163,9 @@ def test_esg_calibration_end_to_end_over_links(tmp_path):
     line noise falls on other revolutions. The measurements therefore agree to within their
     noise, not exactly. Tolerances (observed spread over runs at 300-1000x in brackets):
     count ratios 3e-5, the plan's equal-ratio tolerance (<= 7e-6); fitted inclination 0.01
-    deg (<= 0.001); unbalance coefficient 1 % (<= 0.3 %); pickoff-1 coning within 3 of its
-    own sigma of the truth, as every coning turn is judged (its sigma is 2-3 arcsec: nine
-    readings against a four-term fit; 3.3 and 3.6 arcsec off were seen); readout rms within
+    deg (<= 0.001); unbalance coefficient 1 % (<= 0.3 %); pickoff-1 coning within the
+    99.73 % point of its own estimated sigma of the truth (its sigma is mostly 2-3 arcsec:
+    nine readings against a four-term fit; 3.3 and 3.6 arcsec off were seen); readout rms within
     the 15 arcsec goal and within 3 arcsec of the virtual run's (<= 2.1). Counts of scans,
     points and readings are equal.
     """
@@ -200,8 +201,12 @@ def test_esg_calibration_end_to_end_over_links(tmp_path):
     pa1 = next(st["reading"] for st in turn["steps"] if st["number"] == "PA.1")
     assert pa1["coning_arcsec"] == sa["pickoff_coning_arcsec"]
     assert 0.0 < pa1["sigma_arcsec"] < 6.0
+    # the turn's sigma is estimated from its own residuals (nine readings, four terms: 5
+    # degrees of freedom): its 3-sigma point is Student's, 5.5 of it (3 would fail 3 % of
+    # good runs; one CI run measured 3.44 arcsec off at a sigma of 0.87)
+    dof = len(pa1["cr_pickoff1"]) - 4
     assert abs(sa["pickoff_coning_arcsec"] - sa["true_pickoff_coning_arcsec"]) < (
-        3.0 * pa1["sigma_arcsec"])
+        t_quantile(0.99865, dof) * pa1["sigma_arcsec"])
     for ss, vs in zip(served["schedules"], virtual["schedules"], strict=True):
         assert (ss["name"], ss["n_fit"], ss["n_readout"]) == (vs["name"], vs["n_fit"],
                                                               vs["n_readout"])

@@ -63,6 +63,13 @@ _A = _hashes(INIT_A, MULT_A, RUN_HASHES + POOL * MAX_KEY_WORDS)
 _B = _hashes(INIT_B, MULT_B, 2 * POOL)  # generate_state's, for 4 64-bit words
 
 
+def _hashmix(value: int, k: int) -> int:
+    """SeedSequence's k-th hashmix of ``value``: xor the k-th hash constant, multiply by
+    the next, fold the high half in (``_mixed`` writes it out per pool word)."""
+    v = ((value ^ _A[k]) * _A[k + 1]) & MASK32
+    return v ^ (v >> 16)
+
+
 def _mix(x: int, y: int) -> int:
     r = (MIX_L * x - MIX_R * y) & MASK32
     return r ^ (r >> 16)
@@ -95,18 +102,12 @@ def _run_pool(seed: int) -> Pool:
     """The pool once a run seed of at most four words is mixed in (padded to four with
     zeros, as SeedSequence pads it when a spawn key follows); RUN_HASHES hashmixes."""
     words = _words(seed)
-    words += [0] * (POOL - len(words))
-    k = 0
-    pool = []
-    for w in words:
-        v = ((w ^ _A[k]) * _A[k + 1]) & MASK32
-        pool.append(v ^ (v >> 16))
-        k += 1
+    pool = [_hashmix(w, k) for k, w in enumerate(words + [0] * (POOL - len(words)))]
+    k = POOL
     for src in range(POOL):
         for dst in range(POOL):
             if src != dst:
-                v = ((pool[src] ^ _A[k]) * _A[k + 1]) & MASK32
-                pool[dst] = _mix(pool[dst], v ^ (v >> 16))
+                pool[dst] = _mix(pool[dst], _hashmix(pool[src], k))
                 k += 1
     return pool[0], pool[1], pool[2], pool[3]
 

@@ -318,5 +318,6 @@ def run() -> None:
         raise  # a message as the code: exit prints it
     finish(0)
 
+
 if __name__ == "__main__":
     run()

@@ -24,6 +24,7 @@ from numpy.random.bit_generator import ISeedSequence
 
 MASK32 = 0xFFFFFFFF
 POOL = 4  # SeedSequence's default pool of 32-bit words
+PCG64_WORDS = 4  # the 64-bit seed words PCG64 asks of its seed sequence
 # SeedSequence's hash constants (numpy/random/bit_generator.pyx, after O'Neill's seed_seq)
 INIT_A, MULT_A = 0x43B0D7E5, 0x931E8875
 INIT_B, MULT_B = 0x8B51F9DD, 0x58F38DED
@@ -60,7 +61,7 @@ def _hashes(init: int, mult: int, n: int) -> tuple[int, ...]:
 RUN_HASHES = POOL + POOL * (POOL - 1)  # hashmixes of the run seed's stage
 MAX_KEY_WORDS = 64  # longer keys (none in the station) take numpy's own path
 _A = _hashes(INIT_A, MULT_A, RUN_HASHES + POOL * MAX_KEY_WORDS)
-_B = _hashes(INIT_B, MULT_B, 2 * POOL)  # generate_state's, for 4 64-bit words
+_B = _hashes(INIT_B, MULT_B, 2 * PCG64_WORDS)  # generate_state's, two per 64-bit word
 
 
 def _hashmix(value: int, k: int) -> int:
@@ -136,7 +137,7 @@ class _SeedState(ISeedSequence):
                                out[4] | out[5] << 32, out[6] | out[7] << 32], np.uint64)
 
     def generate_state(self, n_words: int, dtype: Any = np.uint32) -> np.ndarray:
-        if n_words != POOL or np.dtype(dtype) != np.dtype(np.uint64):
+        if n_words != PCG64_WORDS or np.dtype(dtype) != np.dtype(np.uint64):
             raise ValueError("_SeedState gives PCG64's seed only: 4 words of 64 bits")
         return self.state.copy()
 

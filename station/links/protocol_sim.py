@@ -34,23 +34,6 @@ class Serial(SerialBase):
     def from_url(self, url: str) -> str:
         return url
 
-    @property
-    def timeout(self) -> float | None:
-        return self._timeout
-
-    @timeout.setter
-    def timeout(self, timeout: float | None) -> None:
-        """SerialBase's check of the value, without its reconfiguring of the port (nothing
-        to reconfigure here): a driver sets the timeout twice per exchange."""
-        if timeout is not None:
-            try:
-                negative = timeout < 0
-            except TypeError:
-                raise ValueError(f"Not a valid timeout: {timeout!r}") from None
-            if negative:
-                raise ValueError(f"Not a valid timeout: {timeout!r}")
-        self._timeout = timeout
-
     def _out(self) -> bytearray:
         if not self.is_open:
             raise PortNotOpenError()

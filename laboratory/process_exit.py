@@ -33,6 +33,8 @@ def finish(rc: int) -> NoReturn:
         sys.exit(rc)
     atexit._run_exitfuncs()  # noqa: SLF001  # what exit runs first; then unregistered
     for stream in (sys.stdout, sys.stderr):
+        if stream is None:  # started without the stream (its descriptor closed): as exit
+            continue
         try:
             stream.flush()
         except (OSError, ValueError):  # a closed pipe or stream: as exit reports it

@@ -66,6 +66,18 @@ def test_an_unflushable_stdout_is_a_failure() -> None:
     assert p.wait() == 120
 
 
+def test_a_process_started_without_stdout_ends_as_exit_ends_it() -> None:
+    # descriptor 1 closed at start: Python sets sys.stdout to None, and exit passes over it
+    code = ("import atexit, sys\n"
+            "from laboratory.process_exit import finish\n"
+            "assert sys.stdout is None\n"
+            "atexit.register(lambda: sys.stderr.write('handler'))\n"
+            "finish(0)\n")
+    p = subprocess.run(["sh", "-c", f'"{sys.executable}" -c "$0" >&-', code], cwd=ROOT,
+                       capture_output=True, text=True, check=False)
+    assert (p.returncode, p.stderr) == (0, "handler")
+
+
 def test_the_station_script_keeps_exit_codes_and_output() -> None:
     def station(*args: str) -> subprocess.CompletedProcess[str]:
         return subprocess.run([sys.executable, "-m", "laboratory.cli", *args], cwd=ROOT,

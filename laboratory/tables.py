@@ -39,60 +39,41 @@ def print_fitted(console: Console, title: str, cols: Sequence[Column],
                  rows: Sequence[Sequence[str]], keys: int = 2) -> None:
     """One table if it fits the console; otherwise the first ``keys`` columns with as many
     of the others as fit, repeated until every column is shown (titles say which part)."""
-    everything = list(range(len(cols)))
-    whole = _table(title, cols, rows, everything)
-    if fits(console, whole):
-        console.print(whole)
-        return
+    widths = column_widths(console, cols, rows)
     key_idx = list(range(keys))
-    parts = _parts_by_widths(console, cols, rows, key_idx, everything[keys:])
-    if parts is None:  # the widths did not add up: measure each trial table as it grows
-        parts = _parts_by_trials(console, cols, rows, key_idx, everything[keys:])
+    if table_width(widths) <= console.width:
+        console.print(_table(title, cols, rows, range(len(cols))))
+        return
+    parts: list[list[int]] = []
+    cur: list[int] = []
+    for i in range(keys, len(cols)):
+        if cur and table_width([widths[j] for j in key_idx + cur + [i]]) > console.width:
+            parts.append(cur)
+            cur = []
+        cur.append(i)
+    parts.append(cur)
     for n, part in enumerate(parts, 1):
         console.print(_table(f"{title} ({n}/{len(parts)})", cols, rows, key_idx + part))
+
+
+def column_widths(console: Console, cols: Sequence[Column],
+                  rows: Sequence[Sequence[str]]) -> list[int]:
+    """Each column's natural width, header and cells unwrapped (markup rendered), measured
+    once per cell: a table of any of these columns is then as wide as ``table_width`` says."""
+    options = console.options.update_width(10_000)
+    widths = [Measurement.get(console, options, c.name).maximum for c in cols]
+    for r in rows:
+        for i, cell in enumerate(r):
+            widths[i] = max(widths[i], Measurement.get(console, options, cell).maximum)
+    return widths
+
+
+def table_width(widths: Sequence[int]) -> int:
+    """The natural width of a ``_table`` of columns this wide: the two edges, a divider and
+    a one-space pad between neighbours (``collapse_padding``, no pad at the edges)."""
+    return sum(widths) + 2 * len(widths)
 
 
 def _width(console: Console, table: Table) -> int:
     """The table's natural width: its cells unwrapped, on a console wide enough."""
     return Measurement.get(console, console.options.update_width(10_000), table).maximum
-
-
-def _parts_by_trials(console: Console, cols: Sequence[Column], rows: Sequence[Sequence[str]],
-                     key_idx: list[int], rest: list[int]) -> list[list[int]]:
-    """The parts by measuring key columns + the part so far + the next column each time."""
-    parts: list[list[int]] = []
-    cur: list[int] = []
-    for i in rest:
-        trial = _table(None, cols, rows, key_idx + cur + [i])
-        if cur and not fits(console, trial):
-            parts.append(cur)
-            cur = []
-        cur.append(i)
-    if cur:
-        parts.append(cur)
-    return parts
-
-
-def _parts_by_widths(console: Console, cols: Sequence[Column], rows: Sequence[Sequence[str]],
-                     key_idx: list[int], rest: list[int]) -> list[list[int]] | None:
-    """The same parts from each column's width measured once (a table's natural width is
-    the key columns' plus each added column's); None when a part's real width disagrees."""
-    if not rest:
-        return []
-    base = _width(console, _table(None, cols, rows, key_idx))
-    extra = {i: _width(console, _table(None, cols, rows, key_idx + [i])) - base for i in rest}
-    parts: list[list[int]] = []
-    cur: list[int] = []
-    width = base
-    for i in rest:
-        if cur and width + extra[i] > console.width:
-            parts.append(cur)
-            cur, width = [], base
-        cur.append(i)
-        width += extra[i]
-    parts.append(cur)
-    for part in parts:  # the sum is the width, or fall back to measuring every trial
-        real = _width(console, _table(None, cols, rows, key_idx + part))
-        if real != base + sum(extra[i] for i in part):
-            return None
-    return parts

@@ -1,0 +1,68 @@
+"""laboratory.tables: the widths computed from each column measured once are the widths rich
+measures for the table, so a split table never runs past the console and shows every cell."""
+
+from __future__ import annotations
+
+import io
+import random
+
+import pytest
+from rich.cells import cell_len
+from rich.console import Console
+
+from laboratory.tables import Column, _table, _width, column_widths, print_fitted, table_width
+
+CELLS = ["-", "1.2345678e-05", "[red]+4.56[/]", "[dim]not determined[/]", "ünï", "宽字符",
+         "a b c", "[bold]FAIL[/]", "0.98765432"]
+
+
+def _random_table(rng: random.Random) -> tuple[list[Column], list[list[str]]]:
+    n = rng.randint(1, 10)
+    cols = [Column(rng.choice(["inst", "param", "estimate", "err/sig", "数", "x" * 14]),
+                   rng.random() < 0.5) for _ in range(n)]
+    rows = [[rng.choice(CELLS + ["y" * rng.randint(0, 40)]) for _ in range(n)]
+            for _ in range(rng.randint(0, 8))]
+    return cols, rows
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_table_width_is_what_rich_measures(seed: int) -> None:
+    rng = random.Random(seed)
+    checked = 0
+    for _ in range(60):
+        cols, rows = _random_table(rng)
+        con = Console(file=io.StringIO(), width=80)
+        widths = column_widths(con, cols, rows)
+        for _ in range(3):
+            idx = sorted(rng.sample(range(len(cols)), rng.randint(1, len(cols))))
+            assert table_width([widths[i] for i in idx]) == _width(
+                con, _table(None, cols, rows, idx)), (cols, rows, idx)
+            checked += 1
+    assert checked == 180
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_split_tables_fit_and_show_every_cell(seed: int) -> None:
+    rng = random.Random(100 + seed)
+    fitted = 0
+    for _ in range(20):
+        cols, rows = _random_table(rng)
+        width = rng.randint(40, 160)
+        buf = io.StringIO()
+        con = Console(file=buf, width=width, color_system=None)
+        print_fitted(con, "T", cols, rows, keys=min(2, len(cols)))
+        text = buf.getvalue()
+        lines = text.splitlines()
+        key_w = table_width(column_widths(con, cols[:2], [r[:2] for r in rows]))
+        widest = max(column_widths(con, cols, rows)) + 2
+        assert "\u2026" not in text  # a cell too wide folds onto more lines, never cut
+        if key_w + widest > width:
+            continue
+        fitted += 1  # every part fits: no line past the console, every cell whole
+        assert max(cell_len(line) for line in lines) <= width
+        plain = Console(file=io.StringIO(), width=10_000)
+        for r in rows:
+            for cell in r:
+                for word in plain.render_str(cell).plain.split():
+                    assert word in text, (cell, width)
+    assert fitted >= 5

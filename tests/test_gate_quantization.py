@@ -99,3 +99,25 @@ def test_day_and_predictor_sigma_use_the_correlated_edges(tmp_path):
         q = unknown.sigma(unknown.covariance(times), f"gyro{k}", "DeltaPhi")
         assert p == pytest.approx(own[f"gyro{k}"], rel=0.03)
         assert 0.8 < p / q < 0.9
+
+
+@pytest.mark.parametrize("fraction", [0.0, 0.5])
+def test_fit_speed_series_quantization_matches_direct_simulation(fraction):
+    """A Chart II-7 speed (gyro along the rotary axis at 15 deg/s, 4 turns: rho tau about one
+    pulse a sample) in the all-positions fit's covariance: with the gyro's random walk, drift
+    and the pier quiet, a rate's variance times the gate squared is the simulated count's.
+    The fit left the sampling term out (1/6 alone: 2.3x short at half a period); over 200
+    default days its DeltaPhi error/sigma was 1.057 (600 gyro-days)."""
+    from procedures.isu.calibration.all_positions import SpeedPoint, speed_covariance
+
+    rng = np.random.default_rng(1819)
+    T = 96.0 + fraction / F_S
+    quiet = NoiseSpec(gyro_sample_clock_ppm=0.0, gyro_arw_deg_rt_hr=0.0,
+                      gyro_drift_sigma_deg_hr=0.0, tilt_diurnal_pp_arcsec=0.0,
+                      tilt_wander_sigma_arcsec=0.0, wobble_amplitude_arcsec=0.0)
+    point = SpeedPoint(1, 15.0, RHO, T, T / S1)
+    model = float(speed_covariance([point], quiet, {1: 3.0 / 3600.0})[0, 0]) * T**2
+    err = simulated_count_error(np.full(N_DRAWS, T), 0.6, rng)  # the advance spread
+    se = err.var() * math.sqrt(2.0 / N_DRAWS)
+    assert model == pytest.approx(err.var(), abs=4 * se + 0.01)
+    assert model > 0.35 if fraction else model < 0.18

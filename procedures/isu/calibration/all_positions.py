@@ -39,11 +39,12 @@ from procedures.isu.calibration.compute import (
     data_covariance,
     estimate,
 )
+from procedures.isu.calibration.covariance import gyro_quantization_var
 from procedures.isu.calibration.forward import NOMINAL_AXES, AccelModel, GyroModel
 from procedures.isu.calibration.geometry import FIRST_COLUMN, extra_t_br, t_br
 from procedures.isu.calibration.inputs import CalibrationData, Constants
 from procedures.isu.calibration.noise_spec import NoiseSpec
-from procedures.isu.calibration.reduce import Key, Reduced, reduce_all
+from procedures.isu.calibration.reduce import Key, Record, Reduced, reduce_all
 from procedures.isu.calibration.vectors import cross3, norm3
 from procedures.isu.sheets import ConstantsCorrelation, ResultRow
 
@@ -83,6 +84,7 @@ class SpeedPoint:
     w_t_deg_s: float
     p_dot: float
     gate_s: float
+    n1: float  # counter 1's clock ticks over the gate (Chart II-7 step 10)
 
     @property
     def position(self) -> int:
@@ -95,16 +97,19 @@ def speed_points(series: Mapping[int, list[dict]], c: Constants) -> list[SpeedPo
     for k, pts in sorted(series.items()):
         for p in pts:
             w_t = (p["w_deg_hr"] + c.w_sin_lambda) / 3600.0  # the table's rate, deg/s
-            out.append(SpeedPoint(int(k), w_t, p["p_dot"], abs(p["counts"] / p["p_dot"])))
+            out.append(SpeedPoint(int(k), w_t, p["p_dot"], abs(p["counts"] / p["p_dot"]),
+                                  float(p["ticks"])))
     return out
 
 
 def speed_covariance(points: list[SpeedPoint], noise: NoiseSpec,
                      dphi_deg: Mapping[int, float]) -> np.ndarray:
-    """Covariance of the speed series' rates, pulses/s: quantization and angle random walk
-    per gate (as Chart II-7's fit), the pier's tilt change about the rotary axis (south) over
-    the gate, and the gyro's random drift, taken as one offset common to a gyro's series
-    (correlation time an hour, the series well within it)."""
+    """Covariance of the speed series' rates, pulses/s: quantization at the count's two
+    edges, read at the rebalance loop's sampling instants (``gyro_quantization_var``, as
+    positions 1-6's turns: at 15 deg/s a sample holds about one pulse), and angle random walk
+    per gate, the pier's tilt change about the rotary axis (south) over the gate, and the
+    gyro's random drift, taken as one offset common to a gyro's series (correlation time an
+    hour, the series well within it)."""
     n = len(points)
     out = np.zeros((n, n))
     for i, p in enumerate(points):
@@ -114,7 +119,8 @@ def speed_covariance(points: list[SpeedPoint], noise: NoiseSpec,
         _, nn0, _ = noise.tilt_covariance(0.0)
         _, nn1, _ = noise.tilt_covariance(t)
         tilt = 2.0 * float(nn0 - nn1) * (180.0 / np.pi / dphi_deg[p.k] / t) ** 2
-        out[i, i] += noise.count_quantization_var / t**2 + arw + tilt
+        gate = Record(("G", p.k, p.position), length=t, n1=p.n1)
+        out[i, i] += gyro_quantization_var(p.p_dot, gate, noise) + arw + tilt
         for j, q in enumerate(points):
             if q.k == p.k:
                 out[i, j] += (noise.gyro_drift_sigma_deg_hr * to_pulses) ** 2

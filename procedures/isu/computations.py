@@ -68,6 +68,7 @@ def calibration_data(data: DayData, plan: DayPlan, site: Site,
         s1_t=data.s1,
         s_phi=360.0 / plan.rotation_pulses_per_rev,
         t_br_column2={int(m): tuple(v) for m, v in sv.t_br_column2.items()},
+        phi1_level_deg=sv.position0_deg[0] if abs(sv.position0_deg[0]) < 1.0 else 0.0,
     )
     gyro = {m: GyroPosition(**d) for m, d in data.gyro.items()}
     accel = {

@@ -12,8 +12,10 @@ Static (positions 7-15): a = g u, w = W cos(lambda) u + W sin(lambda) n, u and n
 components of up and north.
 
 Turning (positions 1-6), averaged over whole turns about r = R1 (body): the inertial rate
-along r is w_R = 3600 w_T - W sin(lambda) (R1 points south); gravity and the vertical Earth
-rate W cos(lambda) turn about r together, so <x.a> = 0, <(a.X)(a.Y)> = (g^2/2)(X.Y - (X.r)(Y.r)),
+along r is w_R = 3600 w_T + ``Constants.w_along_r1`` (R1 points south, -W sin(lambda) when
+level); gravity and the vertical Earth rate W cos(lambda) turn about r together, so
+<x.a> = g sin(e) (x.r) with e R1's elevation (zero when level),
+<(a.X)(a.Y)> = (g^2/2)(X.Y - (X.r)(Y.r)) (e^2 terms dropped),
 <(w.X)(w.Y)> = w_R^2 (X.r)(Y.r) + (W cos^2/2)(X.Y - (X.r)(Y.r)).
 
 Accelerometer k (Chart IV-1): f2 - f1 = D1 (u + D0 + D2 u^2 + D3 u^3), u = g A.up.
@@ -21,6 +23,7 @@ Accelerometer k (Chart IV-1): f2 - f1 = D1 (u + D0 + D2 u^2 + D3 u^3), u = g A.u
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -111,7 +114,7 @@ class GyroModel:
 
     def _turning_args(self, r: np.ndarray, w_t_deg_s: float, c: Constants
                       ) -> tuple[float, ...]:
-        wr = 3600.0 * w_t_deg_s - c.w_sin_lambda
+        wr = 3600.0 * w_t_deg_s + c.w_along_r1
         g2h, w2h = 0.5 * c.g**2, 0.5 * c.w_cos_lambda**2
         G, O, S = self.G, self.O, self.S  # noqa: E741
         gr, orr, sr = G @ r, O @ r, S @ r
@@ -119,10 +122,11 @@ class GyroModel:
         def aa(x: np.ndarray, y: np.ndarray, xr: float, yr: float) -> float:
             return g2h * (x @ y - xr * yr)
 
+        a_r = c.g * math.sin(c.r1_elevation)  # gravity along a tilted R1
         return (
-            0.0,
-            0.0,
-            0.0,
+            a_r * gr,
+            a_r * orr,
+            a_r * sr,
             wr * gr,
             wr * sr,
             aa(G, G, gr, gr),

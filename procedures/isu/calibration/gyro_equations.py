@@ -44,7 +44,8 @@ def misalignment_over_scale(z: Mapping[Key, float], c: Constants, k: int, j: int
     """[(G_k.B_j)/DeltaPhi]_k, pulses/deg, from positions 2j-1 and 2j (Chart II-15, II-4.2).
 
     Over whole turns the pair differs only in the sign of the rate along B_j; the inertial
-    rate along +R1 (south) is w_T - W sin(lambda), hence the 2 W sin(lambda) of the print.
+    rate along +R1 (south) is w_T - W sin(lambda), hence the 2 W sin(lambda) of the print,
+    with R1 level; ``Constants.w_along_r1`` takes R1's tilt from the survey's phi1 too.
     Without the pair, a supplied ("P", k, j) from an earlier sheet stands in (else None).
     """
     m = 2 * j - 1
@@ -52,7 +53,7 @@ def misalignment_over_scale(z: Mapping[Key, float], c: Constants, k: int, j: int
     if any(key not in z for key in keys):
         return z.get(("P", k, j))  # an earlier sheet's, when supplied (partial calibration)
     r1, r2, w1, w2 = (z[key] for key in keys)
-    return (r1 - r2) / (w1 + w2 - 2.0 * c.w_sin_lambda / 3600.0)
+    return (r1 - r2) / (w1 + w2 + 2.0 * c.w_along_r1 / 3600.0)
 
 
 class _Terms:

@@ -1,7 +1,8 @@
 """What the calibration computations take in (Chart II-15 steps 3-7), in the lab's units.
 
 * ``Constants``: step 3 (g, Earth rate components, counter and rotation-pulse scale factors)
-  and step 4 (second columns of T^BRm for m = 1, 3, 5, 13, 14, 15, Survey Results Sheet).
+  and step 4 (second columns of T^BRm for m = 1, 3, 5, 13, 14, 15, Survey Results Sheet),
+  and phi1 at the survey's levelled position 0 (beyond the print: R1's tilt at phi1 = 90).
 * ``GyroPosition`` / ``AccelPosition``: steps 5-6 (counter settings and outputs, Counter
   Settings and Counter Outputs Sheets), one record per position; partial lists are allowed
   (step 5 comment): the computations then give exactly the constants of Chart II-16.
@@ -18,6 +19,8 @@ degrees per rotation pulse; counts in pulses or ticks; times in seconds of labor
 """
 
 from __future__ import annotations
+
+import math
 
 from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
 
@@ -46,6 +49,25 @@ class Constants(_In):
     t_br_column2: dict[int, Vec3] = Field(
         description="m -> (T12, T22, T32)^BRm, body components of the rotary frame's R2"
     )
+    phi1_level_deg: float = Field(
+        0.0, ge=-1.0, le=1.0, description="phi1 read with the rotary axis up (survey "
+        "position 0, levelled); 0 when not surveyed so"
+    )
+
+    @property
+    def w_along_r1(self) -> float:
+        """Earth rate along +R1 at phi1 = 90 deg, deg/hr (positions 1-6, II-7). R1 points
+        south and, the trunnion being read from a zero phi1_level off the vertical, dips
+        below the horizontal by phi1_level: -W sin(lambda) cos(e) + W cos(lambda) sin(e),
+        e = -phi1_level. The print's -W sin(lambda) takes e = 0; the default laboratory's
+        14 arcsec put DeltaPhi 1.3e-8 high (0.2 sigma with quiet gyros)."""
+        e = self.r1_elevation
+        return self.w_cos_lambda * math.sin(e) - self.w_sin_lambda * math.cos(e)
+
+    @property
+    def r1_elevation(self) -> float:
+        """R1's elevation above the horizontal at phi1 = 90 deg, rad (``w_along_r1``)."""
+        return -math.radians(self.phi1_level_deg)
 
     @field_validator("t_br_column2")
     @classmethod

@@ -61,6 +61,13 @@ def calibration_data(data: DayData, plan: DayPlan, site: Site,
     ``prior``, that sheet's prerequisites for the pairs not measured and (unless given) the
     last (D1 D3) of the accelerometers without their bisector position."""
     sv = _survey(data)
+    geometry = TableGeometry(
+        t_bi=tuple(tuple(r) for r in sv.t_bi),
+        phi0_deg=sv.position0_deg,
+        settings_deg={int(m): v for m, v in sv.settings_deg.items()},
+        uncorrected=plan.options.uncorrected(),
+        precision_arcsec=plan.options.precisions(),
+    )
     const = Constants(
         g=site.g,
         w_sin_lambda=site.omega_sin_lambda,
@@ -68,7 +75,7 @@ def calibration_data(data: DayData, plan: DayPlan, site: Site,
         s1_t=data.s1,
         s_phi=360.0 / plan.rotation_pulses_per_rev,
         t_br_column2={int(m): tuple(v) for m, v in sv.t_br_column2.items()},
-        phi1_level_deg=sv.position0_deg[0] if abs(sv.position0_deg[0]) < 1.0 else 0.0,
+        phi1_level_deg=geometry.phi1_level_deg,
     )
     gyro = {m: GyroPosition(**d) for m, d in data.gyro.items()}
     accel = {
@@ -79,13 +86,6 @@ def calibration_data(data: DayData, plan: DayPlan, site: Site,
         )
         for m, d in data.accel.items()
     }
-    geometry = TableGeometry(
-        t_bi=tuple(tuple(r) for r in sv.t_bi),
-        phi0_deg=sv.position0_deg,
-        settings_deg={int(m): v for m, v in sv.settings_deg.items()},
-        uncorrected=plan.options.uncorrected(),
-        precision_arcsec=plan.options.precisions(),
-    )
     supplied = {} if prior is None else cf.prior_gyro(prior, set(gyro))
     d1d3, d1d3_sigma = ({}, {}) if prior is None else cf.last_d1d3(prior, set(accel))
     if last_d1d3:

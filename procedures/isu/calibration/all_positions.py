@@ -112,11 +112,11 @@ def speed_covariance(points: list[SpeedPoint], noise: NoiseSpec,
     hour, the series well within it)."""
     n = len(points)
     out = np.zeros((n, n))
+    _, nn0, _ = noise.tilt_covariance(0.0)
     for i, p in enumerate(points):
         to_pulses = 1.0 / (3600.0 * dphi_deg[p.k])  # deg/hr -> pulses/s
         t = p.gate_s
         arw = noise.gyro_arw_deg_rt_hr**2 * (t / 3600.0) / (dphi_deg[p.k] * t) ** 2
-        _, nn0, _ = noise.tilt_covariance(0.0)
         _, nn1, _ = noise.tilt_covariance(t)
         tilt = 2.0 * float(nn0 - nn1) * (180.0 / np.pi / dphi_deg[p.k] / t) ** 2
         gate = Record(("G", p.k, p.position), length=t, n1=p.n1)

@@ -176,7 +176,7 @@ class TableErrorModel:
         self.noise = noise
         self.t_bi = np.asarray(g.t_bi, dtype=float)
         self.phi0 = tuple(math.radians(x) for x in g.phi0_deg)
-        self.level0 = abs(g.phi0_deg[0]) < 1.0  # rotary axis up: the survey reads the levels
+        self.level0 = g.levelled  # rotary axis up: the survey reads the levels
         self.settings = {m: tuple(math.radians(x) for x in v) for m, v in g.settings_deg.items()}
         self.uncorrected = set(g.uncorrected)
         self.precision = {k: v * ARCSEC for k, v in g.precision_arcsec.items()}

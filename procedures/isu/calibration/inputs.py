@@ -172,6 +172,17 @@ class TableGeometry(_In):
     uncorrected: tuple[str, ...] = ()
     precision_arcsec: dict[str, float] = {}  # kind -> resolver-setting precision (II-6.1)
 
+    @property
+    def levelled(self) -> bool:
+        """Position 0 had the rotary axis up (phi1 within a degree of 0): the survey read the
+        levels there, so phi1^0 is the trunnion's reading of the level table."""
+        return abs(self.phi0_deg[0]) < 1.0
+
+    @property
+    def phi1_level_deg(self) -> float:
+        """``Constants.phi1_level_deg`` from this survey: phi1^0 when levelled, else 0."""
+        return self.phi0_deg[0] if self.levelled else 0.0
+
 
 class CalibrationData(_In):
     """Everything Chart II-15 enters before step 8, for a full or partial calibration."""

@@ -8,9 +8,11 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 from rich import box
+from rich.cells import cell_len
 from rich.console import Console
 from rich.measure import Measurement
 from rich.table import Table
+from rich.text import Text
 
 
 @dataclass(frozen=True)
@@ -19,7 +21,7 @@ class Column:
     right: bool = True  # numbers right-justified, names left
 
 
-def _table(title: str | None, cols: Sequence[Column], rows: Sequence[Sequence[str]],
+def _table(title: str | None, cols: Sequence[Column], rows: Sequence[Sequence[str | Text]],
            idx: Sequence[int]) -> Table:
     t = Table(title=title, box=box.SIMPLE_HEAD, pad_edge=False, collapse_padding=True)
     for i in idx:
@@ -36,9 +38,13 @@ def fits(console: Console, table: Table) -> bool:
 
 
 def print_fitted(console: Console, title: str, cols: Sequence[Column],
-                 rows: Sequence[Sequence[str]], keys: int = 2) -> None:
+                 rows: Sequence[Sequence[str | Text]], keys: int = 2) -> None:
     """One table if it fits the console; otherwise the first ``keys`` columns with as many
-    of the others as fit, repeated until every column is shown (titles say which part)."""
+    of the others as fit, repeated until every column is shown (titles say which part).
+    A cell is markup, parsed once here (rich would parse it at each measure and render)."""
+    parsed: list[list[str | Text]] = [[Text.from_markup(c) if isinstance(c, str) else c
+                                       for c in r] for r in rows]
+    rows = parsed
     widths = column_widths(console, cols, rows)
     key_idx = list(range(keys))
     if table_width(widths) <= console.width:
@@ -57,14 +63,16 @@ def print_fitted(console: Console, title: str, cols: Sequence[Column],
 
 
 def column_widths(console: Console, cols: Sequence[Column],
-                  rows: Sequence[Sequence[str]]) -> list[int]:
+                  rows: Sequence[Sequence[str | Text]]) -> list[int]:
     """Each column's natural width, header and cells unwrapped (markup rendered), measured
     once per cell: a table of any of these columns is then as wide as ``table_width`` says."""
     options = console.options.update_width(10_000)
     widths = [Measurement.get(console, options, c.name).maximum for c in cols]
     for r in rows:
         for i, cell in enumerate(r):
-            widths[i] = max(widths[i], Measurement.get(console, options, cell).maximum)
+            w = (max(cell_len(line) for line in cell.plain.split("\n"))
+                 if isinstance(cell, Text) else Measurement.get(console, options, cell).maximum)
+            widths[i] = max(widths[i], w)
     return widths
 
 

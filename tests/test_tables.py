@@ -9,6 +9,7 @@ import random
 import pytest
 from rich.cells import cell_len
 from rich.console import Console
+from rich.text import Text
 
 from laboratory.tables import Column, _table, _width, column_widths, print_fitted, table_width
 
@@ -66,3 +67,25 @@ def test_split_tables_fit_and_show_every_cell(seed: int) -> None:
                 for word in plain.render_str(cell).plain.split():
                     assert word in text, (cell, width)
     assert fitted >= 5
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_markup_parsed_once_prints_as_rich_prints_it(seed: int) -> None:
+    """print_fitted parses each cell's markup once (issue 17); measured and printed, the
+    parsed cells come out as rich makes the markup strings, plain or in colour."""
+    rng = random.Random(300 + seed)
+    for _ in range(25):
+        cols, rows = _random_table(rng)
+        parsed = [[Text.from_markup(c) for c in r] for r in rows]
+        width = rng.randint(30, 160)
+        for terminal in (False, True):
+            outs = []
+            for cells in (rows, parsed):
+                buf = io.StringIO()
+                con = Console(file=buf, width=width, force_terminal=terminal,
+                              color_system="truecolor" if terminal else None)
+                outs.append((column_widths(con, cols, cells), buf))
+                con.print(_table("T", cols, cells, range(len(cols))))
+            (w_str, b_str), (w_text, b_text) = outs
+            assert w_str == w_text
+            assert b_str.getvalue() == b_text.getvalue()

@@ -3,8 +3,10 @@ and a progress bar in simulated time."""
 
 from __future__ import annotations
 
+from rich.cells import cell_len
 from rich.console import Console
 from rich.progress import BarColumn, Progress, TextColumn
+from rich.text import Text
 
 EXPECTED_SIM_S = 9.0 * 3600.0  # for the progress bar only
 
@@ -20,6 +22,8 @@ class DayDisplay:
             TextColumn("{task.fields[sim]}"), console=console, transient=True,
         )
         self.task = self.progress.add_task("calibration day", total=EXPECTED_SIM_S, sim="")
+        # piped or redirected: no colours and no bar, so a line that fits is the text itself
+        self.plain_width = None if console.is_terminal else console.width
 
     def __enter__(self) -> DayDisplay:
         if not self.quiet:
@@ -34,13 +38,26 @@ class DayDisplay:
         if self.quiet:
             return
         kind = ev.get("kind")
+        console = self.progress.console
+        # Text built here, not markup: a sheet's words print as they are written (a
+        # bracket is no style tag) and rich parses no markup per line (issue 17: half
+        # the cost of a tick)
         if kind == "sheet_start":
-            self.progress.console.print(f"[bold cyan]Chart {ev['chart']}[/]  {ev['title']}")
+            title = console.highlighter(Text(f"  {ev['title']}"))  # as print highlights a str
+            self._print(Text.assemble((f"Chart {ev['chart']}", "bold cyan"), title))
         elif kind == "step":
             t = ev["t_sim"]
-            self.progress.console.print(
-                f"  [green]\u2713[/] [dim]{t / 3600:6.3f} h[/] {ev['chart']:>6} "
-                f"{ev['step']:<12} {ev['text']}", highlight=False, overflow="fold",
-            )
+            self._print(Text.assemble(
+                "  ", ("\u2713", "green"), " ", (f"{t / 3600:6.3f} h", "dim"),
+                f" {ev['chart']:>6} {ev['step']:<12} {ev['text']}"))
             self.progress.update(self.task, completed=min(t, EXPECTED_SIM_S),
                                  sim=f"{t / 3600:5.2f} h simulated")
+
+    def _print(self, line: Text) -> None:
+        """One line as console.print writes it (wrapped, a long word folded): written here
+        when the console is plain and the line fits, which is what rich would write."""
+        width = self.plain_width
+        if width is not None and "\n" not in line.plain and cell_len(line.plain) <= width:
+            self.console.file.write(line.plain + "\n")
+        else:
+            self.progress.console.print(line, overflow="fold")

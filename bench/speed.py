@@ -1,6 +1,7 @@
 """Speed of the station's commands, each run as a whole process as a user runs it (issue 17).
 
-For each command (``station day``, ``station gyrocompass-test``, ``station esg-calibration``,
+For each command (``station day --quiet``, ``station day`` with its ticks and tables shown
+(``day-shown``, output to a file), ``station gyrocompass-test``, ``station esg-calibration``,
 ``station --help``), run ``--repeat`` times as ``python -m laboratory.cli ...`` with
 PYTHONPATH set to the tree under test (the tree's own `station` module from its
 pyproject, for an older revision), it prints the minimum and median wall time of the
@@ -19,7 +20,8 @@ read, as after ``pip install`` or a user's first run: a machine with
 PYTHONDONTWRITEBYTECODE set (this one) otherwise compiles every module of the station on
 every start, 0.5-1 s that no user's run pays.
 
-    python bench/speed.py [--repeat 5] [--commands day,gyrocompass,esg,help] [--against REV]
+    python bench/speed.py [--repeat 5] [--commands day,day-shown,gyrocompass,esg,help]
+                          [--against REV]
 """
 
 from __future__ import annotations
@@ -42,6 +44,8 @@ from pathlib import Path
 HERE = Path(__file__).resolve().parents[1]
 COMMANDS: dict[str, list[str]] = {  # name -> arguments after `station` ({out}: a fresh dir)
     "day": ["day", "--seed", "1970", "--quiet", "--out", "{out}"],
+    # the README's main job as a user runs it: the check-sheet ticks and tables shown
+    "day-shown": ["day", "--seed", "1970", "--out", "{out}"],
     "gyrocompass": ["gyrocompass-test", "--out", "{out}"],
     "esg": ["esg-calibration", "--out", "{out}"],
     "help": ["--help"],

@@ -69,3 +69,12 @@ def test_quiet_shows_nothing() -> None:
     with DayDisplay(Console(file=buf, width=80), quiet=True) as display:
         display({"kind": "step", "t_sim": 1.0, "chart": "I-1", "step": "1", "text": "x"})
     assert buf.getvalue() == ""
+
+
+def test_quiet_console_shows_nothing() -> None:
+    """A console made quiet (laboratory.virtual's) prints nothing, even unasked to be."""
+    buf = io.StringIO()
+    with DayDisplay(Console(file=buf, width=80, quiet=True)) as display:
+        display({"kind": "sheet_start", "chart": "I-1", "title": "Laboratory turn-on"})
+        display({"kind": "step", "t_sim": 1.0, "chart": "I-1", "step": "1", "text": "x"})
+    assert buf.getvalue() == ""

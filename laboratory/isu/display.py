@@ -16,7 +16,7 @@ class DayDisplay:
 
     def __init__(self, console: Console, quiet: bool = False) -> None:
         self.console = console
-        self.quiet = quiet
+        self.quiet = quiet or console.quiet  # a quiet console shows nothing, written or not
         self.progress = Progress(
             TextColumn("[bold]{task.description}"), BarColumn(),
             TextColumn("{task.fields[sim]}"), console=console, transient=True,

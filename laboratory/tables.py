@@ -42,13 +42,12 @@ def print_fitted(console: Console, title: str, cols: Sequence[Column],
     """One table if it fits the console; otherwise the first ``keys`` columns with as many
     of the others as fit, repeated until every column is shown (titles say which part).
     A cell is markup, parsed once here (rich would parse it at each measure and render)."""
-    parsed: list[list[str | Text]] = [[Text.from_markup(c) if isinstance(c, str) else c
-                                       for c in r] for r in rows]
-    rows = parsed
-    widths = column_widths(console, cols, rows)
+    cells: list[list[str | Text]] = [[Text.from_markup(c) if isinstance(c, str) else c
+                                      for c in r] for r in rows]
+    widths = column_widths(console, cols, cells)
     key_idx = list(range(keys))
     if table_width(widths) <= console.width:
-        console.print(_table(title, cols, rows, range(len(cols))))
+        console.print(_table(title, cols, cells, range(len(cols))))
         return
     parts: list[list[int]] = []
     cur: list[int] = []
@@ -59,7 +58,7 @@ def print_fitted(console: Console, title: str, cols: Sequence[Column],
         cur.append(i)
     parts.append(cur)
     for n, part in enumerate(parts, 1):
-        console.print(_table(f"{title} ({n}/{len(parts)})", cols, rows, key_idx + part))
+        console.print(_table(f"{title} ({n}/{len(parts)})", cols, cells, key_idx + part))
 
 
 def column_widths(console: Console, cols: Sequence[Column],

@@ -38,12 +38,11 @@ class DayDisplay:
         if self.quiet:
             return
         kind = ev.get("kind")
-        console = self.progress.console
         # Text built here, not markup: a sheet's words print as they are written (a
         # bracket is no style tag) and rich parses no markup per line (issue 17: half
         # the cost of a tick)
         if kind == "sheet_start":
-            title = console.highlighter(Text(f"  {ev['title']}"))  # as print highlights a str
+            title = self.console.highlighter(Text(f"  {ev['title']}"))  # as print highlights a str
             self._print(Text.assemble((f"Chart {ev['chart']}", "bold cyan"), title))
         elif kind == "step":
             t = ev["t_sim"]
@@ -60,4 +59,4 @@ class DayDisplay:
         if width is not None and "\n" not in line.plain and cell_len(line.plain) <= width:
             self.console.file.write(line.plain + "\n")
         else:
-            self.progress.console.print(line, overflow="fold")
+            self.console.print(line, overflow="fold")  # the progress bar's console

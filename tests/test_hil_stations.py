@@ -23,6 +23,7 @@ import math
 import time
 from dataclasses import replace
 from pathlib import Path
+from statistics import NormalDist, fmean
 
 import pytest
 from hil_helpers import serving, slipped_s
@@ -166,8 +167,15 @@ def test_esg_calibration_end_to_end_over_links(tmp_path):
     deg (<= 0.001); unbalance coefficient 1 % (<= 0.3 %); pickoff-1 coning within the
     99.73 % point of its own estimated sigma of the truth (its sigma is mostly 2-3 arcsec:
     nine readings against a four-term fit; 3.3 and 3.6 arcsec off were seen); readout rms within
-    the 15 arcsec goal and within 3 arcsec of the virtual run's (<= 2.1). Counts of scans,
-    points and readings are equal.
+    the 15 arcsec goal. Counts of scans, points and readings are equal.
+
+    The readout errors of the two runs are compared scan by scan, not by their rms: most of a
+    readout error is the scan's colatitude assignment, one dividing-head alignment for all
+    its rows, drawn afresh in each run, so the rms of ~40 rows moves with five scan shifts (a
+    CI run read 12.6 arcsec served against 9.6 virtual). Each scan's mean served-minus-virtual
+    error must lie within the 99.73 % point (Bonferroni over the scans) of the two runs'
+    predicted assignment sigmas in quadrature (|z| <= 1.7 over 12 runs at 500x, two of them
+    loaded).
     """
     base = tmp_path / "srv"
     base.mkdir()
@@ -211,12 +219,36 @@ def test_esg_calibration_end_to_end_over_links(tmp_path):
         assert (ss["name"], ss["n_fit"], ss["n_readout"]) == (vs["name"], vs["n_fit"],
                                                               vs["n_readout"])
         assert ss["readout_rms_arcsec"] < GOAL_ARCSEC
-        assert ss["readout_rms_arcsec"] == pytest.approx(vs["readout_rms_arcsec"], abs=3.0)
         # the true colatitudes follow the served rotor's path, unknown here: absent
         assert ss["true_readout_rms_arcsec"] is None and vs["true_readout_rms_arcsec"] > 0
+        assert_scan_shifts_within_assignment(
+            readout_rows(tmp_path / "served", ss["name"]),
+            readout_rows(tmp_path / "virtual", vs["name"]))
     rows = json.loads((tmp_path / "served" / "sheets" / "esg_readout_5deg.json").read_text())
     assert rows and all(r["true_colatitude_deg"] is None for r in rows)
     assert all(math.isfinite(r["error_arcsec"]) for r in rows)
+
+
+def readout_rows(out: Path, schedule: str) -> list[dict]:
+    """The readout rows of one schedule's sheet in a run's output directory."""
+    rows: list[dict] = json.loads((out / "sheets" / f"esg_readout_{schedule}.json").read_text())
+    return rows
+
+
+def assert_scan_shifts_within_assignment(served: list[dict], virtual: list[dict]) -> None:
+    """Each scan's mean served-minus-virtual readout error within the 99.73 % point
+    (Bonferroni over the scans) of both runs' predicted assignment sigmas in quadrature."""
+    assert [r["scan"] for r in served] == [r["scan"] for r in virtual]
+    by_scan: dict[str, list[tuple[float, float]]] = {}
+    for s, v in zip(served, virtual, strict=True):
+        by_scan.setdefault(s["scan"], []).append(
+            (s["error_arcsec"] - v["error_arcsec"],
+             s["sigma_assign_arcsec"] ** 2 + v["sigma_assign_arcsec"] ** 2))
+    z_most = NormalDist().inv_cdf(1.0 - 0.0027 / 2 / len(by_scan))
+    for scan, pairs in by_scan.items():
+        shift = fmean(d for d, _ in pairs)
+        sigma = math.sqrt(fmean(var for _, var in pairs))
+        assert abs(shift) < z_most * sigma, (scan, shift, sigma)
 
 
 def test_status_counts_what_each_link_carries(tmp_path):

@@ -174,8 +174,8 @@ def test_esg_calibration_end_to_end_over_links(tmp_path):
     its rows, drawn afresh in each run, so the rms of ~40 rows moves with five scan shifts (a
     CI run read 12.6 arcsec served against 9.6 virtual). Each scan's mean served-minus-virtual
     error must lie within the 99.73 % point (Bonferroni over the scans) of the two runs'
-    predicted assignment sigmas in quadrature (|z| <= 1.7 over 12 runs at 500x, two of them
-    loaded).
+    predicted assignment sigmas in quadrature (|z| <= 1.7 over 9 runs at 500x, each beside
+    2-3 busy loops on the 2 cores).
     """
     base = tmp_path / "srv"
     base.mkdir()

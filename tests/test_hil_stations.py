@@ -224,7 +224,7 @@ def test_esg_calibration_end_to_end_over_links(tmp_path):
         assert_scan_shifts_within_assignment(
             readout_rows(tmp_path / "served", ss["name"]),
             readout_rows(tmp_path / "virtual", vs["name"]))
-    rows = json.loads((tmp_path / "served" / "sheets" / "esg_readout_5deg.json").read_text())
+    rows = readout_rows(tmp_path / "served", "5deg")
     assert rows and all(r["true_colatitude_deg"] is None for r in rows)
     assert all(math.isfinite(r["error_arcsec"]) for r in rows)
 

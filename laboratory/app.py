@@ -146,16 +146,24 @@ def reported(where: Callable[[], Path | None]) -> Iterator[None]:
         refused(e, where())
 
 
-def command(on: typer.Typer, *args: Any, **kwargs: Any
+# command name -> the modules its plot child imports (laboratory.plot_worker): the station
+# script starts that child as soon as the command line names the command (issue 17)
+PLOT_CHILDREN: dict[str, tuple[str, ...]] = {}
+
+
+def command(on: typer.Typer, *args: Any, plots: tuple[str, ...] = (), **kwargs: Any
             ) -> Callable[[Callable[..., Any]], Callable[..., Any]]:
     """``on.command`` whose whole body reports operator errors (``reported``): every
-    command, the laboratories' own too, ends on one through the same ``end``."""
+    command, the laboratories' own too, ends on one through the same ``end``. ``plots``:
+    the modules of the plot child the command draws its plots in (``PLOT_CHILDREN``)."""
     def register(fn: Callable[..., Any]) -> Callable[..., Any]:
         @functools.wraps(fn)
         def run(*a: Any, **k: Any) -> Any:
             with reported(lambda: None):
                 return fn(*a, **k)
 
+        if plots:
+            PLOT_CHILDREN[args[0] if args else fn.__name__.replace("_", "-")] = plots
         return on.command(*args, **kwargs)(run)
 
     return register

@@ -304,12 +304,25 @@ def main() -> None:
     sys.exit(rc if isinstance(rc, int) else 0)
 
 
+def start_plot_child(args: list[str]) -> None:
+    """The plot child of the command ``args`` name (laboratory.app.PLOT_CHILDREN), started
+    now: its imports then run beside the command's own (issue 17). None for a help."""
+    from laboratory.app import PLOT_CHILDREN
+
+    modules = PLOT_CHILDREN.get(args[0]) if args else None
+    if modules and not {"--help", "-h"} & set(args):
+        from laboratory.plot_worker import start_early
+
+        start_early(*modules)
+
+
 def run() -> None:
     """The `station` script: ``main``, then the process ends without the interpreter's
     teardown (laboratory.process_exit). ``main`` itself only raises SystemExit, for the
     callers that stay (tests)."""
     from laboratory.process_exit import finish
 
+    start_plot_child(sys.argv[1:])
     try:
         main()
     except SystemExit as e:

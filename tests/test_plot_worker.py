@@ -92,3 +92,52 @@ def test_meanwhile_runs_once_before_the_plots_are_in_place(tmp_path: Path) -> No
         w.wait(meanwhile=lambda: seen.append((tmp_path / "r.png").exists()))
     assert seen == [False]
     assert (tmp_path / "r.png").stat().st_size > 1000
+
+
+def test_a_child_started_early_is_the_runs_and_draws_what_it_lacks(tmp_path: Path) -> None:
+    """start_early (the station script, as the command line names the command): the run's
+    PlotWorker adopts that child, which imports at the first job a module it was not
+    started with (here the ISU's plots in a child warmed for the CIGTF's)."""
+    plot_worker.start_early("laboratory.cigtf.plots")
+    early = plot_worker._early
+    assert isinstance(early, subprocess.Popen)
+    with PlotWorker("laboratory.isu.plots") as w:
+        assert w._proc is early
+        assert plot_worker._early is None  # adopted once: a second worker starts its own
+        w.draw([(RESULTS, {"rows": ROWS, "path": tmp_path / "child.png"})])
+        w.wait()
+    assert early.poll() is not None
+    assert draw_here([(RESULTS, {"rows": ROWS, "path": tmp_path / "here.png"})]) == [None]
+    assert (tmp_path / "child.png").read_bytes() == (tmp_path / "here.png").read_bytes()
+
+
+def test_an_early_child_no_run_adopted_is_ended_at_exit() -> None:
+    """A command refused before its run (a bad argument) leaves no child: the exit handler
+    kills it (it waits on its stdin, which this process holds open, so only the kill ends
+    it)."""
+    plot_worker.start_early("laboratory.isu.plots")
+    early = plot_worker._early
+    assert isinstance(early, subprocess.Popen)
+    plot_worker._end_early()  # what the exit handler runs
+    assert early.returncode == -9
+    assert plot_worker._early is None
+
+
+def test_the_script_starts_the_child_its_command_declares() -> None:
+    """laboratory.cli.start_plot_child: the day's, the gyrocompassing test's and the ESG
+    calibration's commands declare their children's modules; a help or another command
+    starts none."""
+    from laboratory import cli
+    from laboratory.app import PLOT_CHILDREN
+
+    assert PLOT_CHILDREN["day"] == ("laboratory.isu.plots",)
+    assert PLOT_CHILDREN["gyrocompass-test"] == ("laboratory.cigtf.plots",)
+    assert "laboratory.esg.study" in PLOT_CHILDREN["esg-calibration"]
+    for args in ([], ["day", "--help"], ["check"], ["esg-calibration", "-h"]):
+        cli.start_plot_child(args)
+        assert plot_worker._early is None, args
+    cli.start_plot_child(["gyrocompass-test", "--seed", "3"])
+    early = plot_worker._early
+    assert isinstance(early, subprocess.Popen)
+    assert early.args[-1] == "laboratory.cigtf.plots"  # type: ignore[index]
+    plot_worker._end_early()

@@ -17,13 +17,14 @@ from laboratory.app import (
     reported,
     station_run,
 )
+from laboratory.cigtf.lab import PLOTS
 from laboratory.identity import OperatorOpt, invoked
 
 
 def add_commands(app: typer.Typer) -> None:
     """Register this laboratory's commands on the station's command line."""
 
-    @command(app, "gyrocompass-test")
+    @command(app, "gyrocompass-test", plots=(PLOTS,))
     def gyrocompass_test(
         seed: Annotated[int | None, typer.Option("--seed", help="run seed (default 1; when "
                         "resuming, the run's)")] = None,

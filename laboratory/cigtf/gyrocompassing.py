@@ -17,6 +17,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from laboratory import registry
+from laboratory.cigtf.lab import PLOTS
 from laboratory.cigtf.plots import theta_plot  # noqa: F401 - re-exported
 from laboratory.connect import connect, journaled_run
 from laboratory.export import write_results_csv
@@ -43,7 +44,6 @@ if TYPE_CHECKING:
     from rich.console import Console
 
 PHASES = ("operating", "shutdown")
-PLOTS = "laboratory.cigtf.plots"  # the test's plot, drawn beside it (laboratory.plot_worker)
 # a restarted served rack powered the gyro off and stands as installed: its set-up and
 # warm-up again
 RENEW = ("4.1-S", "4.0")

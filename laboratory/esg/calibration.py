@@ -25,6 +25,7 @@ from typing import TYPE_CHECKING
 
 from laboratory import registry
 from laboratory.connect import connect, journaled_run
+from laboratory.esg.lab import PLOTS, STRATEGY, STUDY, VARIANTS
 from laboratory.esg.plots import GOAL_ARCSEC, schedule_plot
 from laboratory.esg.study import (  # noqa: F401 - re-exported
     REPORT_POINTS,
@@ -59,10 +60,6 @@ from station.racks.esg import EsgRack
 if TYPE_CHECKING:
     from rich.console import Console
 
-PLOTS = "laboratory.esg.plots"  # the schedules' plot, drawn beside the run
-STUDY = "laboratory.esg.study"  # the strategy study and Figure 2, computed beside the run
-STRATEGY = "procedures.esg.strategy"  # imported by the plot child only (scipy.optimize)
-VARIANTS = "laboratory.esg.variants"  # the strategy variants and Figure 3, beside the run
 
 
 def _rms(values: Iterable[float | None]) -> float:

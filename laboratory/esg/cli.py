@@ -18,6 +18,7 @@ from laboratory.app import (
     reported,
     station_run,
 )
+from laboratory.esg.lab import PLOTS, STRATEGY, STUDY
 from laboratory.identity import OperatorOpt, invoked
 
 ORDER_CHOICES = ("5", "6", "7", "8", "9", "residuals")
@@ -31,7 +32,7 @@ def order_value(order: str | None) -> int | str | None:
 def add_commands(app: typer.Typer) -> None:
     """Register this laboratory's commands on the station's command line."""
 
-    @command(app, "esg-calibration")
+    @command(app, "esg-calibration", plots=(PLOTS, STUDY, STRATEGY))
     def esg_calibration(
         seed: Annotated[int | None, typer.Option("--seed", help="run seed (default 1; when "
                         "resuming, the run's)")] = None,

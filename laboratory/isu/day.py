@@ -24,6 +24,7 @@ from laboratory.history import index_after
 from laboratory.identity import RunIdentity, identified, isu_config, isu_identity
 from laboratory.isu.align import day_alignments, render_alignment, tape_library
 from laboratory.isu.display import DayDisplay
+from laboratory.isu.lab import PLOTS
 from laboratory.isu.prior import CarriedSheets, carried_sheets
 from laboratory.isu.spec import mounting, noise_spec, site_of
 from laboratory.isu.truth import calibration_truth
@@ -46,8 +47,6 @@ from procedures.journal import Journal
 from procedures.runner import Run
 from station.config.isu import StationConfig
 from station.racks.isu import SimulatedRack
-
-PLOTS = "laboratory.isu.plots"  # the day's plots, drawn beside it (laboratory.plot_worker)
 
 
 @dataclass(frozen=True)

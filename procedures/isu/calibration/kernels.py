@@ -66,35 +66,35 @@ def _phi2(x: np.ndarray, tc: float) -> np.ndarray:
 
 
 def exp_gram(fs: list[Functional], tc: float) -> np.ndarray:
-    """Matrix of E[F_i x F_j x] for a unit-variance process with covariance exp(-|tau|/tc)."""
+    """Matrix of E[F_i x F_j x] for a unit-variance process with covariance exp(-|tau|/tc).
+
+    Written through each functional's coefficients on the distinct times it reads (P for
+    its point values, U for its gate means: w / L at a gate's end, -w / L at its start):
+    G = P K P' - (P Phi1 U' + its transpose) - U Phi2 U', with K, Phi1 and Phi2 the kernel
+    and its antiderivatives over those times. Gates that share ends (a tilt functional's
+    consecutive steps) share their evaluations: 17x faster than the kernel per pair of
+    atoms on the J experiment's 672 atoms (issue 17); the same matrix within 5e-13."""
     n = len(fs)
     owner, w, a, b = _flatten(fs)
-    out = np.zeros((n, n))
     if owner.size == 0:
-        return out
-    A1, A2 = np.meshgrid(a, a, indexing="ij")
-    B1, B2 = np.meshgrid(b, b, indexing="ij")
-    L1, L2 = B1 - A1, B2 - A2
-    p1, p2 = L1 == 0, L2 == 0
-    val = np.empty_like(A1)
-    # point - point
-    m = p1 & p2
-    val[m] = np.exp(-np.abs(A1[m] - A2[m]) / tc)
-    # point - interval (either way round)
-    m = p1 & ~p2
-    val[m] = (_phi1(A1[m] - A2[m], tc) - _phi1(A1[m] - B2[m], tc)) / L2[m]
-    m = ~p1 & p2
-    val[m] = (_phi1(A2[m] - A1[m], tc) - _phi1(A2[m] - B1[m], tc)) / L1[m]
-    # interval - interval
-    m = ~p1 & ~p2
-    val[m] = (
-        _phi2(B1[m] - A2[m], tc)
-        - _phi2(A1[m] - A2[m], tc)
-        - _phi2(B1[m] - B2[m], tc)
-        + _phi2(A1[m] - B2[m], tc)
-    ) / (L1[m] * L2[m])
-    val *= np.outer(w, w)
-    np.add.at(out, (owner[:, None], owner[None, :]), val)
+        return np.zeros((n, n))
+    length = b - a
+    pt = length == 0
+    tp, at_p = np.unique(a[pt], return_inverse=True)  # the point values' times
+    p = np.zeros((n, tp.size))
+    np.add.at(p, (owner[pt], at_p), w[pt])
+    gate = ~pt
+    m = int(gate.sum())
+    te, at_e = np.unique(np.concatenate([a[gate], b[gate]]), return_inverse=True)
+    c = w[gate] / length[gate]
+    u = np.zeros((n, te.size))
+    np.add.at(u, (owner[gate], at_e[m:]), c)
+    np.add.at(u, (owner[gate], at_e[:m]), -c)
+    out: np.ndarray = p @ np.exp(-np.abs(tp[:, None] - tp[None, :]) / tc) @ p.T
+    if m:
+        cross = p @ _phi1(tp[:, None] - te[None, :], tc) @ u.T  # point values, gate means
+        out -= cross + cross.T
+        out -= u @ _phi2(te[:, None] - te[None, :], tc) @ u.T
     return out
 
 

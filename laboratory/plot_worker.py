@@ -7,7 +7,11 @@ they renamed into place), so the run directory is the same. Where the child cann
 started, or fails, the same functions draw the same plots here, in this process. A job is
 ``("module:function", keywords)``; the keyword ``path`` is the file, written atomically.
 A job's function may also return a value the run needs (``values``: the ESG's strategy
-study, computed with its plot so that the run itself never imports scipy.optimize).
+study, computed with its plot so that the run itself never imports scipy.optimize). A job
+without a file (``compute``) is a computation the run does meanwhile on the second core
+(the day's all-positions fit, during the closed forms' checks); the child pins its BLAS to
+one thread as the run does (station.numerics), so a value is the same bits wherever it is
+computed.
 """
 
 from __future__ import annotations
@@ -165,7 +169,7 @@ class PlotWorker:
 
     def __init__(self, *modules: str) -> None:
         self._jobs: list[Job] = []
-        self._temps: list[Path] = []
+        self._temps: list[Path | None] = []  # None: a computation (no file)
         self._batches: list[range] = []  # the jobs of each batch sent
         self._outcomes: list[Outcome | None] = []  # per job, once the child answered
         self._here: set[int] = set()  # jobs drawn in this process already (``values``)
@@ -208,6 +212,25 @@ class PlotWorker:
                 self._end_child()
         return len(self._batches) - 1
 
+    def compute(self, job: str, kwargs: dict[str, Any]) -> Callable[[], Any]:
+        """Send the computation ``job`` (``"module:function"``, no file) to the child, ahead
+        of nothing sent later; the returned callable gives its value (computed here if the
+        child could not: an error then is the run's)."""
+        first = len(self._jobs)
+        self._jobs.append((job, kwargs))
+        self._temps.append(None)
+        self._outcomes.append(None)
+        self._batches.append(range(first, first + 1))
+        batch = len(self._batches) - 1
+        p = self._proc
+        if p is not None and p.stdin is not None and not p.stdin.closed:
+            try:
+                p.stdin.write(pickle.dumps([(job, kwargs)]))
+                p.stdin.flush()
+            except OSError:  # the child is gone: computed here when asked
+                self._end_child()
+        return lambda: self.values(batch)[0]
+
     def _read_answers(self, upto: int) -> None:
         """The child's answers to every batch up to ``upto`` (the child gone: none)."""
         while self._answered <= upto:
@@ -232,11 +255,14 @@ class PlotWorker:
         self._read_answers(batch)
         out = []
         for i in self._batches[batch]:
-            outcome = self._outcomes[i]
-            if outcome is not None and outcome[0] == "ok" and self._temps[i].exists():
+            outcome, tmp = self._outcomes[i], self._temps[i]
+            if outcome is not None and outcome[0] == "ok" and (tmp is None or tmp.exists()):
                 out.append(outcome[1])
+            elif tmp is None:
+                out.append(_draw(*self._jobs[i]))
+                self._here.add(i)
             else:
-                self._temps[i].unlink(missing_ok=True)
+                tmp.unlink(missing_ok=True)
                 out.append(_drawn_here(self._jobs[i]))
                 self._here.add(i)
         return out
@@ -258,7 +284,7 @@ class PlotWorker:
         again = []
         for i, (job, tmp) in enumerate(zip(self._jobs, self._temps, strict=True)):
             outcome = self._outcomes[i]
-            if i in self._here:
+            if i in self._here or tmp is None:  # drawn here, or a computation (no file)
                 continue
             if outcome is not None and outcome[0] == "ok" and tmp.exists():
                 _installed(tmp, Path(job[1]["path"]))
@@ -283,7 +309,8 @@ class PlotWorker:
         (a run that stopped before its plots)."""
         self._end_child()
         for tmp in self._temps:
-            tmp.unlink(missing_ok=True)
+            if tmp is not None:
+                tmp.unlink(missing_ok=True)
         self._forget()
 
 
@@ -291,6 +318,9 @@ def main() -> None:
     """The child: import matplotlib and the modules named in argv now (while the run
     runs), then draw each batch of jobs read from stdin as it comes and answer it on stdout
     (per job, the function's value or the line of its error)."""
+    from station.numerics import pin_blas_threads
+
+    pin_blas_threads()  # as the run's own computations: the same bits here as there
     import matplotlib
 
     matplotlib.use("Agg")

@@ -26,7 +26,8 @@ import json
 from collections.abc import Callable, Iterator, Mapping
 from contextlib import contextmanager
 from fnmatch import fnmatchcase
-from typing import Any, TypeVar
+from importlib import import_module
+from typing import Any, Protocol, TypeVar
 
 from pydantic import BaseModel, ValidationError
 
@@ -81,6 +82,12 @@ def _sheet_value(journal: Journal, rec: dict, line: int,
                            f"{model.__name__}: {where}: {err['msg']}") from None
 
 
+class Beside(Protocol):
+    """A second process the run hands computations to (laboratory.plot_worker.PlotWorker)."""
+
+    def compute(self, job: str, kwargs: dict[str, Any]) -> Callable[[], Any]: ...
+
+
 class StepContext:
     def __init__(self) -> None:
         self.reading: Any = None
@@ -99,12 +106,14 @@ class Run:
         sheet_models: Mapping[str, type[Sheet]] = SHEET_MODELS,
         header: Mapping[str, Any] | None = None,
         sheets_used: Callable[[str], list[str]] | None = None,
+        beside: Beside | None = None,
     ) -> None:
         """``sheet_models``: the laboratory's sheet models by name, to restore its sheets
         from the journal (skip mode) as models rather than plain data. ``header``: the
         heading every new sheet with a ``header`` field gets (SheetHeader's fields; None:
         no headers); ``sheets_used(name)`` its "Sheet Used" cross-references by sheet name
-        (``check_<chart>`` for a check-sheet)."""
+        (``check_<chart>`` for a check-sheet). ``beside``: where ``meanwhile`` computes
+        (None: here, when asked)."""
         if resume not in RESUME_MODES:
             raise ValueError(f"resume mode must be one of {RESUME_MODES}, got {resume!r}")
         pin_blas_threads()  # the record's numbers must not depend on the machine's cores
@@ -115,6 +124,7 @@ class Run:
         self.repeat = set(repeat)
         self.header = dict(header) if header is not None else None
         self.sheets_used = sheets_used
+        self.beside = beside
         old = journal.records
         lines = journal.lines or list(range(1, len(old) + 1))
         self._blocks = {r["key"]: r for r in old if r.get("kind") == "block"}
@@ -155,6 +165,18 @@ class Run:
             self.journal.append(rec)
         if self.listener:
             self.listener(rec)
+
+    def meanwhile(self, job: str, **kwargs: Any) -> Callable[[], Any]:
+        """The pure function ``job`` (``"module:function"``) of ``kwargs`` as they are now,
+        computed beside the run while it goes on (on the second core, issue 17) or, without
+        ``beside``, here and now; call the returned callable for its value. Only a
+        computation whose value does not depend on where it runs belongs here (no clock, no
+        drivers, no journal)."""
+        if self.beside is not None:
+            return self.beside.compute(job, kwargs)
+        module, _, function = job.partition(":")
+        value = getattr(import_module(module), function)(**kwargs)
+        return lambda: value
 
     def note(self, **data: Any) -> None:
         """A free record (run start, settings); journaled unless replaying."""

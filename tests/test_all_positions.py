@@ -165,7 +165,10 @@ def test_linear_columns_match_central_differences(labs: list[dict]) -> None:
         cols = d.linear_columns(theta)
         assert sorted(cols) == [j for j, (_, n) in enumerate(d.params) if n in LINEAR]
         for j, col in cols.items():
-            h = 1e-3 * max(abs(theta[j]), 1e-6)
+            # the model is linear in these: the difference has no truncation error, only
+            # rounding, which falls as 1/h (at 1e-3 |theta| it reached 1.4e-6 of the column,
+            # over the bound, on a lab's last bits; at 0.1 |theta| 1.6e-8)
+            h = 0.1 * max(abs(theta[j]), 1e-6)
             tp, tm = theta.copy(), theta.copy()
             tp[j] += h
             tm[j] -= h
@@ -198,6 +201,37 @@ def test_sheet_shows_both_and_takes_the_chosen_one(labs: list[dict], estimator: 
             assert (r.estimate, r.sigma, r.estimator) == (*cf[key], "closed-form")
     assert order == (f.rows if estimator == "all-positions" else lab["rows"])
     assert cov.shape == (len(order), len(order))
+
+
+def test_the_fit_computed_beside_the_run_is_the_fit_computed_here(labs: list[dict]) -> None:
+    """compute_calibration hands the closed-form day's fit to the plot child (Run.meanwhile):
+    its columns, pickled there and back, are the ones side_by_side writes here, to the bit,
+    and the child computes them on the rows as they were sent (a later change is not
+    seen)."""
+    from laboratory.plot_worker import PlotWorker
+    from procedures.isu.calibration.all_positions import fill_columns
+
+    lab = labs[1]
+    here = calibrate(lab["data"], lab["noise"])
+    beside = calibrate(lab["data"], lab["noise"])
+    side_by_side(here, lab["data"], lab["noise"], "closed-form", lab["series"])
+    with PlotWorker("procedures.isu.calibration.all_positions") as w:
+        later = w.compute("procedures.isu.calibration.all_positions:side_by_side_columns",
+                          {"rows": beside, "data": lab["data"], "noise": lab["noise"],
+                           "series": lab["series"]})
+        for r in beside:  # what the special experiments do meanwhile
+            if r.parameter == "Q_II":
+                r.estimate, r.sigma = 1.0, 2.0
+        columns, _ = later()
+        assert 0 not in w._here  # the child's value, not one computed here
+        w.wait()
+    fill_columns(beside, columns)
+    for a, b in zip(here, beside, strict=True):
+        if b.parameter == "Q_II":
+            assert (b.estimate, b.sigma) == (1.0, 2.0)
+            b.estimate, b.sigma = a.estimate, a.sigma
+        assert a.model_dump() == b.model_dump()
+    assert sum(r.all_positions is not None for r in beside) >= 40
 
 
 def test_unknown_estimator_refused_in_one_line(labs: list[dict]) -> None:

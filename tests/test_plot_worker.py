@@ -130,7 +130,8 @@ def test_the_script_starts_the_child_its_command_declares() -> None:
     from laboratory import cli
     from laboratory.app import PLOT_CHILDREN
 
-    assert PLOT_CHILDREN["day"] == ("laboratory.isu.plots",)
+    assert PLOT_CHILDREN["day"] == ("laboratory.isu.plots",
+                                    "procedures.isu.calibration.all_positions")
     assert PLOT_CHILDREN["gyrocompass-test"] == ("laboratory.cigtf.plots",)
     assert "laboratory.esg.study" in PLOT_CHILDREN["esg-calibration"]
     for args in ([], ["day", "--help"], ["check"], ["esg-calibration", "-h"]):
@@ -141,3 +142,41 @@ def test_the_script_starts_the_child_its_command_declares() -> None:
     assert isinstance(early, subprocess.Popen)
     assert early.args[-1] == "laboratory.cigtf.plots"  # type: ignore[index]
     plot_worker._end_early()
+
+
+def test_a_computation_is_the_childs_value_or_computed_here(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """compute: a job without a file; its value comes from the child, or, where the child
+    cannot be started, is computed here; an error is raised here, as the run's own; a
+    computation leaves no file and needs no wait."""
+    job = "statistics:fmean"
+    with PlotWorker() as w:
+        later = w.compute(job, {"data": [1.0, 2.0, 4.0]})
+        bad = w.compute(job, {"data": []})
+        w.draw([(RESULTS, {"rows": ROWS, "path": tmp_path / "r.png"})])
+        assert later() == pytest.approx(7.0 / 3.0)
+        assert 0 not in w._here
+        with pytest.raises(Exception, match="mean requires at least one data point"):
+            bad()
+        w.wait()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["r.png"]
+
+    def refuse(*a: Any, **k: Any) -> None:
+        raise OSError("no processes left")
+
+    monkeypatch.setattr(plot_worker.subprocess, "Popen", refuse)
+    with PlotWorker() as w:
+        assert w._proc is None
+        assert w.compute(job, {"data": [2.0, 4.0]})() == 3.0
+        w.wait()
+
+
+def test_the_child_pins_its_blas_as_the_run_does(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A value computed in the child is the same bits as here: the child limits its BLAS to
+    one thread (station.numerics.pin_blas_threads), whatever this process was started
+    with (the early child starts before any run pins anything)."""
+    monkeypatch.delenv("OPENBLAS_NUM_THREADS", raising=False)
+    with PlotWorker() as w:
+        n = w.compute("os:getenv", {"key": "OPENBLAS_NUM_THREADS"})()
+        w.wait()
+    assert n == "1"

@@ -17,7 +17,7 @@ from laboratory.app import (
     reported,
     station_run,
 )
-from laboratory.cigtf.lab import PLOTS
+from laboratory.cigtf.plot_child import PLOTS
 from laboratory.identity import OperatorOpt, invoked
 
 

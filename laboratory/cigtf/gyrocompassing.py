@@ -17,7 +17,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from laboratory import registry
-from laboratory.cigtf.lab import PLOTS
+from laboratory.cigtf.plot_child import PLOTS
 from laboratory.cigtf.plots import theta_plot  # noqa: F401 - re-exported
 from laboratory.connect import connect, journaled_run
 from laboratory.export import write_results_csv

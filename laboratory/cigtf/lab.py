@@ -9,8 +9,6 @@ from typing import TYPE_CHECKING
 
 from laboratory.seeded import SerialParts, serial_laboratory
 
-PLOTS = "laboratory.cigtf.plots"  # the test's plot, drawn beside it (laboratory.plot_worker)
-
 if TYPE_CHECKING:
     import typer
 

@@ -25,7 +25,7 @@ from typing import TYPE_CHECKING
 
 from laboratory import registry
 from laboratory.connect import connect, journaled_run
-from laboratory.esg.lab import PLOTS, STRATEGY, STUDY, VARIANTS
+from laboratory.esg.plot_child import PLOTS, STRATEGY, STUDY, VARIANTS
 from laboratory.esg.plots import GOAL_ARCSEC, schedule_plot
 from laboratory.esg.study import (  # noqa: F401 - re-exported
     REPORT_POINTS,

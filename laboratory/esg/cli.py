@@ -18,7 +18,7 @@ from laboratory.app import (
     reported,
     station_run,
 )
-from laboratory.esg.lab import PLOTS, STRATEGY, STUDY
+from laboratory.esg.plot_child import PLOTS, STRATEGY, STUDY
 from laboratory.identity import OperatorOpt, invoked
 
 ORDER_CHOICES = ("5", "6", "7", "8", "9", "residuals")

@@ -9,11 +9,6 @@ from typing import TYPE_CHECKING
 
 from laboratory.seeded import SerialParts, serial_laboratory
 
-PLOTS = "laboratory.esg.plots"  # the schedules' plot, drawn beside the run
-STUDY = "laboratory.esg.study"  # the strategy study and Figure 2, computed beside the run
-STRATEGY = "procedures.esg.strategy"  # imported by the plot child only (scipy.optimize)
-VARIANTS = "laboratory.esg.variants"  # the strategy variants and Figure 3, beside the run
-
 if TYPE_CHECKING:
     import typer
 

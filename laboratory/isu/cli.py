@@ -25,7 +25,7 @@ from laboratory.app import (
     target_dir,
 )
 from laboratory.identity import OperatorOpt, invoked
-from laboratory.isu.lab import PLOTS
+from laboratory.isu.plot_child import DAY_CHILD
 
 if TYPE_CHECKING:
     from station.config.isu import StationConfig
@@ -96,7 +96,7 @@ def with_gyro_gate(cfg: "StationConfig", gate: str | None) -> "StationConfig":
 def add_commands(app: typer.Typer) -> None:
     """Register this laboratory's commands on the station's command line."""
 
-    @command(app, plots=(PLOTS,))
+    @command(app, plots=DAY_CHILD)
     def day(
         config: ConfigOpt = None,
         seed: SeedOpt = None,

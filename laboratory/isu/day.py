@@ -24,7 +24,7 @@ from laboratory.history import index_after
 from laboratory.identity import RunIdentity, identified, isu_config, isu_identity
 from laboratory.isu.align import day_alignments, render_alignment, tape_library
 from laboratory.isu.display import DayDisplay
-from laboratory.isu.lab import PLOTS
+from laboratory.isu.plot_child import DAY_CHILD, PLOTS
 from laboratory.isu.prior import CarriedSheets, carried_sheets
 from laboratory.isu.spec import mounting, noise_spec, site_of
 from laboratory.isu.truth import calibration_truth
@@ -197,7 +197,7 @@ def run_day(req: DayRequest, console: Console | None = None,
             ident = stack.enter_context(identified(
                 req.out, "isu", "day", req.cfg.seed, isu_config(req.cfg),
                 *isu_identity(req.cfg), req.resume, journal.records))
-            plotter = stack.enter_context(PlotWorker(PLOTS))  # imports matplotlib meanwhile
+            plotter = stack.enter_context(PlotWorker(*DAY_CHILD))  # imports matplotlib meanwhile
             return _day(req, conn, journal, console, wall0, ident, carried, plotter)
     finally:
         conn.close()
@@ -213,7 +213,7 @@ def _day(req: DayRequest, conn: Connection, journal: Journal, console: Console,
     with can_log(out, st.ieu), DayDisplay(console, req.quiet) as display:
         run = Run(st.clock, journal, listener=display,
                   resume="replay" if conn.rack is not None else "skip", repeat=repeat,
-                  sheet_models=ISU_SHEETS, sheets_used=carried.sheets_used,
+                  sheet_models=ISU_SHEETS, sheets_used=carried.sheets_used, beside=plotter,
                   header=ident.header("calibration day (station day)",
                                       ident.record["unit"]["isu"]))
         if req.resume:
@@ -225,10 +225,11 @@ def _day(req: DayRequest, conn: Connection, journal: Journal, console: Console,
                  links=None if links is None else str(links), **carried.note())
         data = measure_day(st, run, req.plan, site, cfg.isu.accels[0].f0_hz, req.only,
                            req.positions, noise=noise, survey=carried.survey)
-        plotter.draw([  # drawn during the calibration's computations (issue 17)
+        calib = compute_calibration(run, data, req.plan, noise, site, prior=carried.prior)
+        plotter.draw([  # drawn during the alignments, after the fit the computations gave
+            # the child (issue 17)
             (f"{PLOTS}:nonlinearity_plot", {"points": data.nonlinearity, "noise": noise,
                                             "path": out / "nonlinearity.png"})], more=True)
-        calib = compute_calibration(run, data, req.plan, noise, site, prior=carried.prior)
         world = conn.coefficient_world
         rows = judge_constants(results_rows(calib, calibration_truth(world) if world else {}),
                                cfg.limits)

@@ -10,8 +10,6 @@ from typing import TYPE_CHECKING, Any
 
 from laboratory.registry import Laboratory
 
-PLOTS = "laboratory.isu.plots"  # the day's plots, drawn beside it (laboratory.plot_worker)
-
 if TYPE_CHECKING:
     import simpy
     import typer

@@ -22,7 +22,11 @@ from procedures.isu.calibration import (
     NoiseSpec,
     TableGeometry,
 )
-from procedures.isu.calibration.all_positions import chosen_correlation, side_by_side
+from procedures.isu.calibration.all_positions import (
+    chosen_correlation,
+    fill_columns,
+    side_by_side,
+)
 from procedures.isu.calibration.checks import K_RESULT, check_residuals, check_string_sums
 from procedures.isu.calibration.compute import calibrate_with_correlation, without
 from procedures.isu.calibration.forward import GyroModel
@@ -42,6 +46,7 @@ from procedures.runner import Run
 from station.errors import CheckFailed
 
 TITLE = "Calibration computations"
+SIDE_BY_SIDE = "procedures.isu.calibration.all_positions:side_by_side_columns"
 STRING_KEY = {c: (int(name[1]), int(name[3])) for c, name in STRINGS.items()}
 J_COUNTERS = {7: {3: 2, 4: 3}, 11: {2: 1}}  # position -> counter -> gyro
 
@@ -296,8 +301,13 @@ def compute_calibration(run: Run, data: DayData, plan: DayPlan, noise: NoiseSpec
             # issue 19: the all-positions estimator beside the closed forms; the correlation
             # carried to the alignments is the laboratory's estimator's
             estimator = plan.options.estimator
-            chosen = side_by_side(rows, cd, noise, estimator, data.nonlinearity)
-            if estimator != "closed-form":
+            fitted = None
+            if estimator == "closed-form":  # the fit's columns change no estimate the
+                # checks read: it runs beside them, on the rows as they are now (issue 17)
+                fitted = run.meanwhile(SIDE_BY_SIDE, rows=rows, data=cd, noise=noise,
+                                       series=data.nonlinearity)
+            else:
+                chosen = side_by_side(rows, cd, noise, estimator, data.nonlinearity)
                 corr = chosen_correlation(rows, chosen, estimator)
             carried = ([] if prior is None else
                        cf.carry_rows(rows, prior, cd.prior_gyro, cd.last_d1d3))
@@ -305,6 +315,8 @@ def compute_calibration(run: Run, data: DayData, plan: DayPlan, noise: NoiseSpec
             # the data the constants did not need must agree with them (calibration.checks)
             checked = check_residuals(cd, rows, noise)
             sums = check_string_sums(cd, rows, noise)
+            if fitted is not None:
+                fill_columns(rows, fitted()[0])
             s.reading = {"determined": sum(r.estimate is not None for r in rows),
                          "rows": len(rows),
                          "residual_z": {k: v["z"] for k, v in

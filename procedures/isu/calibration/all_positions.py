@@ -28,7 +28,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import cast
+from typing import Any, cast
 
 import numpy as np
 
@@ -558,6 +558,18 @@ def side_by_side(rows: list[ResultRow], data: CalibrationData, noise: NoiseSpec 
     Cramer-Rao bound at the all-positions estimate; the rows' estimate and sigma become
     ``estimator``'s. Returns that estimator's rows and full covariance (calibration file).
     ``series``: the II-7 speed series, which the fit takes too."""
+    columns, chosen = side_by_side_columns(rows, data, noise, estimator, series)
+    fill_columns(rows, columns)
+    return chosen
+
+
+def side_by_side_columns(rows: list[ResultRow], data: CalibrationData,
+                         noise: NoiseSpec | None, estimator: str = "closed-form",
+                         series: Mapping[int, list[dict]] | None = None
+                         ) -> tuple[list[dict[str, Any]], tuple[list[Row], np.ndarray]]:
+    """``side_by_side`` without touching ``rows``: what it writes on each row (field ->
+    value) and what it returns. A pure function of its arguments, so the closed-form day
+    computes it beside its checks (Run.meanwhile, issue 17)."""
     if estimator not in ESTIMATORS:
         raise ValueError(f"estimator: {estimator!r} is not one of {', '.join(ESTIMATORS)}")
     noise = noise or NoiseSpec()
@@ -572,18 +584,28 @@ def side_by_side(rows: list[ResultRow], data: CalibrationData, noise: NoiseSpec 
     except np.linalg.LinAlgError:  # a design the fit cannot invert: the closed forms stand
         f = Fit({}, [], np.zeros((0, 0)), 0.0, 0, 0, [], np.zeros(0))
         bound_rows, bound = [], np.zeros((0, 0))
+    columns: list[dict[str, Any]] = []
     for r in rows:
         key = (r.instrument, r.parameter)
-        r.closed_form, r.closed_form_sigma = r.estimate, r.sigma
+        col: dict[str, Any] = {"closed_form": r.estimate, "closed_form_sigma": r.sigma}
         if key in f.estimates:
-            r.all_positions, r.all_positions_sigma = f.estimates[key], f.sigma(key)
             i = bound_rows.index(key)
-            r.cramer_rao_sigma = float(np.sqrt(max(bound[i, i], 0.0)))
-        if estimator == "all-positions" and key in f.estimates and key in cf_rows:
-            r.estimate, r.sigma, r.estimator = r.all_positions, r.all_positions_sigma, estimator
+            col |= {"all_positions": f.estimates[key], "all_positions_sigma": f.sigma(key),
+                    "cramer_rao_sigma": float(np.sqrt(max(bound[i, i], 0.0)))}
+            if estimator == "all-positions" and key in cf_rows:
+                col |= {"estimate": col["all_positions"], "sigma": col["all_positions_sigma"],
+                        "estimator": estimator}
+        columns.append(col)
     if estimator == "all-positions" and f.rows:
-        return f.rows, f.covariance
-    return cf_rows, cf_cov
+        return columns, (f.rows, f.covariance)
+    return columns, (cf_rows, cf_cov)
+
+
+def fill_columns(rows: list[ResultRow], columns: list[dict[str, Any]]) -> None:
+    """``side_by_side_columns``'s values written on the rows (in place)."""
+    for r, col in zip(rows, columns, strict=True):
+        for name, value in col.items():
+            setattr(r, name, value)
 
 
 def chosen_correlation(rows: list[ResultRow], chosen: tuple[list[Row], np.ndarray],

@@ -216,9 +216,11 @@ class Run:
         """Run a whole chart ``fn`` and journal its result; return ``load`` of that result.
 
         The result always goes through its journal form (JSON), so a fresh run and a run
-        restored from the journal see the same values. In skip mode a block completed in
-        the journal (and matching no ``repeat`` pattern) is restored, with the sheets it
-        saved and the steps it ticked on the open check-sheet, instead.
+        restored from the journal see the same values; the listener gets it as
+        ``{"kind": "block", "key", "data"}`` once the chart is run (not when restored). In
+        skip mode a block completed in the journal (and matching no ``repeat`` pattern) is
+        restored, with the sheets it saved and the steps it ticked on the open check-sheet,
+        instead.
         """
         done = self._blocks.get(key)
         open_sheet = self._open[-1] if self._open else None
@@ -244,6 +246,8 @@ class Run:
                                 for r in open_sheet.steps[first_step:]]
             self.journal.append(rec)
             self._blocks[key] = rec
+        if self.listener:  # a chart's data, as soon as it exists (not journaled again)
+            self.listener({"kind": "block", "key": key, "data": value})
         return load(value)
 
     def _restore_sheet(self, name: str) -> None:

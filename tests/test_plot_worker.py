@@ -180,3 +180,32 @@ def test_the_child_pins_its_blas_as_the_run_does(monkeypatch: pytest.MonkeyPatch
         n = w.compute("os:getenv", {"key": "OPENBLAS_NUM_THREADS"})()
         w.wait()
     assert n == "1"
+
+
+def test_the_days_nonlinearity_plot_goes_once_as_soon_as_chart_ii7_has_run(
+        tmp_path: Path) -> None:
+    """laboratory.isu.day.NonlinearityPlot: sent when Chart II-7's block is heard (its data
+    by position, as measure_day loads them), not again after the measurements; sent then
+    when II-7 was not heard (restored, or not measured)."""
+    from laboratory.isu.day import NonlinearityPlot
+
+    class Plotter:
+        def __init__(self) -> None:
+            self.sent: list[Any] = []
+
+        def draw(self, jobs: list[Any], more: bool = False) -> int:
+            self.sent.append((jobs, more))
+            return len(self.sent) - 1
+
+    p = Plotter()
+    plot = NonlinearityPlot(p, None, tmp_path / "n.png")  # type: ignore[arg-type]
+    plot.chart_done({"kind": "step", "chart": "II-7"})
+    plot.chart_done({"kind": "block", "key": "II-6", "data": {"data": {}}})
+    assert p.sent == []
+    plot.chart_done({"kind": "block", "key": "II-7", "data": {"data": {"1": [{"x": 1}]}}})
+    plot.send({})  # the measurements' end: already sent
+    ((jobs, more),) = p.sent
+    assert more and jobs[0][1]["points"] == {1: [{"x": 1}]}
+    late = Plotter()
+    NonlinearityPlot(late, None, tmp_path / "n.png").send({3: []})  # type: ignore[arg-type]
+    assert late.sent[0][0][0][1]["points"] == {3: []}

@@ -195,3 +195,30 @@ def test_write_sheets_refuses_a_name_outside_the_directory(tmp_path):
     run.journal.close()
     assert not (tmp_path.parent / "escape.json").exists()
     assert not (tmp_path / "run" / "sheets").exists()
+
+
+def test_a_run_block_is_heard_once_run_and_not_when_restored(tmp_path):
+    """Run.block tells its listener a chart's data (its journal form) as soon as the chart
+    has run, so a run can act on it meanwhile (the day's nonlinearity plot, issue 17); a
+    block restored from the journal (skip mode) is not heard again. Run.meanwhile without a
+    second process computes at the call, on the arguments as they are then."""
+    import simpy
+
+    heard: list[dict] = []
+    clock = VirtualClock(simpy.Environment())
+    j = Journal(tmp_path / "journal.jsonl")
+    run = Run(clock, j, listener=heard.append, resume="skip")
+    got = run.block("II-7", lambda: {"data": {1: [{"rate": 0.5}]}}, lambda v: v)
+    assert got == {"data": {"1": [{"rate": 0.5}]}}
+    assert [e for e in heard if e["kind"] == "block"] == [
+        {"kind": "block", "key": "II-7", "data": {"data": {"1": [{"rate": 0.5}]}}}]
+    xs = [1.0, 2.0]
+    later = run.meanwhile("statistics:fmean", data=xs)
+    xs.append(9.0)
+    assert later() == 1.5
+    j.close()
+    heard.clear()
+    again = Run(clock, Journal(tmp_path / "journal.jsonl", resume=True), listener=heard.append,
+                resume="skip")
+    assert again.block("II-7", lambda: pytest.fail("restored, not run"), lambda v: v) == got
+    assert not [e for e in heard if e["kind"] == "block"]

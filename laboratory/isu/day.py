@@ -35,6 +35,7 @@ from laboratory.rundir import opened_journal, prepare, resume_note
 from laboratory.tables import Column, print_fitted
 from laboratory.verdicts import judge_constants, run_verdict
 from procedures.isu.alignment.results_sheet import AlignPlan
+from procedures.isu.calibration.noise_spec import NoiseSpec
 from procedures.isu.computations import compute_calibration
 from procedures.isu.day import EXPERIMENTS, measure_day
 from procedures.isu.plan import DayPlan
@@ -138,6 +139,27 @@ def render_results(console: Console, rows: list[dict]) -> None:
     print_fitted(console, "Calibration Results Sheet (Chart II-5)", cols, cells)
 
 
+class NonlinearityPlot:
+    """The nonlinearity plot, sent to the plot child as soon as Chart II-7's block has run
+    (its data are the block's, as measure_day loads them), so that the child draws it
+    while the positions go on and is free for the computations' fit and the results plot
+    (issue 17); else (II-7 restored or not measured) once the measurements end."""
+
+    def __init__(self, plotter: PlotWorker, noise: NoiseSpec, path: Path) -> None:
+        self.plotter, self.noise, self.path = plotter, noise, path
+        self.sent = False
+
+    def chart_done(self, ev: dict) -> None:
+        if ev.get("kind") == "block" and ev.get("key") == "II-7":
+            self.send({int(k): v for k, v in ev["data"]["data"].items()})
+
+    def send(self, points: dict[int, list[dict]]) -> None:
+        if not self.sent:
+            self.sent = True
+            self.plotter.draw([(f"{PLOTS}:nonlinearity_plot", {
+                "points": points, "noise": self.noise, "path": self.path})], more=True)
+
+
 def rack_session(journal: Journal) -> str | None:
     """The served rack's session the journal's last run talked to (None: virtual)."""
     starts = [r for r in journal.records if r.get("event") == "start"]
@@ -211,7 +233,13 @@ def _day(req: DayRequest, conn: Connection, journal: Journal, console: Console,
     repeat = ("I-1",) if req.resume and sid != rack_session(journal) else ()
     site, noise = site_of(cfg), noise_spec(cfg)
     with can_log(out, st.ieu), DayDisplay(console, req.quiet) as display:
-        run = Run(st.clock, journal, listener=display,
+        nonlinearity = NonlinearityPlot(plotter, noise, out / "nonlinearity.png")
+
+        def listener(ev: dict) -> None:
+            display(ev)
+            nonlinearity.chart_done(ev)
+
+        run = Run(st.clock, journal, listener=listener,
                   resume="replay" if conn.rack is not None else "skip", repeat=repeat,
                   sheet_models=ISU_SHEETS, sheets_used=carried.sheets_used, beside=plotter,
                   header=ident.header("calibration day (station day)",
@@ -225,11 +253,8 @@ def _day(req: DayRequest, conn: Connection, journal: Journal, console: Console,
                  links=None if links is None else str(links), **carried.note())
         data = measure_day(st, run, req.plan, site, cfg.isu.accels[0].f0_hz, req.only,
                            req.positions, noise=noise, survey=carried.survey)
+        nonlinearity.send(data.nonlinearity)  # unless Chart II-7's block was run and sent
         calib = compute_calibration(run, data, req.plan, noise, site, prior=carried.prior)
-        plotter.draw([  # drawn during the alignments, after the fit the computations gave
-            # the child (issue 17)
-            (f"{PLOTS}:nonlinearity_plot", {"points": data.nonlinearity, "noise": noise,
-                                            "path": out / "nonlinearity.png"})], more=True)
         world = conn.coefficient_world
         rows = judge_constants(results_rows(calib, calibration_truth(world) if world else {}),
                                cfg.limits)

@@ -231,6 +231,23 @@ def fibonacci_sphere(n: int = 20000) -> np.ndarray:
     return _fib(int(n))
 
 
+def _equator_pairs(alpha: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Each orientation's two pickoffs nearest the equator and their cosines."""
+    pair = nearest_equator_pair(alpha)
+    return (pair, np.take_along_axis(alpha, pair[:, :1], 1)[:, 0],
+            np.take_along_axis(alpha, pair[:, 1:], 1)[:, 0])
+
+
+@lru_cache(maxsize=8)
+def _lattice_pairs(n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``_equator_pairs`` of the n-point Fibonacci lattice, made once: they depend on the
+    orientations alone, and a Figure 2 study asks for them some 70 times (issue 17)."""
+    out = _equator_pairs(fibonacci_sphere(n))
+    for x in out:
+        x.setflags(write=False)
+    return out
+
+
 def amplification_details(pattern: str, strategy: str, theta0_deg: float,
                           convention: str = "sphere", points: int = 20000,
                           orientations: np.ndarray | None = None) -> dict:
@@ -245,9 +262,8 @@ def amplification_details(pattern: str, strategy: str, theta0_deg: float,
     nv = view.sum(axis=1)
     ok = nv >= 2
     var = pickoff_sigma(geom, alpha) ** 2
-    pair = nearest_equator_pair(alpha)
-    a_i = np.take_along_axis(alpha, pair[:, :1], 1)[:, 0]
-    a_j = np.take_along_axis(alpha, pair[:, 1:], 1)[:, 0]
+    pair, a_i, a_j = (_lattice_pairs(int(points)) if orientations is None
+                      else _equator_pairs(alpha))
     v_i = np.take_along_axis(var, pair[:, :1], 1)[:, 0]
     v_j = np.take_along_axis(var, pair[:, 1:], 1)[:, 0]
     v = variance_two(a_i, a_j, v_i, v_j)

@@ -170,6 +170,7 @@ class PlotWorker:
     def __init__(self, *modules: str) -> None:
         self._jobs: list[Job] = []
         self._temps: list[Path | None] = []  # None: a computation (no file)
+        self._sent: dict[int, bytes] = {}  # a computation's job as sent (its arguments then)
         self._batches: list[range] = []  # the jobs of each batch sent
         self._outcomes: list[Outcome | None] = []  # per job, once the child answered
         self._here: set[int] = set()  # jobs drawn in this process already (``values``)
@@ -213,11 +214,13 @@ class PlotWorker:
         return len(self._batches) - 1
 
     def compute(self, job: str, kwargs: dict[str, Any]) -> Callable[[], Any]:
-        """Send the computation ``job`` (``"module:function"``, no file) to the child, ahead
-        of nothing sent later; the returned callable gives its value (computed here if the
-        child could not: an error then is the run's)."""
+        """Send the computation ``job`` (``"module:function"``, no file) to the child on its
+        arguments as they are now; the returned callable gives its value (computed here, on
+        those same arguments, if the child could not: an error then is the run's)."""
         first = len(self._jobs)
-        self._jobs.append((job, kwargs))
+        sent = pickle.dumps([(job, kwargs)])  # the arguments now, whatever they become
+        self._jobs.append((job, {}))
+        self._sent[first] = sent
         self._temps.append(None)
         self._outcomes.append(None)
         self._batches.append(range(first, first + 1))
@@ -225,7 +228,7 @@ class PlotWorker:
         p = self._proc
         if p is not None and p.stdin is not None and not p.stdin.closed:
             try:
-                p.stdin.write(pickle.dumps([(job, kwargs)]))
+                p.stdin.write(sent)
                 p.stdin.flush()
             except OSError:  # the child is gone: computed here when asked
                 self._end_child()
@@ -258,8 +261,9 @@ class PlotWorker:
             outcome, tmp = self._outcomes[i], self._temps[i]
             if outcome is not None and outcome[0] == "ok" and (tmp is None or tmp.exists()):
                 out.append(outcome[1])
-            elif tmp is None:
-                out.append(_draw(*self._jobs[i]))
+            elif tmp is None:  # on the arguments as they were sent
+                ((name, kw),) = pickle.loads(self._sent[i])
+                out.append(_draw(name, kw))
                 self._here.add(i)
             else:
                 tmp.unlink(missing_ok=True)
@@ -297,6 +301,7 @@ class PlotWorker:
 
     def _forget(self) -> None:
         self._jobs, self._temps, self._batches, self._outcomes = [], [], [], []
+        self._sent = {}
         self._here, self._answered = set(), 0
 
     def _end_child(self) -> None:

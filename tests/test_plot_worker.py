@@ -167,7 +167,10 @@ def test_a_computation_is_the_childs_value_or_computed_here(
     monkeypatch.setattr(plot_worker.subprocess, "Popen", refuse)
     with PlotWorker() as w:
         assert w._proc is None
-        assert w.compute(job, {"data": [2.0, 4.0]})() == 3.0
+        xs = [2.0, 4.0]
+        later = w.compute(job, {"data": xs})
+        xs.append(12.0)  # changed after the call: computed here on the arguments then
+        assert later() == 3.0
         w.wait()
 
 
@@ -209,3 +212,19 @@ def test_the_days_nonlinearity_plot_goes_once_as_soon_as_chart_ii7_has_run(
     late = Plotter()
     NonlinearityPlot(late, None, tmp_path / "n.png").send({3: []})  # type: ignore[arg-type]
     assert late.sent[0][0][0][1]["points"] == {3: []}
+
+
+def test_a_computation_the_child_dropped_is_computed_on_its_arguments_as_sent() -> None:
+    """A child that dies after taking a computation: the value is computed here on the
+    arguments as they were at the call, not as the run has changed them since."""
+    with PlotWorker() as w:
+        xs = [1.0, 3.0]
+        later = w.compute("statistics:fmean", {"data": xs})
+        xs.append(20.0)
+        proc = w._proc  # still importing matplotlib: it has not taken the job yet
+        assert isinstance(proc, subprocess.Popen) and proc.poll() is None
+        proc.kill()
+        proc.wait()
+        assert later() == 2.0
+        assert 0 in w._here
+        w.wait()

@@ -200,18 +200,24 @@ class PlotWorker:
         self._temps += temps
         self._outcomes += [None] * len(jobs)
         self._batches.append(range(first, len(self._jobs)))
-        p = self._proc
-        if p is not None and p.stdin is not None:
-            sent = [(name, {**kw, "path": tmp})
-                    for (name, kw), tmp in zip(jobs, temps, strict=True)]
-            try:
-                p.stdin.write(pickle.dumps(sent))
-                p.stdin.flush()
-                if not more:
-                    p.stdin.close()
-            except OSError:  # the child is gone: wait() draws them here
-                self._end_child()
+        self._send(pickle.dumps([(name, {**kw, "path": tmp})
+                                 for (name, kw), tmp in zip(jobs, temps, strict=True)]),
+                   last=not more)
         return len(self._batches) - 1
+
+    def _send(self, batch: bytes, last: bool = False) -> None:
+        """One pickled batch to the child (``last``: then its stdin is closed); where the
+        child is gone or takes no more, ``values`` and ``wait`` do the jobs here."""
+        p = self._proc
+        if p is None or p.stdin is None or p.stdin.closed:
+            return
+        try:
+            p.stdin.write(batch)
+            p.stdin.flush()
+            if last:
+                p.stdin.close()
+        except OSError:  # the child is gone
+            self._end_child()
 
     def compute(self, job: str, kwargs: dict[str, Any]) -> Callable[[], Any]:
         """Send the computation ``job`` (``"module:function"``, no file) to the child on its
@@ -225,13 +231,7 @@ class PlotWorker:
         self._outcomes.append(None)
         self._batches.append(range(first, first + 1))
         batch = len(self._batches) - 1
-        p = self._proc
-        if p is not None and p.stdin is not None and not p.stdin.closed:
-            try:
-                p.stdin.write(sent)
-                p.stdin.flush()
-            except OSError:  # the child is gone: computed here when asked
-                self._end_child()
+        self._send(sent)
         return lambda: self.values(batch)[0]
 
     def _read_answers(self, upto: int) -> None:

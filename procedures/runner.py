@@ -113,7 +113,7 @@ class Run:
         heading every new sheet with a ``header`` field gets (SheetHeader's fields; None:
         no headers); ``sheets_used(name)`` its "Sheet Used" cross-references by sheet name
         (``check_<chart>`` for a check-sheet). ``beside``: where ``meanwhile`` computes
-        (None: here, when asked)."""
+        (None: here, at the call)."""
         if resume not in RESUME_MODES:
             raise ValueError(f"resume mode must be one of {RESUME_MODES}, got {resume!r}")
         pin_blas_threads()  # the record's numbers must not depend on the machine's cores

@@ -228,3 +228,15 @@ def test_a_computation_the_child_dropped_is_computed_on_its_arguments_as_sent() 
         assert later() == 2.0
         assert 0 in w._here
         w.wait()
+
+
+def test_a_batch_after_the_last_is_drawn_here(tmp_path: Path) -> None:
+    """After the batch sent as the last (the child's stdin closed) a further plot or
+    computation is not written to the closed pipe (a ValueError before): wait draws the
+    plot here and the computation is computed here."""
+    with PlotWorker() as w:
+        w.draw([(RESULTS, {"rows": ROWS, "path": tmp_path / "a.png"})])
+        w.draw([(RESULTS, {"rows": ROWS, "path": tmp_path / "b.png"})])
+        assert w.compute("statistics:fmean", {"data": [1.0, 5.0]})() == 3.0
+        w.wait()
+    assert (tmp_path / "a.png").read_bytes() == (tmp_path / "b.png").read_bytes()

@@ -37,7 +37,7 @@ from laboratory.verdicts import judge_constants, run_verdict
 from procedures.isu.alignment.results_sheet import AlignPlan
 from procedures.isu.calibration.noise_spec import NoiseSpec
 from procedures.isu.computations import compute_calibration
-from procedures.isu.day import EXPERIMENTS, measure_day
+from procedures.isu.day import EXPERIMENTS, chart_data, measure_day
 from procedures.isu.plan import DayPlan
 from procedures.isu.settings import collection_times
 from procedures.isu.sheets import (
@@ -151,7 +151,7 @@ class NonlinearityPlot:
 
     def chart_done(self, ev: dict) -> None:
         if ev.get("kind") == "block" and ev.get("key") == "II-7":
-            self.send({int(k): v for k, v in ev["data"]["data"].items()})
+            self.send(chart_data(ev["data"]))
 
     def send(self, points: dict[int, list[dict]]) -> None:
         if not self.sent:

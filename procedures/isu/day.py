@@ -59,6 +59,12 @@ def _by_position(d: dict) -> dict[int, Any]:
     return {int(k): v for k, v in d.items()}
 
 
+def chart_data(block: dict) -> dict[int, Any]:
+    """A measurement chart's data, by position, from its block's journal form (what
+    ``measure_day`` keeps of it, and what a run's listener hears as soon as it is run)."""
+    return _by_position(block["data"])
+
+
 def _pairs(first: tuple[int, ...], positions: set[int] | None) -> tuple[int, ...]:
     """The pairs (m, m + 1) that hold a wanted position: a pair is measured whole."""
     return tuple(m for m in first if positions is None or {m, m + 1} & positions)
@@ -146,7 +152,7 @@ def measure_day(st: IsuDrivers, run: Run, plan: DayPlan, site: Site, f0: float,
 
         value = run.block(key, measure, lambda v: v)
         outputs.outputs.update(value["outputs"])
-        return _by_position(value["data"])
+        return chart_data(value)
 
     if "II-6" in wanted and (pairs := _pairs((1, 3, 5), pos)):
         data.gyro.update(chart("II-6", lambda: scale_factor_positions(

@@ -108,6 +108,28 @@ def test_roughness_is_a_fixed_property_of_the_rotor():
     assert not np.array_equal(a.edge_offsets(th), c.edge_offsets(th))
 
 
+
+@pytest.mark.parametrize("seed", [1, 2, 3])
+def test_roughness_table_is_the_fourier_sum(seed):
+    """The table by angle addition is the sum of the modes' cosines at each tabulated arc
+    length, to the rounding of the arguments (long double reference; a random length,
+    correlation length and mode count)."""
+    from sim.esg.pattern import _fourier_table
+
+    rng = np.random.default_rng(seed)
+    n, modes = int(rng.integers(2, 4000)), int(rng.integers(1, 200))
+    h = float(rng.uniform(1e-4, 2e-3))
+    k = rng.normal(0.0, 1.0 / (6.0 * h), modes)
+    phase = rng.uniform(0.0, 2.0 * math.pi, modes)
+    s = np.arange(n, dtype=np.longdouble) * np.longdouble(h)
+    arg = s[:, None] * k.astype(np.longdouble) + phase.astype(np.longdouble)
+    exact = np.cos(arg).sum(axis=1)
+    got = _fourier_table(n, h, k, phase)
+    assert got.shape == (n,)
+    # each term's argument is rounded to about eps |arg|, as in a direct float sum
+    bound = 16.0 * np.finfo(float).eps * np.abs(arg).sum(axis=1).astype(float) + 1e-12
+    assert np.all(np.abs(got - exact.astype(float)) <= bound)
+
 def test_default_discriminator_and_delay_pass_every_genuine_pulse():
     p = nominal_pattern()
     delay = ProcessorSettings().logic_delay_us

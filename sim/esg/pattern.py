@@ -87,6 +87,21 @@ class PatternSpec:
     cosine_clearance_in: float = 0.060  # between neighbouring lines at the extremities
 
 
+def _fourier_table(n: int, h: float, k: np.ndarray, phase: np.ndarray) -> np.ndarray:
+    """sum_m cos(s k_m + phase_m) at s = 0, h, ..., (n - 1) h, by angle addition: with
+    s = (q B + r) h, each term is Re(exp(i (q B h k_m + phase_m)) exp(i r h k_m)), so the
+    table is one product of two B-row matrices of exponentials (B about sqrt(n)) instead
+    of n cosines per mode (issue 17: 2.6 million cosines were 0.07 s of the ESG rack's
+    assembly). The arguments are as large as the direct sum's, so is their rounding."""
+    b = max(1, math.isqrt(n - 1) + 1)
+    q = np.arange(-(-n // b)) * (b * h)
+    r = np.arange(b) * h
+    hi = q[:, None] * k[None, :] + phase[None, :]
+    lo = r[:, None] * k[None, :]
+    table = np.cos(hi) @ np.cos(lo).T - np.sin(hi) @ np.sin(lo).T
+    return table.ravel()[:n]
+
+
 def _edge_values(spec: PatternSpec, d0: float, d_logic: float) -> np.ndarray:
     """Nominal F value of each edge, in EDGE_NAMES order."""
     w, wl, gap = spec.width_in, spec.logic_width_in, spec.logic_gap_in
@@ -165,9 +180,8 @@ class Pattern:
             # the Fourier sums tabulated every corr/6 of arc length (interpolation error
             # about 1 % of the rms); the table is the rotor's fixed roughness
             n_s = int(np.max(self._grid_s[:, -1]) / self._rough_h) + 2
-            s_tab = np.arange(n_s) * self._rough_h
-            self._rough = np.array([self._ramp * np.cos(
-                s_tab[:, None] * self._kw[j][None, :] + self._ph[j][None, :]).sum(axis=1)
+            self._rough = self._ramp * np.array([
+                _fourier_table(n_s, self._rough_h, self._kw[j], self._ph[j])
                 for j in range(n)])
 
     # ----- geometry -----

@@ -55,6 +55,7 @@ def add_commands(app: typer.Typer) -> None:
             render_tables,
             run_gyrocompass_test,
         )
+        from laboratory.shown import Shown
         from station.config.cigtf import load_cigtf_eq27, load_cigtf_limits, load_cigtf_params
 
         check_seed(seed)
@@ -94,23 +95,30 @@ def add_commands(app: typer.Typer) -> None:
             e27 = load_cigtf_eq27(config)
             e27 = e27.model_copy(update={"apply": e27.apply or eq27})
             unit = load_identity(config, "CIGTF")
+        console = real_console()
+
+        def show(res: dict) -> None:
+            """The results on the console, while the plot is drawn."""
+            render_tables(console, res)
+            for p in res["phases"]:
+                console.print(f"{p['phase']:>9}: theta {p['theta_arcsec']:+.2f} +/- "
+                              f"{p['sigma_arcsec']:.2f} arcsec (n = {p['n']})")
+            truth = res["truth"]["theta_arcsec"]
+            told = "absent" if truth is None else f"{truth:+.2f} arcsec"
+            console.print(f"truth (eq. 26) {told}; delta {res['delta_arcsec']:.2f}, Delta "
+                          f"{res['Delta_arcsec']:.2f} arcsec")
+            if "served" in res:
+                console.print(f"served rack (session {res['served']['session']}): "
+                              f"{res['served']['note']}", markup=False)
+
+        shown = Shown(show)
         with invoked(operator, identity=unit):
             res, target = station_run(
                 load_cigtf_params, config, "gyrocompass", run_seed, target, resume is not None,
                 lambda params, d: run_gyrocompass_test(run_seed, d, params=params, links=links,
                                                        resume=resume is not None, limits=limits,
-                                                       eq27=e27))
-        console = real_console()
-        render_tables(console, res)
-        for p in res["phases"]:
-            console.print(f"{p['phase']:>9}: theta {p['theta_arcsec']:+.2f} +/- "
-                          f"{p['sigma_arcsec']:.2f} arcsec (n = {p['n']})")
-        truth = res["truth"]["theta_arcsec"]
-        console.print(f"truth (eq. 26) {'absent' if truth is None else f'{truth:+.2f} arcsec'}; "
-                      f"delta {res['delta_arcsec']:.2f}, Delta {res['Delta_arcsec']:.2f} arcsec")
-        if "served" in res:
-            console.print(f"served rack (session {res['served']['session']}): "
-                          f"{res['served']['note']}", markup=False)
+                                                       eq27=e27, show=shown))
+        shown.done(res)  # or its error, once the record is complete
         finished(res, target, ".1f")
 
 

@@ -24,9 +24,9 @@ from laboratory.export import write_results_csv
 from laboratory.identity import Identifying
 from laboratory.plot_worker import PlotWorker
 from laboratory.record import write_json, write_sheets
-from laboratory.report import prepare_report
 from laboratory.rundir import JOURNAL, RunDirError, prepare
 from laboratory.seeded import Seeded
+from laboratory.shown import Shown
 from laboratory.verdicts import judge_phases, run_verdict, truth_check
 from procedures.cigtf.analysis import phase_values, run_values
 from procedures.cigtf.budget import Eq27Values, budget_rows, corrected_phases
@@ -301,7 +301,8 @@ def run_gyrocompass_test(seed: int, out: Path, params: CigtfParams | None = None
                          rack_hook: Callable[[CigtfRack], None] | None = None,
                          links: Path | None = None, resume: bool = False,
                          limits: CigtfLimits | None = None,
-                         eq27: Eq27Config | None = None) -> dict:
+                         eq27: Eq27Config | None = None,
+                         show: Shown | None = None) -> dict:
     """Run the whole test into ``out``; ``rack_hook`` may inject faults into the rack;
     ``limits``: the acceptance limits of delta and Delta (default: station/config/limits.py).
 
@@ -311,6 +312,8 @@ def run_gyrocompass_test(seed: int, out: Path, params: CigtfParams | None = None
     journal in virtual time); ``out`` must hold no record otherwise (RunDirError).
     ``eq27``: the eq. 27 correction's values; applied (and recorded in the start note, for
     ``--analyse``) when ``eq27.apply``. The budget table is written in any case.
+    ``show``: the command's display of the results, called with them while the plot is
+    drawn (issue 17).
     """
     out = Path(out)
     params = params or CigtfParams()
@@ -365,6 +368,6 @@ def run_gyrocompass_test(seed: int, out: Path, params: CigtfParams | None = None
         }
         write_json(out / "gyrocompass.json", res)
         write_results_csv(out, res["runs"], "gyrocompass.csv")
-        plots.wait(meanwhile=prepare_report)  # the report's template while it draws
+        plots.wait(meanwhile=lambda: (show or Shown(None)).meanwhile(res))
         run.note(event="end", sim_seconds=st.clock.now() - t_start)
         return res

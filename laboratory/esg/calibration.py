@@ -38,9 +38,9 @@ from laboratory.export import write_results_csv
 from laboratory.identity import Identifying
 from laboratory.plot_worker import PlotWorker
 from laboratory.record import write_json, write_sheets
-from laboratory.report import prepare_report
 from laboratory.rundir import prepare
 from laboratory.seeded import Seeded
+from laboratory.shown import Shown
 from laboratory.tables import Column, print_fitted
 from laboratory.verdicts import judge_schedules, run_verdict
 from procedures.esg.acquisition import RENEW, Acquisition, EsgPlan, acquire
@@ -234,7 +234,8 @@ def run_esg_calibration(seed: int, out: Path, params: EsgParams | None = None,
                         with_study: bool = True, links: Path | None = None,
                         resume: bool = False, limits: EsgLimits | None = None,
                         order: int | str = REPORT_ORDER,
-                        variants_points: int | None = None) -> dict:
+                        variants_points: int | None = None,
+                        show: Shown | None = None) -> dict:
     """The whole ESG calibration into ``out``; ``rack_hook`` may inject faults.
 
     ``links``: run against the ESG rack served there instead (see the module doc);
@@ -247,6 +248,8 @@ def run_esg_calibration(seed: int, out: Path, params: EsgParams | None = None,
     tried and tabulated whatever is used ("Data Reduction Technique").
     ``variants_points``: the strategy study's variants and Figure 3 (esg_figure3.png)
     added to the record, averaged over that many orientations (None: not computed).
+    ``show``: the command's display of the results, called with them while the last plot
+    is drawn (issue 17: the child's plot, not the display, is then what the run waits for).
     """
     out = Path(out)
     params = params or EsgParams()
@@ -350,6 +353,6 @@ def run_esg_calibration(seed: int, out: Path, params: EsgParams | None = None,
         res_json["wall_seconds"] = time.perf_counter() - wall0
         write_json(out / "esg.json", res_json)
         write_results_csv(out, schedules, "esg.csv")
-        plots.wait(meanwhile=prepare_report)  # the report's template while it draws
+        plots.wait(meanwhile=lambda: (show or Shown(None)).meanwhile(res_json))
         run.note(event="end", sim_seconds=st.clock.now() - t_start)
         return res_json

@@ -82,6 +82,7 @@ def add_commands(app: typer.Typer) -> None:
     ) -> None:
         """The strapdown ESG pattern calibration and readout study (report 004)."""
         from laboratory.esg.calibration import render_tables, run_esg_calibration
+        from laboratory.shown import Shown
         from station.config.esg import (
             load_esg_limits,
             load_esg_params,
@@ -131,6 +132,18 @@ def add_commands(app: typer.Typer) -> None:
                        alignment_iterations=proc.alignment_iterations,
                        remount_alignment=remounting, pickoff3_mirror2=both3)
         points = proc.strategy_variants_points if want_variants else None
+        console = real_console()
+
+        def show(res: dict) -> None:
+            """The results on the console, while the last plot is drawn."""
+            render_tables(console, res)
+            if "served" in res:
+                console.print(f"served rack (session {res['served']['session']}): "
+                              f"{res['served']['note']} (pickoff-1 coning only: the true "
+                              "colatitudes depend on the served rack's path and are left "
+                              "out)", markup=False)
+
+        shown = Shown(show)
         with invoked(operator, identity=unit):
             res, target = station_run(
                 load_esg_params, config, "esg", run_seed, target, resume is not None,
@@ -140,11 +153,6 @@ def add_commands(app: typer.Typer) -> None:
                                                       links=links,
                                                       resume=resume is not None, limits=limits,
                                                       order=run_order, plan=plan,
-                                                      variants_points=points))
-        console = real_console()
-        render_tables(console, res)
-        if "served" in res:
-            console.print(f"served rack (session {res['served']['session']}): "
-                          f"{res['served']['note']} (pickoff-1 coning only: the true colatitudes "
-                          "depend on the served rack's path and are left out)", markup=False)
+                                                      variants_points=points, show=shown))
+        shown.done(res)  # or its error, once the record is complete
         finished(res, target, ".1f")

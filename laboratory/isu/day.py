@@ -30,8 +30,9 @@ from laboratory.isu.spec import mounting, noise_spec, site_of
 from laboratory.isu.truth import calibration_truth
 from laboratory.plot_worker import PlotWorker
 from laboratory.record import write_results, write_sheets
-from laboratory.report import prepare_report, report_after
+from laboratory.report import report_after
 from laboratory.rundir import opened_journal, prepare, resume_note
+from laboratory.shown import Shown
 from laboratory.tables import Column, print_fitted
 from laboratory.verdicts import judge_constants, run_verdict
 from procedures.isu.alignment.results_sheet import AlignPlan
@@ -283,10 +284,13 @@ def _day(req: DayRequest, conn: Connection, journal: Journal, console: Console,
     if alignment:
         write_results_csv(out, alignment, "alignment.csv")
     write_day_calibration(out, calib, cfg, data, req.plan, site, noise)  # calibration.json
-    plotter.wait(meanwhile=prepare_report)  # the report's template while it draws
+    def show(res: dict) -> None:
+        render_results(console, res["calibration"])
+        if res["alignment"]:
+            render_alignment(console, res["alignment"])
+
+    shown = Shown(None if req.quiet else show)
+    plotter.wait(meanwhile=lambda: shown.meanwhile(res))
     run.note(event="end", sim_seconds=st.clock.now())
-    if not req.quiet:
-        render_results(console, rows)
-        if alignment:
-            render_alignment(console, alignment)
+    shown.done(res)  # or its error, as when the display followed the end note
     return res

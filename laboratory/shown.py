@@ -1,0 +1,40 @@
+"""A command's display of its results, made while the run's plot child draws the last plot
+(issue 17): the display and the report's template then wait for the child together, not one
+after the other. A display error (a closed stdout) must not cut the record short, so it is
+kept and raised only where the display used to be made, once the record is complete."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+from laboratory.report import prepare_report
+
+
+class Shown:
+    """``show(res)`` made early (``meanwhile``) or else at ``done``; its error raised by
+    ``done``, once the record is complete. ``show`` None: nothing is displayed."""
+
+    def __init__(self, show: Callable[[dict], None] | None) -> None:
+        self.show = show
+        self.made = False
+        self.error: Exception | None = None
+
+    def meanwhile(self, res: dict) -> None:
+        """The report's template, then the display of ``res`` (an error kept for ``done``)."""
+        prepare_report()
+        if self.show is not None and not self.made:
+            self.made = True
+            try:
+                self.show(res)
+            except Exception as e:  # noqa: BLE001 - raised by done, after the record
+                self.error = e
+
+    def done(self, res: dict) -> None:
+        """The display of ``res`` if the run made none (a run that drew no plot), else
+        its error, if it had one."""
+        if self.show is not None and not self.made:
+            self.made = True
+            self.show(res)
+        if self.error is not None:
+            error, self.error = self.error, None
+            raise error

@@ -164,27 +164,46 @@ def result_tables(key: str, rows: list[dict]) -> tuple[dict, dict | None]:
     return table, truth
 
 
-def _read_json(path: Path, missing: list[str]) -> Any:
+def _read_json(path: Path, missing: list[str], texts: dict[str, str] | None = None) -> Any:
+    """The JSON file's value (None, noted in ``missing``, when unreadable); ``texts`` keeps
+    its text by stem when it is indented as the record writes it (laboratory.record): the
+    report shows such a sheet as its file, not dumped again (issue 17: 14 ms of the day's
+    report; the text is the same)."""
     try:
-        return json.loads(path.read_text(encoding="utf-8"))
+        text = path.read_text(encoding="utf-8")
+        value = json.loads(text)
     except (OSError, UnicodeDecodeError, ValueError) as e:
         missing.append(f"{path.name}: unreadable ({type(e).__name__}), left out")
         return None
+    if texts is not None and text.startswith("{\n \"") and text.endswith("}"):
+        texts[path.stem] = text
+    return value
 
 
-def _journal_sheets(d: Path) -> list[tuple[str, Any]]:
+def _journal_records(d: Path) -> list[dict] | None:
+    """The journal's records, read once for the whole report (a torn last line or a line
+    that is no record left out); None without a journal."""
+    path = d / "journal.jsonl"
+    if not path.is_file():
+        return None
+    records = []
+    for line in path.read_text(encoding="utf-8", errors="replace").splitlines():
+        try:
+            rec = json.loads(line)
+        except ValueError:
+            continue  # a torn last line
+        if isinstance(rec, dict):
+            records.append(rec)
+    return records
+
+
+def _journal_sheets(records: list[dict] | None) -> list[tuple[str, Any]]:
     """The sheets the journal holds (its sheet records, the last of each name): a stopped
     run's completed check-sheets, which it never wrote to sheets/."""
-    path = d / "journal.jsonl"
     found: dict[str, Any] = {}
-    if path.is_file():
-        for line in path.read_text(encoding="utf-8", errors="replace").splitlines():
-            try:
-                rec = json.loads(line)
-            except ValueError:
-                continue
-            if isinstance(rec, dict) and rec.get("kind") == "sheet" and "name" in rec:
-                found[str(rec["name"])] = rec.get("data")
+    for rec in records or ():
+        if rec.get("kind") == "sheet" and "name" in rec:
+            found[str(rec["name"])] = rec.get("data")
     return list(found.items())
 
 
@@ -194,20 +213,13 @@ def _ending(identity: object) -> dict[str, Any]:
     return {k: ident.get(k) for k in ("status", "reason", "chart", "step")}
 
 
-def _journal_end(d: Path) -> dict:
+def _journal_end(records: list[dict] | None) -> dict:
     """How the journal says the run ended: an end note, or the stop (its failed record) and
     the last step it recorded."""
-    path = d / "journal.jsonl"
-    if not path.is_file():
+    if records is None:
         return {"ended": None, "last_step": None, "failed": None}
     last, ended, failed = None, False, None
-    for line in path.read_text(encoding="utf-8", errors="replace").splitlines():
-        try:
-            rec = json.loads(line)
-        except ValueError:
-            continue  # a torn last line
-        if not isinstance(rec, dict):
-            continue
+    for rec in records:
         if rec.get("kind") == "step":
             last = f"Chart {rec.get('chart')}, step {rec.get('step')}"
         if rec.get("kind") == "note" and rec.get("event") == "end":
@@ -311,17 +323,19 @@ def build(run_dir: Path) -> dict:
     checks, others = [], []
     sheets_dir = d / "sheets"
     loaded = []
+    texts: dict[str, str] = {}  # a sheet file's text: what json.dumps(indent=1) gives again
     for f in sorted(sheets_dir.glob("*.json")) if sheets_dir.is_dir() else []:
-        s = _read_json(f, missing)
+        s = _read_json(f, missing, texts)
         if s is not None:
             loaded.append((f.stem, s))
     have = {name for name, _ in loaded}
-    loaded += [(n, s) for n, s in _journal_sheets(d) if n not in have and s is not None]
+    records = _journal_records(d)
+    loaded += [(n, s) for n, s in _journal_sheets(records) if n not in have and s is not None]
     for name, s in sorted(loaded, key=_sheet_sort_key):
         if isinstance(s, dict) and "chart" in s and "steps" in s:
             checks.append(check_sheet(name, s))
         else:
-            others.append({"name": name, "text": json.dumps(s, indent=1)})
+            others.append({"name": name, "text": texts.get(name) or json.dumps(s, indent=1)})
     plots = []
     for p in sorted(d.glob("*.png")) + sorted(d.glob("plots/*.png")):
         try:
@@ -338,7 +352,7 @@ def build(run_dir: Path) -> dict:
         "run_dir": str(d), "laboratory": lab, "lab_title": TITLES.get(lab or "", lab or
                                                                       "unknown laboratory"),
         "identity": ident_rows, **_ending(identity),
-        "journal": _journal_end(d), "outcome": outcome, "outcome_cls":
+        "journal": _journal_end(records), "outcome": outcome, "outcome_cls":
         _verdict_class(outcome or ""), "failed": failed, "missing": missing,
         "tables": tables, "truth_tables": truth_tables, "alignments": alignments,
         "summaries": summaries, "truth_summaries": truth_summaries, "figures": figures,

@@ -6,6 +6,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from laboratory.plot_worker import png_options
+
 PHASES = ("operating", "shutdown")  # laboratory.cigtf.gyrocompassing's
 
 
@@ -43,5 +45,5 @@ def theta_plot(res: dict, path: Path) -> None:
     fig.suptitle("CIGTF gyrocompassing accuracy test")
     # fixed margins, not tight_layout: its extra pass over the text took half the drawing
     fig.subplots_adjust(left=0.075, right=0.985, bottom=0.12, top=0.86, wspace=0.04)
-    fig.savefig(path, dpi=110)
+    fig.savefig(path, dpi=110, **png_options())
     plt.close(fig)

@@ -7,6 +7,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from laboratory.plot_worker import png_options
+
 GOAL_ARCSEC = 15.0  # laboratory.esg.calibration's: the readout goal (arcsec)
 
 
@@ -45,5 +47,5 @@ def schedule_plot(schedules: list[dict], path: Path) -> None:
     height = 3.2 * len(schedules)
     fig.subplots_adjust(left=0.075, right=0.85, bottom=0.6 / height, top=1.0 - 0.37 / height,
                         hspace=0.17)
-    fig.savefig(path, dpi=110)
+    fig.savefig(path, dpi=110, **png_options())
     plt.close(fig)

@@ -9,6 +9,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from laboratory.esg.plots import GOAL_ARCSEC
+from laboratory.plot_worker import png_options
 
 STUDY_RANGES = tuple(range(35, 48))
 STUDY_POINTS = 6000
@@ -81,5 +82,5 @@ def figure2_plot(rows: list[dict], path: Path, report_points: bool = True) -> No
     ax.legend(fontsize=7)
     # fixed margins, not tight_layout: its extra pass over the text took a third of the drawing
     fig.subplots_adjust(left=0.095, right=0.98, bottom=0.13, top=0.92)
-    fig.savefig(path, dpi=110)
+    fig.savefig(path, dpi=110, **png_options())
     plt.close(fig)

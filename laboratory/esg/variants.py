@@ -8,6 +8,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from laboratory.plot_worker import png_options
+
 VARIANTS_RANGE_DEG = 43.0  # the report's rotor: pattern lines end 43 deg from the pole
 FIGURE3_RANGES = tuple(range(27, 48))  # top-edge colatitudes (deg), extended to 27
 DEFAULT_POINTS = 5000  # orientations averaged (the docs' table)
@@ -47,7 +49,7 @@ def figure3_plot(curves: list[dict], path: Path) -> None:
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    fig.savefig(path, dpi=110, **png_options())
     plt.close(fig)
 
 

@@ -15,6 +15,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, BinaryIO
 
+from laboratory.plot_worker import png_options
+
 if TYPE_CHECKING:  # the store (SQLAlchemy) and scipy.stats are imported where they are used
     from laboratory.history.store import RunRow
 
@@ -170,5 +172,5 @@ def trend_plot(ts: list[Trend], path: Path | BinaryIO, unit: str, level: float) 
     fig.suptitle(f"{unit}: estimate less weighted mean per calibration (1 sigma bars; red: "
                  f"beyond the {level:g} level)", fontsize=9)
     fig.tight_layout()
-    fig.savefig(path, dpi=90, format="png")
+    fig.savefig(path, dpi=90, format="png", **png_options())
     plt.close(fig)

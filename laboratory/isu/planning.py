@@ -20,6 +20,7 @@ import numpy as np
 from rich.console import Console
 
 from laboratory.isu.spec import mounting, noise_spec, site_of
+from laboratory.plot_worker import png_options
 from laboratory.tables import Column, print_fitted
 from procedures.isu.accuracy import GATE_UNITS, Predictor, Times, Unreachable
 from procedures.isu.plan import DayPlan
@@ -131,7 +132,7 @@ def chart_png(chart: str, rows: list[dict], path: Path, required: dict[str, floa
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=7)
     fig.tight_layout()
-    fig.savefig(path, dpi=100, format="png")
+    fig.savefig(path, dpi=100, format="png", **png_options())
     plt.close(fig)
 
 

@@ -11,6 +11,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from laboratory.plot_worker import png_options
 from procedures.isu.calibration.noise_spec import NoiseSpec
 from procedures.isu.computations import speed_count_sigma  # the fit's own weights
 from procedures.isu.nonlinearity import fit_nonlinearity
@@ -82,7 +83,7 @@ def nonlinearity_plot(points: dict[int, list[dict]], path: Path,
     # fixed margins, not tight_layout: its extra pass over the text took half the drawing
     fig.subplots_adjust(left=0.22 / len(points), right=0.985, bottom=0.075, top=0.9,
                         wspace=0.32, hspace=0.3)
-    fig.savefig(path, dpi=110)
+    fig.savefig(path, dpi=110, **png_options())
     plt.close(fig)
 
 
@@ -118,6 +119,6 @@ def results_plot(rows: list[dict], path: Path) -> bool:
     height = fig.get_figheight()
     fig.subplots_adjust(left=min(0.6, (0.15 + 0.058 * max(map(len, labels))) / 8.0),
                         right=0.97, bottom=0.55 / height, top=1.0 - 0.4 / height)
-    fig.savefig(path, dpi=110)
+    fig.savefig(path, dpi=110, **png_options())
     plt.close(fig)
     return True

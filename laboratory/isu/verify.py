@@ -23,6 +23,7 @@ import pandas as pd
 from rich.console import Console
 
 from laboratory.campaign.summary import LEVEL, interval
+from laboratory.plot_worker import png_options
 from laboratory.tables import Column, print_fitted
 from procedures.isu.accuracy import (
     DAY_TURNING_FIRST_S,
@@ -155,7 +156,7 @@ def verify_png(study: Study, table: list[dict[str, Any]], path: Path) -> None:
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=7)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    fig.savefig(path, dpi=110, **png_options())
     plt.close(fig)
 
 

@@ -306,7 +306,10 @@ def main() -> None:
 
 def start_plot_child(args: list[str]) -> None:
     """The plot child of the command ``args`` name (laboratory.app.PLOT_CHILDREN), started
-    now: its imports then run beside the command's own (issue 17). None for a help."""
+    now: its imports then run beside the command's own (issue 17). None for a help. Such a
+    command is a run: the garbage collector the script deferred waits for its imports
+    (laboratory.startup: the run's connect turns it on again); any other, on again now."""
+    from laboratory import startup
     from laboratory.app import PLOT_CHILDREN
 
     modules = PLOT_CHILDREN.get(args[0]) if args else None
@@ -314,6 +317,8 @@ def start_plot_child(args: list[str]) -> None:
         from laboratory.plot_worker import start_early
 
         start_early(*modules)
+    else:  # not a run: the collector the script deferred is on again now
+        startup.resume()
 
 
 def run() -> None:

@@ -19,6 +19,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from laboratory import startup
 from laboratory.history import index_after
 from laboratory.identity import Identifying, identified
 from laboratory.registry import Laboratory
@@ -106,8 +107,19 @@ def connect(lab: Laboratory, cfg: Any, links_dir: Path | None = None,
     hardware the config's links name.
 
     ``start_s`` (virtual only): let the rack run alone that long first, so that a virtual
-    run begins at the simulated time a rehearsal against a served rack began.
+    run begins at the simulated time a rehearsal against a served rack began. The run
+    starts here: the garbage collector the script deferred is on again from here
+    (laboratory.startup), whether or not the connection is made.
     """
+    try:
+        return _connect(lab, cfg, links_dir, rack_hook, start_s, timeout)
+    finally:
+        startup.resume()
+
+
+def _connect(lab: Laboratory, cfg: Any, links_dir: Path | None,
+             rack_hook: Callable[[Any], None] | None, start_s: float,
+             timeout: float) -> Connection:
     if links_dir is None and not lab.simulated(cfg):  # the real laboratory: real time, no truth
         if start_s or rack_hook is not None:
             raise ValueError("start_s and rack_hook are for simulated racks only")

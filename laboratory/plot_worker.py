@@ -46,8 +46,10 @@ def temporary(path: Path, pid: int | None = None) -> Path:
 
 
 def _clear_stale(path: Path) -> None:
-    for old in path.parent.glob(f".{path.name}.plot-*"):
-        old.unlink(missing_ok=True)
+    """Plot temporaries of ``path`` left by a killed run."""
+    from station.files import clear_prefixed
+
+    clear_prefixed(path.parent, f".{path.name}.plot-")
 
 
 def _installed(tmp: Path, path: Path) -> None:

@@ -41,10 +41,23 @@ def _sync_file(path: Path) -> None:
         os.close(fd)
 
 
+def clear_prefixed(directory: Path, prefix: str) -> None:
+    """Remove the entries of ``directory`` whose names begin with ``prefix`` (temporaries
+    left by a killed writer). A literal prefix, not a glob pattern: one directory listing,
+    no pattern compiled per file (issue 17: 45 record files a day); an unreadable or
+    missing directory holds none (its write then says what is wrong)."""
+    try:
+        with os.scandir(directory) as entries:
+            stale = [e.path for e in entries if e.name.startswith(prefix)]
+    except OSError:
+        return
+    for old in stale:
+        Path(old).unlink(missing_ok=True)
+
+
 def _clear_stale(path: Path) -> None:
     """Temporaries of ``path`` left by a killed writer."""
-    for old in path.parent.glob(f".{path.stem}{TMP_MARK}*"):
-        old.unlink(missing_ok=True)
+    clear_prefixed(path.parent, f".{path.stem}{TMP_MARK}")
 
 
 @contextmanager

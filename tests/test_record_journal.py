@@ -185,6 +185,18 @@ def test_record_files_are_replaced_atomically_and_named_plainly(tmp_path):
             sheet_path(tmp_path, name)
 
 
+def test_a_writer_clears_its_own_stale_temporaries_only(tmp_path):
+    """By literal name: a name with glob characters has its temporaries cleared too, and a
+    neighbour's are left alone."""
+    odd = tmp_path / "r[1]*.json"
+    mine = tmp_path / f".r[1]*.tmp-{os.getpid() + 1}.json.part"
+    other = tmp_path / f".r[1]*x.tmp-{os.getpid() + 1}.json.part"
+    for stale in (mine, other):
+        stale.write_text("{")
+    write_json(odd, {"a": 1})
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted([odd.name, other.name])
+
+
 def test_write_sheets_refuses_a_name_outside_the_directory(tmp_path):
     import simpy
 

@@ -2,9 +2,9 @@
 
 For each command (``station day --quiet``, ``station day`` with its ticks and tables shown
 (``day-shown``, output to a file), ``station gyrocompass-test``, ``station esg-calibration``,
-``station --help``), run ``--repeat`` times as ``python -m laboratory.cli ...`` with
-PYTHONPATH set to the tree under test (the tree's own `station` module from its
-pyproject, for an older revision), it prints the minimum and median wall time of the
+``station --help``), run ``--repeat`` times as ``python -m MODULE ...``, MODULE the one
+the tree's pyproject names for its `station` script (laboratory.script now), with
+PYTHONPATH set to the tree under test, it prints the minimum and median wall time of the
 whole process, the time inside the run (results.json ``wall_seconds``, else the closing
 line), lab time per wall second and the peak memory of the process (its own rusage). Then,
 where the tree has them, bench/ieu_stream.ieu_cost_per_sample(4.0) and
@@ -67,8 +67,8 @@ class Sample:
 
 def cli_module(root: Path) -> str:
     """The module of the tree's ``station`` script (pyproject [project.scripts]): run as
-    ``python -m`` it is the command a user runs (laboratory.cli now, station.cli before
-    issue 14)."""
+    ``python -m`` it is the command a user runs (laboratory.script now; laboratory.cli
+    before issue 17's collector deferral, station.cli before issue 14)."""
     import tomllib
 
     try:

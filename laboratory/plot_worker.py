@@ -34,7 +34,10 @@ Job = tuple[str, dict[str, Any]]  # "module:function", its keywords (one of them
 def png_options() -> dict[str, Any]:
     """savefig's keywords for every plot of the record: zlib level 1 (the pixels are the
     same; Pillow's default 6 took a tenth of the results plot's drawing and the files are
-    2-11 % larger at 1; issue 17). A fresh dict per call: savefig may keep what it is given."""
+    2-11 % larger at 1; issue 17). A fresh dict per call: savefig may keep what it is given.
+    The record's plots also give their titles' y (1.0, the axes' top): matplotlib's
+    automatic placement measures every tick label to lift a title clear of ticks on top,
+    which none of them has (the same pixels; 0.006-0.033 s a plot)."""
     return {"pil_kwargs": {"compress_level": 1}}
 
 

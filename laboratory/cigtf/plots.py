@@ -39,7 +39,7 @@ def theta_plot(res: dict, path: Path) -> None:
         ax.set_xlabel("run")
         ax.xaxis.set_major_locator(MaxNLocator(integer=True))
         ax.set_title(f"{ph} phase (runs as the run table numbers them)" if ph == PHASES[0]
-                     else f"{ph} phase", fontsize=10)
+                     else f"{ph} phase", fontsize=10, y=1.0)
         ax.legend(fontsize=7, loc="best")
     axes[0][0].set_ylabel("gyrocompassing error theta (arcsec)")
     fig.suptitle("CIGTF gyrocompassing accuracy test")

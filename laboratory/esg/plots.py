@@ -39,7 +39,8 @@ def schedule_plot(schedules: list[dict], path: Path) -> None:
                         xytext=(-4, 2 if y > 0 else -9), textcoords="offset points",
                         ha="right", fontsize=7)
         ax.set_ylabel("error (arcsec)")
-        ax.set_title(f"schedule {res['name']}: compensated minus assigned / true colatitude")
+        ax.set_title(f"schedule {res['name']}: compensated minus assigned / true colatitude",
+                     y=1.0)
         ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0)
     axes[-1, 0].set_xlabel("colatitude of pickoff 2 (deg)")
     # fixed margins (in inches, the figure grows with the schedules), not tight_layout: its

@@ -77,7 +77,8 @@ def figure2_plot(rows: list[dict], path: Path, report_points: bool = True) -> No
     ax.set_xlabel("pattern top-edge colatitude theta0 (deg); range grows to the right")
     ax.set_ylabel("RMS amplification of line-edge error")
     conv = {r.get("convention", "sphere") for r in rows}
-    ax.set_title("ESG readout strategy (report 004, Figure 2); " + ", ".join(sorted(conv)))
+    ax.set_title("ESG readout strategy (report 004, Figure 2); " + ", ".join(sorted(conv)),
+                 y=1.0)
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7)
     # fixed margins, not tight_layout: its extra pass over the text took a third of the drawing

@@ -45,7 +45,7 @@ def figure3_plot(curves: list[dict], path: Path) -> None:
     ax.set_xlabel("top edge of the cosine pattern, colatitude (deg); range extended "
                   "to the right")
     ax.set_ylabel("amplification of line-edge error (1 sigma)")
-    ax.set_title("Report 004 Figure 3: cosine pattern, extended range")
+    ax.set_title("Report 004 Figure 3: cosine pattern, extended range", y=1.0)
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8)
     fig.tight_layout()

@@ -66,7 +66,7 @@ def nonlinearity_plot(points: dict[int, list[dict]], path: Path,
         ax = axes[0][i]
         ax.errorbar(w / 1e3, p / 1e3, sig_p / 1e3, fmt="o", capsize=2, label="measured")
         ax.plot(ww / 1e3, quad / 1e3, "-", lw=0.8, label="quadratic fit")
-        ax.set_title(f"gyro {k}")
+        ax.set_title(f"gyro {k}", y=1.0)  # y given: see png_options
         ax.set_xlabel("total rate w (10^3 deg/hr)")
         ax.set_ylabel("output frequency P' (kpulses/s)")
         ax.legend(fontsize=7)
@@ -113,7 +113,7 @@ def results_plot(rows: list[dict], path: Path) -> bool:
     ax.invert_yaxis()
     ax.set_xlabel(xlabel)
     ax.set_title("Calibration Results Sheet (Chart II-5): "
-                 + ("error over sigma" if sim else "estimate against limits"))
+                 + ("error over sigma" if sim else "estimate against limits"), y=1.0)
     # fixed margins from the longest label (7 pt: about 0.058 in a character), not
     # tight_layout, whose extra pass over the text took half the drawing
     height = fig.get_figheight()

@@ -20,6 +20,7 @@ import atexit
 import importlib
 import os
 import pickle
+import select
 import subprocess
 import sys
 from collections.abc import Callable, Iterator
@@ -245,6 +246,24 @@ class PlotWorker:
         batch = len(self._batches) - 1
         self._send(sent)
         return lambda: self.values(batch)[0]
+
+    def idle(self) -> bool:
+        """Whether the child has answered every batch sent (reading the answers that have
+        come) and still takes jobs: a job sent now starts at once. An answer already read
+        into this side's buffer but not yet unpickled reads as busy (the pipe shows
+        nothing): the caller then does the work here, as without a child."""
+        p = self._proc
+        if p is None or p.stdin is None or p.stdin.closed or p.stdout is None:
+            return False
+        while self._answered < len(self._batches):
+            try:
+                ready, _, _ = select.select([p.stdout], [], [], 0.0)
+            except (OSError, ValueError):
+                return False
+            if not ready:
+                return False
+            self._read_answers(self._answered)  # its first bytes are here: the rest follow
+        return self._proc is not None
 
     def _read_answers(self, upto: int) -> None:
         """The child's answers to every batch up to ``upto`` (the child gone: none)."""

@@ -26,14 +26,29 @@ def sheet_path(out: Path, name: str) -> Path:
     return Path(out) / "sheets" / f"{name}.json"
 
 
+def sheet_values(out: Path, run: Run) -> dict[str, Any]:
+    """Every sheet of ``run`` as its JSON value, by name (its journal form); ValueError,
+    before anything is written, for a name that is not a plain file name."""
+    for name in run.sheets:
+        sheet_path(out, name)
+    return {name: json.loads(dumps({"x": model}))["x"] for name, model in run.sheets.items()}
+
+
+def write_sheet_values(out: Path, values: dict[str, Any]) -> None:
+    """``values`` (name: JSON value) as DIR/sheets/<name>.json, each atomically; one
+    directory sync at the end. A pure writer of its arguments: the day hands it to its
+    plot child when that is idle (issue 17)."""
+    paths = {name: sheet_path(out, name) for name in values}
+    (Path(out) / "sheets").mkdir(parents=True, exist_ok=True)
+    for name, value in values.items():
+        write_json(paths[name], value, sync_dir=False)
+    fsync_dir(Path(out) / "sheets")
+
+
 def write_sheets(out: Path, run: Run) -> None:
     """Every sheet of ``run`` as DIR/sheets/<name>.json (each atomically; one directory
     sync at the end)."""
-    paths = {name: sheet_path(out, name) for name in run.sheets}
-    (Path(out) / "sheets").mkdir(parents=True, exist_ok=True)
-    for name, model in run.sheets.items():
-        write_json(paths[name], json.loads(dumps({"x": model}))["x"], sync_dir=False)
-    fsync_dir(Path(out) / "sheets")
+    write_sheet_values(out, sheet_values(out, run))
 
 
 def write_results(out: Path, res: dict) -> None:

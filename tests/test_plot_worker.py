@@ -240,3 +240,65 @@ def test_a_batch_after_the_last_is_drawn_here(tmp_path: Path) -> None:
         assert w.compute("statistics:fmean", {"data": [1.0, 5.0]})() == 3.0
         w.wait()
     assert (tmp_path / "a.png").read_bytes() == (tmp_path / "b.png").read_bytes()
+
+
+def test_idle_once_every_batch_is_answered() -> None:
+    """idle: False while a job runs in the child (it would queue behind it), True once its
+    answer has come, False without a child or after the last batch."""
+    with PlotWorker() as w:
+        slow = w.compute("subprocess:run", {"args": ["sleep", "0.5"]})
+        assert not w.idle()
+        slow()
+        assert w.idle()
+        w.wait()
+        assert not w.idle()
+
+
+def test_the_days_sheets_written_by_an_idle_child_or_here(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """laboratory.isu.day.sheets_beside: the sheet files are those write_sheets writes,
+    whether the idle child wrote them, a busy one left them to this process, or the child
+    died after taking them (written here on the values as they were)."""
+    import simpy
+
+    from laboratory.isu.day import sheets_beside
+    from laboratory.record import write_sheets
+    from procedures.journal import Journal
+    from procedures.runner import Run
+    from station.clock import VirtualClock
+
+    run = Run(VirtualClock(simpy.Environment()), Journal(tmp_path / "j.jsonl"))
+    run.sheets["a"] = {"x": [1.5, 2], "y": "text"}
+    run.sheets["b"] = {"nested": {"z": None}}
+    write_sheets(tmp_path / "ref", run)
+    expect = {p.name: p.read_bytes() for p in (tmp_path / "ref" / "sheets").iterdir()}
+
+    def written(out: Path) -> dict[str, bytes]:
+        return {p.name: p.read_bytes() for p in (out / "sheets").iterdir()}
+
+    with PlotWorker() as w:  # idle (nothing sent): the child writes them
+        w.compute("statistics:fmean", {"data": [1.0]})()
+        done = sheets_beside(w, tmp_path / "idle", run)
+        assert 1 in w._sent  # handed over
+        done()
+        assert 1 not in w._here
+        w.wait()
+    assert written(tmp_path / "idle") == expect
+    with PlotWorker() as w:  # busy: written here at once
+        w.compute("subprocess:run", {"args": ["sleep", "0.5"]})
+        sheets_beside(w, tmp_path / "busy", run)
+        assert written(tmp_path / "busy") == expect
+        w.wait()
+    with PlotWorker() as w:  # the child dies after taking them: written here
+        w.compute("statistics:fmean", {"data": [1.0]})()
+        done = sheets_beside(w, tmp_path / "died", run)
+        run.sheets["a"] = {"changed": True}  # after the call: not what is written
+        proc = w._proc
+        assert isinstance(proc, subprocess.Popen)
+        proc.kill()
+        proc.wait()
+        done()
+        w.wait()
+    run.sheets["a"] = {"x": [1.5, 2], "y": "text"}
+    assert written(tmp_path / "died") == expect
+    run.journal.close()

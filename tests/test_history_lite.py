@@ -87,3 +87,59 @@ def test_a_runs_end_indexes_without_sqlalchemy(tmp_path: Path) -> None:
     assert p.stdout.strip() == "[]" and p.stderr == ""
     with session(sqlite_url(tmp_path / "runs" / "history.sqlite")) as s:
         assert [r.run_uid for r in s.query(RunRow)] == ["u1"]
+
+
+def test_both_readers_give_the_same_runs_and_trends(tmp_path: Path) -> None:
+    """runs_of_sqlite reads what the store's runs_of reads (the runs of a unit by its
+    serial, oldest first, ties by id, a run once however many of its units match, each
+    run's results in their order), and the trends of both are equal; a file without the
+    history's tables gives none, and is left as it was."""
+    import random
+
+    from laboratory.history.lite import runs_of_sqlite
+    from laboratory.history.store import runs_of
+    from laboratory.history.trend import trends
+
+    rng = random.Random(17)
+    db = tmp_path / "h.sqlite"
+    for i in range(8):  # out of date order, two at the same instant, one indexed twice
+        day = rng.choice(["2026-01-02", "2026-01-05", "2026-01-03"])
+        d = record(tmp_path / f"r{i}", f"u{i}", f"{day}T03:04:05+00:00",
+                   1.1 + rng.gauss(0.0, 0.01))
+        index_run_sqlite(db, d)
+    index_run_sqlite(db, tmp_path / "r2")
+    for unit in ("ISU-1", "G-1", "NONE"):
+        lite = runs_of_sqlite(db, unit)
+        with session(sqlite_url(db)) as s:
+            orm = runs_of(s, unit)
+            want = [(r.run_uid, r.path, r.laboratory, r.date, r.status,
+                     [(x.table, x.instrument, x.parameter, x.units, x.estimate, x.sigma)
+                      for x in r.results]) for r in orm]
+            t_orm = trends(orm)
+        got = [(r.run_uid, r.path, r.laboratory, r.date, r.status,
+                [(x.table, x.instrument, x.parameter, x.units, x.estimate, x.sigma)
+                 for x in r.results]) for r in lite]
+        assert got == want and (len(got) == 8 or unit == "NONE")
+        assert trends(lite) == t_orm
+    empty = tmp_path / "empty.sqlite"
+    sqlite3.connect(empty).close()
+    assert runs_of_sqlite(empty, "ISU-1") == [] and empty.stat().st_size == 0
+
+
+def test_a_reports_history_needs_neither_sqlalchemy_nor_scipy_stats(tmp_path: Path) -> None:
+    """The report's history section of a run in a runs directory reads its SQLite file with
+    the stdlib and its levels from scipy.special (what scipy.stats calls), and shows it."""
+    runs = [record(tmp_path / "runs" / "day" / f"r{i}", f"u{i}",
+                   f"2026-01-0{i + 1}T03:04:05+00:00", 1.1 + 0.001 * i) for i in range(3)]
+    for d in runs:
+        index_run_sqlite(tmp_path / "runs" / "history.sqlite", d)
+    code = ("import sys; from pathlib import Path; "
+            "from laboratory.history.section import safe_history_section; "
+            f"s = safe_history_section(Path({str(runs[-1])!r})); print(s['shown'], s['text']); "
+            "print(sorted({m for m in sys.modules if m.split('.')[0] == 'sqlalchemy' "
+            "or m.startswith('scipy.stats')}))")
+    env = {k: v for k, v in os.environ.items() if k != "STATION_HISTORY_URL"}
+    p = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True,
+                       env={**env, "PYTHONPATH": str(ROOT)}, check=True)
+    shown, modules = p.stdout.strip().splitlines()
+    assert shown.startswith("True 3 runs of ISU-1") and modules == "[]", p.stdout

@@ -1,14 +1,18 @@
-"""Indexing a finished run into an SQLite history with the stdlib ``sqlite3`` (issue 17).
+"""Indexing a finished run into an SQLite history, and reading a unit's runs back for the
+report, with the stdlib ``sqlite3`` (issue 17).
 
-The end of every run indexes it; on the default SQLite database this writes exactly the
-rows and schema the SQLAlchemy store (``laboratory/history/store.py``) writes, without
-importing SQLAlchemy (0.35-0.45 s). Other URLs, and every reading, go through the store;
-tests/test_history.py checks that the two write the same database.
+The end of every run indexes it and its report shows the unit's history; on the default
+SQLite database this writes exactly the rows and schema the SQLAlchemy store
+(``laboratory/history/store.py``) writes, and reads the runs its ``runs_of`` reads, in the
+same order, without importing SQLAlchemy (0.2-0.45 s). Other URLs, and `station trend`
+and `station history`, go through the store; tests/test_history.py checks that the two
+write the same database and read the same runs.
 """
 
 from __future__ import annotations
 
 import sqlite3
+from dataclasses import dataclass, field
 from pathlib import Path
 
 from laboratory.history.where import HistoryError, run_fields
@@ -96,6 +100,73 @@ def index_run_sqlite(path: Path, run_dir: Path) -> None:
                 "sigma, truth, verdict) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?)",
                 [(run_id, r["table"], r["instrument"], r["parameter"], r["units"],
                   r["estimate"], r["sigma"], r["truth"], r["verdict"]) for r in f.results])
+    except sqlite3.Error as e:
+        raise HistoryError(f"history database {shown}: {e}") from None
+    finally:
+        db.close()
+
+
+@dataclass(frozen=True)
+class LiteResult:
+    """A result row as the store's ResultRow holds it."""
+
+    table: str
+    instrument: str
+    parameter: str
+    units: str | None
+    estimate: float | None
+    sigma: float | None
+    truth: float | None
+    verdict: str | None
+
+
+@dataclass(frozen=True)
+class LiteRun:
+    """A run row as the store's RunRow holds it, with its result rows (in their order)."""
+
+    run_uid: str
+    path: str
+    laboratory: str
+    command: str | None
+    started_utc: str
+    date: str
+    status: str
+    verdict: str | None
+    seed: int | None
+    config_digest: str | None
+    results: list[LiteResult] = field(default_factory=list)
+
+
+RUN_COLUMNS = ("id", "run_uid", "path", "laboratory", "command", "started_utc", "date",
+               "status", "verdict", "seed", "config_digest")
+
+
+def runs_of_sqlite(path: Path, unit: str) -> list[LiteRun]:
+    """The runs the unit serial ``unit`` took part in, oldest first, as the store's
+    ``runs_of`` gives them (by start time, then id; each result in its row order); none
+    from a file without the history's tables. HistoryError naming the database when it
+    cannot be read; the file is never made or changed."""
+    shown = f"{SQLITE_PREFIX}{path}"
+    try:
+        db = sqlite3.connect(f"file:{path}?mode=ro", uri=True)
+    except sqlite3.Error as e:
+        raise HistoryError(f"history database {shown}: {e}") from None
+    try:
+        have = {r[0] for r in db.execute("SELECT name FROM sqlite_master WHERE type='table'")}
+        if not set(TABLES) <= have:
+            return []
+        rows = db.execute(
+            f"SELECT DISTINCT {', '.join('runs.' + c for c in RUN_COLUMNS)} FROM runs "
+            "JOIN run_units ON runs.id = run_units.run_id WHERE run_units.serial = ? "
+            "ORDER BY runs.started_utc, runs.id", (unit,)).fetchall()
+        out = []
+        for row in rows:
+            results = [LiteResult(*r) for r in db.execute(
+                'SELECT "table", instrument, parameter, units, estimate, sigma, truth, verdict '
+                "FROM results WHERE run_id = ? ORDER BY id", (row[0],))]
+            out.append(LiteRun(**dict(zip(RUN_COLUMNS[1:], row[1:], strict=True)),
+                               results=results))
+        return out
     except sqlite3.Error as e:
         raise HistoryError(f"history database {shown}: {e}") from None
     finally:

@@ -6,6 +6,7 @@ path). Any failure is the section's one line, never the report's."""
 from __future__ import annotations
 
 import json
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -13,6 +14,7 @@ from laboratory.history.sparkline import sparkline
 from laboratory.history.trend import (
     COLUMNS,
     DEFAULT_LEVEL,
+    RunLike,
     Trend,
     cells,
     flags,
@@ -52,24 +54,35 @@ def history_section(run_dir: Path, url: str | None = None,
         return _none("No history: the calibration history is off for this run (it lies "
                      "under no runs directory and $STATION_HISTORY_URL is unset).")
     lab = ident.get("laboratory")
-    from laboratory.history.store import runs_of, session  # SQLAlchemy: only to read
-
-    with session(url) as s:
-        runs = [r for r in runs_of(s, unit) if r.laboratory == lab]
-        uids = [r.run_uid for r in runs]
-        if ident["run_uid"] not in uids:
-            return _none(f"No history: this run is not in the calibration history of {unit} "
-                         "(it was not indexed).")
-        upto = runs[:uids.index(ident["run_uid"]) + 1]
-        if len(upto) == 1:
-            return _none(f"No earlier runs of {unit} in the calibration history: this is "
-                         "its first; nothing to trend yet.")
-        ts = trends(upto, level)
+    runs = [r for r in _runs_of(url, unit) if r.laboratory == lab]
+    uids = [r.run_uid for r in runs]
+    if ident["run_uid"] not in uids:
+        return _none(f"No history: this run is not in the calibration history of {unit} "
+                     "(it was not indexed).")
+    upto = runs[:uids.index(ident["run_uid"]) + 1]
+    if len(upto) == 1:
+        return _none(f"No earlier runs of {unit} in the calibration history: this is "
+                     "its first; nothing to trend yet.")
+    ts = trends(upto, level)
     if not ts:
         return _none(f"No constant of {unit} determined on two or more completed runs up to "
                      f"this one ({len(upto)} runs in the history): nothing to trend yet.")
     return shown(ts, unit, level, f"{len(upto)} runs of {unit} in the {lab} laboratory's "
                  "history up to and including this one", "this run")
+
+
+def _runs_of(url: str, unit: str) -> Sequence[RunLike]:
+    """The unit's runs, oldest first: from a plain SQLite file with the stdlib
+    (laboratory.history.lite), from any other URL through the store (SQLAlchemy)."""
+    from laboratory.history.lite import runs_of_sqlite, sqlite_file
+
+    db = sqlite_file(url)
+    if db is not None:
+        return runs_of_sqlite(db, unit) if db.is_file() else []
+    from laboratory.history.store import runs_of, session
+
+    with session(url) as s:
+        return runs_of(s, unit)
 
 
 def shown(ts: list[Trend], unit: str, level: float, where: str,

@@ -126,9 +126,9 @@ def test_both_readers_give_the_same_runs_and_trends(tmp_path: Path) -> None:
     assert runs_of_sqlite(empty, "ISU-1") == [] and empty.stat().st_size == 0
 
 
-def test_a_reports_history_needs_neither_sqlalchemy_nor_scipy_stats(tmp_path: Path) -> None:
+def test_a_reports_history_needs_neither_sqlalchemy_nor_scipy(tmp_path: Path) -> None:
     """The report's history section of a run in a runs directory reads its SQLite file with
-    the stdlib and its levels from scipy.special (what scipy.stats calls), and shows it."""
+    the stdlib and computes its levels without scipy, and shows it."""
     runs = [record(tmp_path / "runs" / "day" / f"r{i}", f"u{i}",
                    f"2026-01-0{i + 1}T03:04:05+00:00", 1.1 + 0.001 * i) for i in range(3)]
     for d in runs:
@@ -136,10 +136,35 @@ def test_a_reports_history_needs_neither_sqlalchemy_nor_scipy_stats(tmp_path: Pa
     code = ("import sys; from pathlib import Path; "
             "from laboratory.history.section import safe_history_section; "
             f"s = safe_history_section(Path({str(runs[-1])!r})); print(s['shown'], s['text']); "
-            "print(sorted({m for m in sys.modules if m.split('.')[0] == 'sqlalchemy' "
-            "or m.startswith('scipy.stats')}))")
+            "print(sorted({m for m in sys.modules "
+            "if m.split('.')[0] in ('sqlalchemy', 'scipy')}))")
     env = {k: v for k, v in os.environ.items() if k != "STATION_HISTORY_URL"}
     p = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True,
                        env={**env, "PYTHONPATH": str(ROOT)}, check=True)
     shown, modules = p.stdout.strip().splitlines()
     assert shown.startswith("True 3 runs of ISU-1") and modules == "[]", p.stdout
+
+
+def test_the_trends_levels_are_scipys_without_scipy() -> None:
+    """chi2_sf and z_limit (the history's p-values and change limit, computed without
+    importing scipy) agree with scipy.special's chdtrc and ndtri (what scipy.stats.chi2.sf
+    and norm.ppf compute) over random degrees of freedom and statistics, from the centre
+    to far tails, and at the edges."""
+    import math
+    import random
+
+    from scipy.special import chdtrc, ndtri
+
+    from laboratory.history.trend import chi2_sf, z_limit
+
+    rng = random.Random(5)
+    for _ in range(3000):
+        dof = rng.choice([rng.randint(1, 12), rng.randint(1, 3000)])
+        x = rng.uniform(0.0, 3.0 * dof + 20.0)
+        want = float(chdtrc(dof, x))
+        assert math.isclose(chi2_sf(x, dof), want, rel_tol=2e-11, abs_tol=1e-300), (dof, x)
+    for x, dof, want in ((0.0, 1, 1.0), (-1.0, 4, 1.0), (math.inf, 3, 0.0), (1e5, 3, 0.0)):
+        assert chi2_sf(x, dof) == want
+    assert math.isnan(chi2_sf(math.nan, 2))
+    for level in (0.5, 0.9, 0.95, 0.99, 0.999, 0.9999, 1.0 - 1e-12):
+        assert math.isclose(z_limit(level), float(ndtri(0.5 + level / 2.0)), rel_tol=1e-15)

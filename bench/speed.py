@@ -1,11 +1,13 @@
 """Speed of the station's commands, each run as a whole process as a user runs it (issue 17).
 
 For each command (``station day --quiet``, ``station day`` with its ticks and tables shown
-(``day-shown``, output to a file), ``station gyrocompass-test``, ``station esg-calibration``,
-``station --help``), run ``--repeat`` times as ``python -m MODULE ...``, MODULE the one
-the tree's pyproject names for its `station` script (laboratory.script now), with
-PYTHONPATH set to the tree under test, it prints the minimum and median wall time of the
-whole process, the time inside the run (results.json ``wall_seconds``, else the closing
+(``day-shown``, output to a file), ``station day --quiet`` into its default record directory
+in a laboratory directory whose history grows by a run each repeat (``day-lab``: the
+report's history section and the index at work), ``station gyrocompass-test``, ``station
+esg-calibration``, ``station --help``), run ``--repeat`` times as ``python -m MODULE ...``,
+MODULE the one the tree's pyproject names for its `station` script (laboratory.script now),
+with PYTHONPATH set to the tree under test, it prints the minimum and median wall time of
+the whole process, the time inside the run (results.json ``wall_seconds``, else the closing
 line), lab time per wall second and the peak memory of the process (its own rusage). Then,
 where the tree has them, bench/ieu_stream.ieu_cost_per_sample(4.0) and
 bench/gate_cost.gate_cost_ratio().
@@ -20,7 +22,8 @@ read, as after ``pip install`` or a user's first run: a machine with
 PYTHONDONTWRITEBYTECODE set (this one) otherwise compiles every module of the station on
 every start, 0.5-1 s that no user's run pays.
 
-    python bench/speed.py [--repeat 5] [--commands day,day-shown,gyrocompass,esg,help]
+    python bench/speed.py [--repeat 5]
+                          [--commands day,day-shown,day-lab,gyrocompass,esg,help]
                           [--against REV]
 """
 
@@ -46,10 +49,15 @@ COMMANDS: dict[str, list[str]] = {  # name -> arguments after `station` ({out}: 
     "day": ["day", "--seed", "1970", "--quiet", "--out", "{out}"],
     # the README's main job as a user runs it: the check-sheet ticks and tables shown
     "day-shown": ["day", "--seed", "1970", "--out", "{out}"],
+    # `station day` as a laboratory runs it day after day: its default record directory
+    # (runs/day/...) in the tree's own lab directory, whose history of the unit grows by
+    # one run each repeat (the report's history section and the index read and write it)
+    "day-lab": ["day", "--seed", "1970", "--quiet"],
     "gyrocompass": ["gyrocompass-test", "--out", "{out}"],
     "esg": ["esg-calibration", "--out", "{out}"],
     "help": ["--help"],
 }
+IN_LAB_DIR = {"day-lab"}  # run in scratch/lab-<tree>, kept across repeats
 DEFAULT_CLI = "laboratory.cli"
 CLOSING = re.compile(r"([0-9.]+) h simulated in ([0-9.]+) s")
 NA = "n/a (not in this revision)"
@@ -107,6 +115,7 @@ def child_env(tree: Tree) -> dict[str, str]:
     caches used (PYTHONDONTWRITEBYTECODE dropped; ``byte_compile`` wrote them)."""
     env = dict(os.environ, PYTHONPATH=str(tree.root), STATION_OPERATOR="bench")
     env.pop("PYTHONDONTWRITEBYTECODE", None)
+    env.pop("STATION_HISTORY_URL", None)  # day-lab: each lab directory's own history
     return env
 
 
@@ -124,9 +133,11 @@ def run_once(tree: Tree, name: str, scratch: Path, i: int) -> Sample:
     args = [a.replace("{out}", str(out)) for a in COMMANDS[name]]
     env = child_env(tree)
     log = scratch / f"{tree.label}-{name}-{i}.log"
+    cwd = scratch / f"lab-{tree.label}" if name in IN_LAB_DIR else scratch
+    cwd.mkdir(exist_ok=True)
     with log.open("wb") as fh:
         t0 = time.perf_counter()
-        p = subprocess.Popen([sys.executable, "-m", tree.cli, *args], cwd=scratch,
+        p = subprocess.Popen([sys.executable, "-m", tree.cli, *args], cwd=cwd,
                              env=env, stdout=fh, stderr=subprocess.STDOUT)
         _, status, usage = os.wait4(p.pid, 0)
         wall = time.perf_counter() - t0

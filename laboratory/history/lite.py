@@ -106,7 +106,7 @@ def index_run_sqlite(path: Path, run_dir: Path) -> None:
         db.close()
 
 
-@dataclass(frozen=True)
+@dataclass
 class LiteResult:
     """A result row as the store's ResultRow holds it."""
 
@@ -120,7 +120,7 @@ class LiteResult:
     verdict: str | None
 
 
-@dataclass(frozen=True)
+@dataclass
 class LiteRun:
     """A run row as the store's RunRow holds it, with its result rows (in their order)."""
 

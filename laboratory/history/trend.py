@@ -18,42 +18,35 @@ from typing import TYPE_CHECKING, BinaryIO, Protocol
 
 from laboratory.plot_worker import png_options
 
-if TYPE_CHECKING:  # the store (SQLAlchemy) is imported where it is used
+if TYPE_CHECKING:
     from collections.abc import Sequence
 
 
 class ResultLike(Protocol):
-    """A result row as the trends read it (the store's ResultRow, lite's LiteResult)."""
+    """A result row as the trends read it (the store's ResultRow, lite's LiteResult): a
+    constant's estimate and sigma, and which constant of which table it is."""
 
-    @property
-    def table(self) -> str: ...
-    @property
-    def instrument(self) -> str: ...
-    @property
-    def parameter(self) -> str: ...
-    @property
-    def units(self) -> str | None: ...
-    @property
-    def estimate(self) -> float | None: ...
-    @property
-    def sigma(self) -> float | None: ...
+    estimate: float | None
+    sigma: float | None
+    table: str
+    instrument: str
+    parameter: str
+    units: str | None
 
 
 class RunLike(Protocol):
-    """A run as the trends read it (the store's RunRow, lite's LiteRun)."""
+    """A run as the trends and the report's section read it (the store's RunRow, lite's
+    LiteRun)."""
+
+    run_uid: str
+    path: str
+    laboratory: str
+    date: str
+    status: str
 
     @property
-    def run_uid(self) -> str: ...
-    @property
-    def path(self) -> str: ...
-    @property
-    def laboratory(self) -> str: ...
-    @property
-    def date(self) -> str: ...
-    @property
-    def status(self) -> str: ...
-    @property
     def results(self) -> Sequence[ResultLike]: ...
+
 
 DEFAULT_LEVEL = 0.999  # the two-sided level beyond which `station trend` flags
 COLUMNS = ("inst", "param", "units", "n", "last change", "z", "max |z|", "chi2/dof", "p",

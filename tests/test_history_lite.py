@@ -124,6 +124,11 @@ def test_both_readers_give_the_same_runs_and_trends(tmp_path: Path) -> None:
     empty = tmp_path / "empty.sqlite"
     sqlite3.connect(empty).close()
     assert runs_of_sqlite(empty, "ISU-1") == [] and empty.stat().st_size == 0
+    odd = tmp_path / "lab #1?a=b %20 x" / "h.sqlite"  # URI characters in a directory's name
+    odd.parent.mkdir()
+    odd.write_bytes(db.read_bytes())
+    assert [r.run_uid for r in runs_of_sqlite(odd, "ISU-1")] == [
+        r.run_uid for r in runs_of_sqlite(db, "ISU-1")]
 
 
 def test_a_reports_history_needs_neither_sqlalchemy_nor_scipy(tmp_path: Path) -> None:

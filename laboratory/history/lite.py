@@ -148,7 +148,9 @@ def runs_of_sqlite(path: Path, unit: str) -> list[LiteRun]:
     cannot be read; the file is never made or changed."""
     shown = f"{SQLITE_PREFIX}{path}"
     try:
-        db = sqlite3.connect(f"file:{path}?mode=ro", uri=True)
+        # read-only, through a URI: the path percent-encoded (a '?', '#' or '%' in a
+        # directory's name is a file name's character, not the URI's)
+        db = sqlite3.connect(f"{path.absolute().as_uri()}?mode=ro", uri=True)
     except sqlite3.Error as e:
         raise HistoryError(f"history database {shown}: {e}") from None
     try:

@@ -26,11 +26,9 @@ def sheet_path(out: Path, name: str) -> Path:
     return Path(out) / "sheets" / f"{name}.json"
 
 
-def sheet_values(out: Path, run: Run) -> dict[str, Any]:
-    """Every sheet of ``run`` as its JSON value, by name (its journal form); ValueError,
-    before anything is written, for a name that is not a plain file name."""
-    for name in run.sheets:
-        sheet_path(out, name)
+def sheet_values(run: Run) -> dict[str, Any]:
+    """Every sheet of ``run`` as its JSON value, by name (its journal form); the names are
+    checked where they become paths (``write_sheet_values``)."""
     return {name: json.loads(dumps({"x": model}))["x"] for name, model in run.sheets.items()}
 
 
@@ -48,7 +46,7 @@ def write_sheet_values(out: Path, values: dict[str, Any]) -> None:
 def write_sheets(out: Path, run: Run) -> None:
     """Every sheet of ``run`` as DIR/sheets/<name>.json (each atomically; one directory
     sync at the end)."""
-    write_sheet_values(out, sheet_values(out, run))
+    write_sheet_values(out, sheet_values(run))
 
 
 def write_results(out: Path, res: dict) -> None:

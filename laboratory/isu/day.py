@@ -167,7 +167,7 @@ def sheets_beside(plotter: PlotWorker, out: Path, run: Run) -> Callable[[], None
     JSON and 30 synced files); else here, now. Call the result before the plots are waited
     for (``PlotWorker.wait`` forgets its jobs): it returns once they are written (here, on
     the values as they were, if the child did not)."""
-    values = sheet_values(out, run)
+    values = sheet_values(run)
     if plotter.idle():
         return plotter.compute("laboratory.record:write_sheet_values",
                                {"out": out, "values": values})
@@ -299,12 +299,14 @@ def _day(req: DayRequest, conn: Connection, journal: Journal, console: Console,
     if alignment:
         write_results_csv(out, alignment, "alignment.csv")
     write_day_calibration(out, calib, cfg, data, req.plan, site, noise)  # calibration.json
+
     def show(res: dict) -> None:
         render_results(console, res["calibration"])
         if res["alignment"]:
             render_alignment(console, res["alignment"])
 
     shown = Shown(None if req.quiet else show)
+
     def meanwhile() -> None:
         shown.meanwhile(res)
         sheets()  # written by the child, or here if it did not (the run's error then)

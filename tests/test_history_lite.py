@@ -173,3 +173,29 @@ def test_the_trends_levels_are_scipys_without_scipy() -> None:
     assert math.isnan(chi2_sf(math.nan, 2))
     for level in (0.5, 0.9, 0.95, 0.99, 0.999, 0.9999, 1.0 - 1e-12):
         assert math.isclose(z_limit(level), float(ndtri(0.5 + level / 2.0)), rel_tol=1e-15)
+
+
+def test_a_damaged_history_is_an_error_naming_it(tmp_path: Path) -> None:
+    """A history file whose text is damaged: the reader and the writer raise HistoryError
+    naming the database (the report's section and the run's index then say so in their
+    one line), not a UnicodeDecodeError, and nothing is read from it."""
+    import pytest
+
+    from laboratory.history.lite import runs_of_sqlite
+    from laboratory.history.where import HistoryError
+
+    db = tmp_path / "h.sqlite"
+    for i in range(3):
+        index_run_sqlite(db, record(tmp_path / f"r{i}", f"u{i}", "2026-01-02T03:04:05+00:00",
+                                    1.1))
+    good = db.read_bytes()
+    for needle, at in ((b"deg/hr", 0), (b"tableresultsresults", 5)):  # a row's units; a
+        raw = bytearray(good)  # table's name in the schema's own table (the writer reads it)
+        i = raw.find(needle)
+        assert i > 0
+        raw[i + at:i + at + 2] = b"\xff\xff"
+        db.write_bytes(bytes(raw))
+        with pytest.raises(HistoryError, match=f"history database sqlite:///{db}"):
+            runs_of_sqlite(db, "ISU-1")
+    with pytest.raises(HistoryError, match=f"history database sqlite:///{db}"):
+        index_run_sqlite(db, record(tmp_path / "r9", "u9", "2026-01-02T03:04:05+00:00", 1.1))

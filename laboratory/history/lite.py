@@ -100,7 +100,7 @@ def index_run_sqlite(path: Path, run_dir: Path) -> None:
                 "sigma, truth, verdict) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?)",
                 [(run_id, r["table"], r["instrument"], r["parameter"], r["units"],
                   r["estimate"], r["sigma"], r["truth"], r["verdict"]) for r in f.results])
-    except sqlite3.Error as e:
+    except (sqlite3.Error, UnicodeDecodeError) as e:  # a damaged file's text too
         raise HistoryError(f"history database {shown}: {e}") from None
     finally:
         db.close()
@@ -169,7 +169,7 @@ def runs_of_sqlite(path: Path, unit: str) -> list[LiteRun]:
             out.append(LiteRun(**dict(zip(RUN_COLUMNS[1:], row[1:], strict=True)),
                                results=results))
         return out
-    except sqlite3.Error as e:
+    except (sqlite3.Error, UnicodeDecodeError) as e:  # a damaged file's text too
         raise HistoryError(f"history database {shown}: {e}") from None
     finally:
         db.close()

@@ -147,6 +147,15 @@ def _stop(p: subprocess.Popen[bytes]) -> None:
             p.wait()
 
 
+def _scheduler_address(sched_file: Path) -> str:
+    """The scheduler's address once its file is whole; '' while it is absent or still being
+    written (the scheduler creates the file before it writes the JSON: CI once read it empty)."""
+    try:
+        return str(json.loads(sched_file.read_text())["address"])
+    except (OSError, ValueError, KeyError):
+        return ""
+
+
 @pytest.fixture
 def dask_cluster(tmp_path: Path) -> Iterator[tuple[str, dict[str, subprocess.Popen[bytes]]]]:
     """A `dask scheduler` and two `dask worker` processes (no nanny) on 127.0.0.1, free
@@ -158,8 +167,8 @@ def dask_cluster(tmp_path: Path) -> Iterator[tuple[str, dict[str, subprocess.Pop
                      "--scheduler-file", str(sched_file)], tmp_path / "scheduler.log")]
     workers: dict[str, subprocess.Popen[bytes]] = {}
     try:
-        wait_for(sched_file.is_file, "the scheduler file")
-        address = json.loads(sched_file.read_text())["address"]
+        wait_for(lambda: _scheduler_address(sched_file), "the scheduler file")
+        address = _scheduler_address(sched_file)
         for name in ("w1", "w2"):
             workers[name] = _start(["worker", "--scheduler-file", str(sched_file), "--host",
                                     "127.0.0.1", "--nthreads", "1", "--no-nanny",

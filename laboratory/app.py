@@ -36,11 +36,12 @@ app = typer.Typer(add_completion=False, no_args_is_help=True, rich_markup_mode=N
 def real_console() -> Console:
     """The commands' rich Console, made on first use: a command line that only parses or
     shows help never imports rich.console (issue 17). Piped: 110 columns unless COLUMNS
-    says otherwise (rich reads COLUMNS itself)."""
-    from rich.console import Console
+    says otherwise (rich reads COLUMNS itself). A broken pipe discards the output and the
+    command goes on (laboratory.console)."""
+    from laboratory.console import StationConsole
 
-    return (Console() if Console().is_terminal or os.environ.get("COLUMNS", "").isdigit()
-            else Console(width=110))
+    return (StationConsole() if StationConsole().is_terminal
+            or os.environ.get("COLUMNS", "").isdigit() else StationConsole(width=110))
 
 
 ConfigOpt = Annotated[

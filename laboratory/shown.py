@@ -1,7 +1,8 @@
 """A command's display of its results, made while the run's plot child draws the last plot
 (issue 17): the display and the report's template then wait for the child together, not one
-after the other. A display error (a closed stdout) must not cut the record short, so it is
-kept and raised only where the display used to be made, once the record is complete."""
+after the other. A display error must not cut the record short, so it is kept and raised
+only where the display used to be made, once the record is complete (a closed stdout is no
+error: laboratory/console.py)."""
 
 from __future__ import annotations
 

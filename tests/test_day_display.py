@@ -78,3 +78,33 @@ def test_quiet_console_shows_nothing() -> None:
         display({"kind": "sheet_start", "chart": "I-1", "title": "Laboratory turn-on"})
         display({"kind": "step", "t_sim": 1.0, "chart": "I-1", "step": "1", "text": "x"})
     assert buf.getvalue() == ""
+
+
+@pytest.mark.parametrize("plain", [True, False])
+def test_a_lost_reader_quiets_the_display_and_the_run_goes_on(
+        plain: bool, capsys: pytest.CaptureFixture[str]) -> None:
+    """The pipe's reader goes after the first line: the next tick meets a broken pipe,
+    written straight (plain) or through rich (whose own answer ends the process); the
+    display goes quiet, the descriptor writes to /dev/null now, and stderr says so once."""
+    import os
+
+    from laboratory.console import NOTE, StationConsole
+
+    r, w = os.pipe()
+    f = os.fdopen(w, "w", buffering=1)
+    console = StationConsole(file=f, width=80)
+    evs = _events(random.Random(3))
+    steps = [ev for ev in evs if ev["kind"] == "step"]
+    with DayDisplay(console) as display:
+        if not plain:
+            display.plain_width = None
+        display(steps[0])
+        assert os.read(r, 4096).decode().startswith("  \u2713")
+        os.close(r)
+        for ev in evs:  # the first of these meets the broken pipe; none raises
+            display(ev)
+        assert display.quiet and console.reader_gone
+        console.print("the tables and the record's path")  # to /dev/null now: no error
+    f.write("the flush at exit\n")
+    f.close()
+    assert capsys.readouterr().err.count(NOTE) == 1

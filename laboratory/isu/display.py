@@ -1,5 +1,6 @@
 """The live display of `station day` and `station align`: check-sheet ticks as they happen
-and a progress bar in simulated time."""
+and a progress bar in simulated time. When the console's reader goes away
+(laboratory.console) the display goes quiet and the run goes on."""
 
 from __future__ import annotations
 
@@ -32,11 +33,23 @@ class DayDisplay:
 
     def __exit__(self, *exc: object) -> None:
         if not self.quiet:
-            self.progress.stop()
+            try:
+                self.progress.stop()
+            except BrokenPipeError:
+                self.console.on_broken_pipe()
 
     def __call__(self, ev: dict) -> None:
         if self.quiet:
             return
+        try:
+            self._show(ev)
+        except BrokenPipeError:  # a plain line, written straight to the console's file
+            self.console.on_broken_pipe()  # rich's answer for its own writes
+        if getattr(self.console, "reader_gone", False):  # laboratory.console: it goes on
+            self.quiet = True
+            self.progress.stop()  # to /dev/null now
+
+    def _show(self, ev: dict) -> None:
         kind = ev.get("kind")
         # Text built here, not markup: a sheet's words print as they are written (a
         # bracket is no style tag) and rich parses no markup per line (issue 17: half

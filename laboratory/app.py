@@ -90,8 +90,11 @@ def end(e: OperatorError, run_dir: Path | None = None) -> NoReturn:
 def finished(res: dict, target: Path, hours: str = ".2f") -> None:
     """A run command's last line (simulated hours, wall seconds, the record), then the exit
     its verdict asks for (``verdict_exit``)."""
-    typer.echo(f"{res['sim_seconds'] / 3600:{hours}} h simulated in {res['wall_seconds']:.1f} s; "
-               f"record in {target}")
+    try:
+        typer.echo(f"{res['sim_seconds'] / 3600:{hours}} h simulated in "
+                   f"{res['wall_seconds']:.1f} s; record in {target}")
+    except BrokenPipeError:  # the reader went away (a quiet run's first line): as the console
+        real_console().on_broken_pipe()
     verdict_exit(res)
 
 

@@ -23,11 +23,12 @@ COMMANDS = {"day": ("results.json", "report.html", "results.png", "nonlinearity.
             "esg-calibration": ("esg.json", "report.html")}
 
 
-def _run(command: str, out: Path, seed: int, *, closed: str) -> subprocess.CompletedProcess[bytes]:
+def _run(command: str, out: Path, seed: int, *, closed: str,
+         extra: tuple[str, ...] = ()) -> subprocess.CompletedProcess[bytes]:
     """`station COMMAND` with stdout ("stdout") or stdout and stderr ("both") into a pipe
     whose reader is gone before the run writes a byte; "none": read to the end."""
     args = [sys.executable, "-m", "laboratory.script", command, "--seed", str(seed),
-            "--out", str(out)]
+            "--out", str(out), *extra]
     if closed == "none":
         return subprocess.run(args, capture_output=True, check=False)
     r, w = os.pipe()
@@ -79,3 +80,13 @@ def test_stderr_in_the_same_closed_pipe_loses_nothing_either(tmp_path: Path, see
     ref = _reference(tmp_path, "day", seed)
     done = _run("day", tmp_path / "both", seed, closed="both")
     _same_record("day", tmp_path / "both", done, ref)
+
+
+def test_a_quiet_day_whose_last_line_has_no_reader_ends_as_its_record_says(
+        tmp_path: Path, seed: int) -> None:
+    """--quiet: the record's path is the first line written, after the record is complete;
+    its broken pipe is the console's too (click's own answer was exit 1, the record's 0)."""
+    ref = _reference(tmp_path, "day", seed)
+    done = _run("day", tmp_path / "quiet", seed, closed="stdout", extra=("--quiet",))
+    _same_record("day", tmp_path / "quiet", done, ref)
+    assert done.stderr.decode().count(NOTE) == 1

@@ -354,9 +354,9 @@ def main() -> None:
     """The child: import matplotlib and the modules named in argv now (while the run
     runs), then draw each batch of jobs read from stdin as it comes and answer it on stdout
     (per job, the function's value or the line of its error)."""
-    import gc
+    from laboratory import startup
 
-    gc.disable()  # as the script's (laboratory.startup): its imports make no garbage
+    startup.defer()  # as the script does: the imports make no garbage
     from station.numerics import pin_blas_threads
 
     pin_blas_threads()  # as the run's own computations: the same bits here as there
@@ -367,8 +367,7 @@ def main() -> None:
 
     for module in sys.argv[1:]:
         importlib.import_module(module)
-    gc.freeze()  # what the imports made is never traversed again; the plots' garbage is
-    gc.enable()
+    startup.resume()  # what the imports made frozen; the plots' garbage is collected
 
     out = sys.stdout.buffer
     while True:

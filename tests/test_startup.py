@@ -75,3 +75,15 @@ def test_the_script_defers_it_for_a_run_only(command: str, during: bool) -> None
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          timeout=120, check=True).stdout
     assert f"collector {during}" in out
+
+
+def test_the_plot_child_defers_it_while_it_imports_and_then_collects() -> None:
+    """The plot child (laboratory.plot_worker.main) does as the script: on again after its
+    imports, which are frozen; asked in the child itself (no job drawn here)."""
+    from laboratory.plot_worker import PlotWorker
+
+    with PlotWorker("laboratory.cigtf.plots") as w:
+        enabled = w.compute("gc:isenabled", {})
+        frozen = w.compute("gc:get_freeze_count", {})
+        assert enabled() is True and frozen() > 0
+        assert not w._here  # both answered by the child  # noqa: SLF001

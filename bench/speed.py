@@ -8,7 +8,9 @@ esg-calibration``, ``station --help``), run ``--repeat`` times as ``python -m MO
 MODULE the one the tree's pyproject names for its `station` script (laboratory.script now),
 with PYTHONPATH set to the tree under test, it prints the minimum and median wall time of
 the whole process, the time inside the run (results.json ``wall_seconds``, else the closing
-line), lab time per wall second and the peak memory of the process (its own rusage). Then,
+line), lab time per wall second, the peak memory of the process (its own rusage) and its CPU
+time with the children it reaped (the plot child): cpu s / CPUs is a floor under the wall
+time that no overlap of the two processes gets below. Then,
 where the tree has them, bench/ieu_stream.ieu_cost_per_sample(4.0) and
 bench/gate_cost.gate_cost_ratio().
 
@@ -71,6 +73,7 @@ class Sample:
     inside: float | None  # s, the run's own wall_seconds
     lab_s: float | None  # simulated seconds
     peak_mb: float  # the process's maximum resident set
+    cpu: float = 0.0  # s, user + system of the process and the children it reaped
 
 
 def cli_module(root: Path) -> str:
@@ -150,7 +153,9 @@ def run_once(tree: Tree, name: str, scratch: Path, i: int) -> Sample:
     m = CLOSING.search(text)
     if m and inside is None:
         lab, inside = float(m.group(1)) * 3600.0, float(m.group(2))
-    return Sample(wall, inside, lab, usage.ru_maxrss / 1024.0)  # Linux: KiB
+    # wait4's usage counts the children the process waited for (the plot child) with it
+    return Sample(wall, inside, lab, usage.ru_maxrss / 1024.0,  # Linux: KiB
+                  usage.ru_utime + usage.ru_stime)
 
 
 def cost(tree: Tree, module: str, call: str) -> str:
@@ -194,14 +199,14 @@ def _f(x: float | None, fmt: str = ".2f") -> str:
 
 
 def summary(s: list[Sample]) -> dict[str, float | None]:
-    """min and median wall, median inside, lab hours, lab s per wall s, peak MB."""
+    """min and median wall, median inside, lab hours, lab s per wall s, peak MB, median CPU."""
     wall = [x.wall for x in s]
     med = statistics.median(wall)
     lab = _med([x.lab_s for x in s])
     return {"min": min(wall), "median": med, "inside": _med([x.inside for x in s]),
             "lab_h": None if lab is None else lab / 3600.0,
             "lab_per_wall": None if lab is None else lab / med,
-            "peak_mb": max(x.peak_mb for x in s)}
+            "peak_mb": max(x.peak_mb for x in s), "cpu": _med([x.cpu for x in s])}
 
 
 def report(trees: list[Tree], names: list[str], repeat: int) -> None:
@@ -209,7 +214,7 @@ def report(trees: list[Tree], names: list[str], repeat: int) -> None:
     print(f"whole process, {repeat} runs each, interleaved; load average "
           f"{' '.join(f'{x:.2f}' for x in os.getloadavg())}, {os.cpu_count()} CPUs")
     head = (f"{'command':<12} {'tree':<10} {'min s':>7} {'median s':>9} {'inside s':>9} "
-            f"{'lab h':>7} {'lab s/wall s':>13} {'peak MB':>8}")
+            f"{'lab h':>7} {'lab s/wall s':>13} {'peak MB':>8} {'cpu s':>7}")
     print(head)
     print("-" * len(head))
     for name in names:
@@ -217,18 +222,22 @@ def report(trees: list[Tree], names: list[str], repeat: int) -> None:
             m = summary(t.samples[name])
             print(f"{name:<12} {t.label:<10} {_f(m['min']):>7} {_f(m['median']):>9} "
                   f"{_f(m['inside']):>9} {_f(m['lab_h']):>7} {_f(m['lab_per_wall'], '.0f'):>13} "
-                  f"{_f(m['peak_mb'], '.0f'):>8}")
+                  f"{_f(m['peak_mb'], '.0f'):>8} {_f(m['cpu']):>7}")
         if len(trees) == 2:
             a, b = (summary(t.samples[name]) for t in trees)
             ratio = {k: (a[k] / b[k] if a[k] and b[k] else None)  # type: ignore[operator]
-                     for k in ("min", "median", "inside", "peak_mb")}
+                     for k in ("min", "median", "inside", "peak_mb", "cpu")}
             print(f"{name:<12} {'ratio':<10} {_f(ratio['min']):>7} {_f(ratio['median']):>9} "
-                  f"{_f(ratio['inside']):>9} {'':>7} {'':>13} {_f(ratio['peak_mb']):>8}")
+                  f"{_f(ratio['inside']):>9} {'':>7} {'':>13} {_f(ratio['peak_mb']):>8} "
+                  f"{_f(ratio['cpu']):>7}")
     if any(t.costs for t in trees):
         print()
         for t in trees:
             for k, v in t.costs.items():
                 print(f"{t.label:<10} {k}: {v}")
+    print(f"\ncpu s: median user + system time of the process and the children it reaped "
+          f"(the plot child); on {os.cpu_count()} CPUs no run takes less wall than cpu s / "
+          f"{os.cpu_count()}")
     if len(trees) == 2:
         print(f"\nratio: {trees[0].label} / {trees[1].label} (above 1: {trees[1].label} is "
               "faster)")

@@ -9,8 +9,8 @@ MODULE the one the tree's pyproject names for its `station` script (laboratory.s
 with PYTHONPATH set to the tree under test, it prints the minimum and median wall time of
 the whole process, the time inside the run (results.json ``wall_seconds``, else the closing
 line), lab time per wall second, the peak memory of the process (its own rusage) and its CPU
-time with the children it reaped (the plot child): cpu s / CPUs is a floor under the wall
-time that no overlap of the two processes gets below. Then,
+time with the children it reaped (the plot child): a run's cpu s / CPUs is a floor under its
+wall time that no overlap of the two processes gets below (the column is the median). Then,
 where the tree has them, bench/ieu_stream.ieu_cost_per_sample(4.0) and
 bench/gate_cost.gate_cost_ratio().
 
@@ -73,7 +73,7 @@ class Sample:
     inside: float | None  # s, the run's own wall_seconds
     lab_s: float | None  # simulated seconds
     peak_mb: float  # the process's maximum resident set
-    cpu: float = 0.0  # s, user + system of the process and the children it reaped
+    cpu: float  # s, user + system of the process and the children it reaped
 
 
 def cli_module(root: Path) -> str:
@@ -236,8 +236,8 @@ def report(trees: list[Tree], names: list[str], repeat: int) -> None:
             for k, v in t.costs.items():
                 print(f"{t.label:<10} {k}: {v}")
     print(f"\ncpu s: median user + system time of the process and the children it reaped "
-          f"(the plot child); on {os.cpu_count()} CPUs no run takes less wall than cpu s / "
-          f"{os.cpu_count()}")
+          f"(the plot child); on {os.cpu_count()} CPUs each run's wall is at least its own "
+          f"cpu s / {os.cpu_count()}")
     if len(trees) == 2:
         print(f"\nratio: {trees[0].label} / {trees[1].label} (above 1: {trees[1].label} is "
               "faster)")

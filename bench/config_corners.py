@@ -6,7 +6,9 @@ loaders accept crash a run (a traceback) instead of completing or stopping at a 
 Each corner sets many magnitudes at once to a bound (sim/isu/params.py, station/config/isu.py,
 station/config/cigtf.py, station/config/esg.py). Prints, per corner, "completed",
 "stopped: <the step's error>" (a clean refusal by the procedure: the corner is a lab that
-cannot do the job) or "TRACEBACK <type>: ..." (a defect). Exit 1 on any traceback.
+cannot do the job), "refused before the run: <why>" (a day whose required accuracies no
+admissible gate reaches: `station day` exits 2 with it, writing nothing) or
+"TRACEBACK <type>: ..." (a defect). Exit 1 on any traceback.
 """
 
 from __future__ import annotations
@@ -20,8 +22,9 @@ from typing import Any
 
 from rich.console import Console
 
+from procedures.isu.accuracy import Unreachable
 from procedures.runner import ProcedureError
-from station.config.cigtf import CigtfConfig
+from station.config.cigtf import CigtfConfig, params_of
 from station.config.esg import EsgConfig, params_from
 from station.config.isu import default_dict, load_config
 from station.errors import StationError
@@ -126,15 +129,11 @@ def run(lab: str, overrides: dict, out: Path) -> str:
 
             run_day(DayRequest(load_config(overrides=overrides), out, quiet=True), quiet)
         elif lab == "cigtf":
-            from dataclasses import replace
-
             from laboratory.cigtf.gyrocompassing import run_gyrocompass_test
-            from sim.cigtf.world import CigtfParams
 
             cfg = CigtfConfig.model_validate(overrides)
-            params = replace(CigtfParams(), **{k: v for k, v in cfg.model_dump().items()
-                                               if v is not None})
-            res = run_gyrocompass_test(1, out, params=params)
+            res = run_gyrocompass_test(1, out, params=params_of(cfg), limits=cfg.limits,
+                                       eq27=cfg.eq27)
             op = res["phases"][0]
             return (f"completed: operating theta {op['theta_arcsec']:+.2f} +/- "
                     f"{op['sigma_arcsec']:.2f}, truth {res['truth']['theta_arcsec']:+.2f} "
@@ -146,6 +145,8 @@ def run(lab: str, overrides: dict, out: Path) -> str:
                                 with_study=False)
     except (ProcedureError, StationError) as e:
         return f"stopped: {str(e)[:160]}"
+    except Unreachable as e:  # the day's plan checked before anything is opened (exit 2)
+        return f"refused before the run: {str(e)[:140]}"
     except Exception as e:  # noqa: BLE001 - what escapes is the finding
         tb = traceback.extract_tb(e.__traceback__)[-1]
         return f"TRACEBACK {type(e).__name__}: {str(e)[:120]} ({tb.filename}:{tb.lineno})"

@@ -6,13 +6,21 @@ from __future__ import annotations
 import builtins
 import os
 from collections.abc import Callable
+from dataclasses import replace
 from typing import Any
 
 import pytest
 from typer.testing import CliRunner
 
 from laboratory.cli import app
-from station.config.cigtf import load_cigtf_params
+from sim.cigtf.world import CigtfParams
+from station.config.cigtf import (
+    CigtfConfig,
+    load_cigtf_eq27,
+    load_cigtf_limits,
+    load_cigtf_params,
+    params_of,
+)
 from station.config.esg import load_esg_params
 from station.config.file import LABORATORIES, MAX_BYTES, MAX_DEPTH
 from station.config.isu import ConfigError, load_config
@@ -109,6 +117,23 @@ def test_a_byte_order_mark_is_fine(tmp_path):
     p = tmp_path / "c.toml"
     p.write_bytes("\ufeff[cigtf]\nlatitude_deg = 45.0\n".encode())
     assert load_cigtf_params(p).latitude_deg == 45.0
+
+
+def test_cigtf_settings_beside_the_laboratorys_tables(tmp_path):
+    """[cigtf] with its [cigtf.limits] and [cigtf.eq27] tables: the settings reach the
+    simulation's parameters and the tables the laboratory (bench/config_corners.py once
+    passed the tables to CigtfParams, a TypeError)."""
+    p = tmp_path / "c.toml"
+    p.write_text("[cigtf]\nslew_deg_s = 7.5\n[cigtf.limits]\n"
+                 "max_operating_instability_arcsec = 9.0\n[cigtf.eq27]\nb_arcsec = 2.0\n")
+    params = load_cigtf_params(p)
+    assert params.slew_deg_s == 7.5
+    assert params == replace(CigtfParams(), slew_deg_s=7.5)
+    cfg = CigtfConfig.model_validate({"slew_deg_s": 7.5, "limits": {
+        "max_operating_instability_arcsec": 9.0}, "eq27": {"b_arcsec": 2.0}})
+    assert params_of(cfg) == params
+    assert load_cigtf_limits(p).max_operating_instability_arcsec == 9.0
+    assert load_cigtf_eq27(p).b_arcsec == 2.0
 
 
 # ----------------------------------------------------------------------------- sections

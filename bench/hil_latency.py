@@ -40,6 +40,7 @@ import serial
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))  # measure this tree, not whichever copy is installed
 
+from instruments.isu.ieu import SERVED_MIN_PERIOD  # noqa: E402
 from station.config.isu import load_config  # noqa: E402
 from station.drivers.isu import IeuDriver, OscillatorDriver  # noqa: E402
 from station.hil import link_map  # noqa: E402
@@ -404,7 +405,9 @@ def main(argv: list[str]) -> None:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("queries", nargs="?", type=int, default=2000)
     p.add_argument("seconds", nargs="?", type=float, default=10.0)
-    p.add_argument("period", nargs="?", type=int, default=100, help="S2^T pulses: 10 ms")
+    p.add_argument("period", nargs="?", type=int, default=SERVED_MIN_PERIOD,
+                   help=f"S2^T pulses (default {SERVED_MIN_PERIOD}, 20 ms: the least a served "
+                   "IEU accepts)")
     p.add_argument("--flood", help=f"comma-separated: {', '.join(FLOODS)}, all or none")
     p.add_argument("--nice", type=int, default=0, help="niceness increment of the server and "
                    "of the measuring process (negative: ahead of other work on a busy machine; "

@@ -654,6 +654,7 @@ def test_noise_spec_defaults_follow_the_default_config():
     assert ns.bubble_noise_arcsec == CFG["instruments"]["bubble_level"]["noise_arcsec"]
     assert ns.bubble_graduation_arcsec == CFG["instruments"]["bubble_level"]["resolution_arcsec"]
     assert ns.autocollimator_arcsec == CFG["instruments"]["autocollimator"]["noise_arcsec"]
+    assert ns.oscillator_drift_per_day == abs(CFG["oscillator"]["drift_per_day"])
 
 
 def brute(fs: list[Functional], kernel) -> np.ndarray:

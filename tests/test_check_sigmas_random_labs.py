@@ -10,6 +10,7 @@ from __future__ import annotations
 import tempfile
 from pathlib import Path
 
+import numpy as np
 import pytest
 from random_labs import MANUAL_DAY, calibration_day
 
@@ -18,7 +19,7 @@ from laboratory.isu.spec import noise_spec, site_of
 from laboratory.isu.truth import calibration_truth
 from procedures.isu.calibration import NoiseSpec, calibrate
 from procedures.isu.calibration.checks import check_string_sums
-from procedures.isu.calibration.inputs import CalibrationData
+from procedures.isu.calibration.inputs import AccelPosition, CalibrationData
 from procedures.isu.computations import calibration_data, special_experiments
 from procedures.isu.day import measure_day
 from procedures.isu.plausibility import Implausible
@@ -81,3 +82,38 @@ def test_q_sigmas_in_a_quiet_gyro_lab():
     for row, (est, sig) in got.items():
         assert abs(est - truth[row]) < 4.0 * sig, row
         assert sig > 1.3 * still[row][1], row
+
+
+@pytest.mark.parametrize("draw", [0, 1])
+def test_string_sums_with_an_aging_oscillator(draw):
+    """A master oscillator aging near its admissible bound (1e-6 a day, sign and size drawn)
+    in a random laboratory: every frequency a counter measures drifts with it, so the
+    strings' sums leave the quadratic by hundreds of sigma over the hours between the
+    positions, though the constants move by 0.44 sigma at most (the default lab's day).
+    With the aging in the sums' covariance (NoiseSpec.oscillator_drift_per_day, the lab's
+    oscillator specification) they follow it within 4 sigma; without it the same day
+    stops on "a wrong count"; and a garbled string count is still found and named."""
+    rng = np.random.default_rng(20261128 + draw)
+    seed = int(rng.integers(1, 1000))
+    aging = float(rng.uniform(0.3, 1.0) * rng.choice([-1.0, 1.0])) * 1e-6
+    cfg = random_station(seed, reachable=False)
+    cfg = cfg.model_copy(update={"oscillator": cfg.oscillator.model_copy(
+        update={"drift_per_day": aging})})
+    cd, nz, _, _ = calibration_day(cfg, ("II-13", "II-14"))
+    data, noise = CalibrationData.model_validate(cd), NoiseSpec.model_validate(nz)
+    assert noise.oscillator_drift_per_day == abs(aging)
+    rows = calibrate(data, noise)
+    z = check_string_sums(data, rows, noise)
+    assert len(z) >= 15
+    assert max(abs(v) for v in z.values()) < 4.0
+    with pytest.raises(Implausible, match="a wrong count"):
+        check_string_sums(data, rows, noise.model_copy(update={"oscillator_drift_per_day": 0.0}))
+    p = data.accel[7]  # accelerometer 1 up: one digit of string 2's clock count changed
+    n1 = dict(p.n1)
+    n1[(1, 2)] += 1000
+    bad = data.model_copy(update={"accel": {**data.accel, 7: AccelPosition(
+        gamma=p.gamma, n1=n1, t0=p.t0, t1=p.t1, t_level=p.t_level)}})
+    with pytest.raises(Implausible) as e:
+        check_string_sums(bad, calibrate(bad, noise), noise)
+    assert str(e.value).startswith("counter1 and counter2 (accelerometer 1's strings)")
+    assert "position 7" in str(e.value)

@@ -39,7 +39,7 @@ from procedures.isu.calibration.forward import AccelModel, GyroModel
 from procedures.isu.calibration.geometry import FIRST_COLUMN, t_br
 from procedures.isu.calibration.gyro_equations import GYRO_PARAMS
 from procedures.isu.calibration.inputs import TURNING_POSITIONS, CalibrationData, Constants
-from procedures.isu.calibration.noise_spec import NoiseSpec
+from procedures.isu.calibration.noise_spec import DAY, NoiseSpec
 from procedures.isu.calibration.reduce import Key, reduce
 from procedures.isu.plausibility import Implausible
 from procedures.isu.sheets import ResultRow
@@ -204,8 +204,11 @@ def check_string_sums(data: CalibrationData, rows: list[ResultRow],
 
     The sums' covariance: the white noise on f2 - f1 (NoiseSpec: one acceleration noise,
     which moves the strings push-pull, so the sum sees it only where the two gates differ),
-    the clock count's quantization, the common drift, and the input axis' turn by
-    pier tilt and table setting (Chart I-4 geometry: the same du that moves f2 - f1 by
+    the clock count's quantization, the common drift, the master oscillator's aging
+    (NoiseSpec.oscillator_drift_per_day; without it, an oscillator aging 1e-8 a day stopped
+    the default lab's day here, and one at 1e-6 broke the fit by 530 sigma, though the
+    constants moved by 0.01 and 0.44 sigma), and the input axis' turn by pier tilt and
+    table setting (Chart I-4 geometry: the same du that moves f2 - f1 by
     D1 du moves the common mode 2 kappa u^2 of Chart IV-1 by 2 (2 kappa) u du, i.e. the
     fit's slope b + 2 c u times du; correlated across positions as the f2 - f1 data are).
     With pier factor 2.9 and accelerometer noise 0.3x (random lab 183) that term is 13-17
@@ -222,13 +225,14 @@ def check_string_sums(data: CalibrationData, rows: list[ResultRow],
         d1 = float(est.get((f"accel{k}", "D1")) or 2000.0)
         d2 = float(est.get((f"accel{k}", "D2")) or 0.0)
         d3 = float(est.get((f"accel{k}", "D3")) or 0.0)
-        ms, u, sums, var = [], [], [], []
+        ms, u, sums, var, mid = [], [], [], [], []
         for m, p in sorted(data.accel.items()):
             if (k, 1) not in p.gamma or (k, 2) not in p.gamma:
                 continue
             f = [p.gamma[(k, ell)] / (p.n1[(k, ell)] * c.s1_t) for ell in (1, 2)]
             gates = [p.n1[(k, ell)] * c.s1_t for ell in (1, 2)]
             ms.append(m)
+            mid.append(0.5 * (p.t0 + p.t1))
             u.append(c.g * float(a_vec @ _up(m, c)))
             sums.append(f[0] + f[1])
             # one acceleration noise moves the strings push-pull, each seen over its own
@@ -241,7 +245,10 @@ def check_string_sums(data: CalibrationData, rows: list[ResultRow],
             continue  # three coefficients: nothing left to judge
         ua, y = np.array(u), np.array(sums)
         x = np.column_stack([np.ones(len(u)), ua, np.square(ua)])
-        v0 = np.diag(var)
+        # the master oscillator's aging: each sum, counted against it, off by its own size
+        # times the drift since the mean time; one rate for the day, so a rank-one term
+        aging = y * (np.array(mid) - np.mean(mid)) / DAY * noise.oscillator_drift_per_day
+        v0 = np.diag(var) + np.outer(aging, aging)
         geo = _string_sum_geometry(data, rows, noise, [("F", k, m) for m in ms])
         # d(f2 - f1)/du of Chart IV-1 at each position: the geometric part is D1' du
         diff_slope = d1 * (1.0 + 2.0 * d2 * ua + 3.0 * d3 * ua**2)

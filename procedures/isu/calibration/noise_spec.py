@@ -50,6 +50,10 @@ class NoiseSpec(BaseModel):
         0.0, ge=0, description="drift of an accelerometer's common string frequency over "
         "the day, 1 sigma (the default lab's strings keep f0)"
     )
+    oscillator_drift_per_day: float = Field(
+        1e-10, ge=0, description="the master oscillator's aging, fractional frequency per "
+        "day (its specification): every frequency a counter measures drifts with it"
+    )
     vibration_rms_micro_g: float = Field(100.0, ge=0, description="floor vibration per axis")
     vibration_band_hz: tuple[float, float] = (2.0, 30.0)
     # --- levels, table, survey ---

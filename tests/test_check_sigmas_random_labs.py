@@ -22,6 +22,7 @@ from procedures.isu.calibration.checks import check_string_sums
 from procedures.isu.calibration.inputs import AccelPosition, CalibrationData
 from procedures.isu.computations import calibration_data, special_experiments
 from procedures.isu.day import measure_day
+from procedures.isu.nonlinearity import fit_nonlinearity
 from procedures.isu.plausibility import Implausible
 from procedures.journal import Journal
 from procedures.runner import Run
@@ -117,3 +118,49 @@ def test_string_sums_with_an_aging_oscillator(draw):
         check_string_sums(bad, calibrate(bad, noise), noise)
     assert str(e.value).startswith("counter1 and counter2 (accelerometer 1's strings)")
     assert "position 7" in str(e.value)
+
+
+def _q_day(cfg):
+    """Charts II-6, II-7, II-7Q of ``cfg``'s laboratory: (CalibrationData, DayData, truth)."""
+    rack = SimulatedRack(cfg)
+    st = open_isu_drivers(cfg, rack)
+    try:
+        site, noise = site_of(cfg), noise_spec(cfg)
+        with tempfile.TemporaryDirectory() as tmp:
+            run = Run(st.clock, Journal(Path(tmp) / "journal.jsonl"))
+            day = measure_day(st, run, MANUAL_DAY, site, cfg.isu.accels[0].f0_hz,
+                              only=("II-6", "II-7", "II-7Q"), noise=noise)
+        truth = calibration_truth(rack.world)
+    finally:
+        st.close()
+        rack.close()
+    return calibration_data(day, MANUAL_DAY, site), day, truth
+
+
+def test_q_ii_with_a_large_q_is():
+    """Q_IS drawn near its admitted bound (0.5-1 x 1e-7 hr/deg, each gyro its sign) in a
+    random laboratory: along the nominal input axis of Chart II-7 the spin axis is tilted by
+    the input axis' misalignment (-G.S_nom, 1e-4..1e-3), so a2/a1 = Q_II + Q_IS (r.S). Solved
+    with II-7Q's series, Q_II and Q_IS are within 4 sigma of the truth; the print's
+    Q_II = a2/a1 is not (8-13 sigma in the default laboratory at the bound)."""
+    rng = np.random.default_rng(2026_1128)
+    cfg = random_station(int(rng.integers(1, 1000)), reachable=False)
+    gyros = [g.model_copy(update={"Q_IS_hr_deg": float(rng.uniform(0.5, 1.0)
+                                                       * rng.choice([-1.0, 1.0])) * 1e-7})
+             for g in cfg.isu.gyros]
+    cfg = cfg.model_copy(update={"isu": cfg.isu.model_copy(update={"gyros": tuple(gyros)})})
+    cd, day, truth = _q_day(cfg)
+    noise = noise_spec(cfg)
+    rows = calibrate(cd, noise)
+    special_experiments(rows, day, MANUAL_DAY, site_of(cfg), noise)
+    got = {(r.instrument, r.parameter): (r.estimate, r.sigma) for r in rows
+           if r.parameter in ("Q_II", "Q_IS") and r.estimate is not None}
+    assert len(got) == 6
+    for row, (est, sig) in got.items():
+        assert abs(est - truth[row]) < 4.0 * sig, (row, (est - truth[row]) / sig)
+    ratio_only = []
+    for k, pts in day.nonlinearity.items():
+        fit = fit_nonlinearity(pts, 0.5)  # a2/a1 alone, as the print takes Q_II
+        est, sig = got[(f"gyro{k}", "Q_II")]
+        ratio_only.append(abs(fit["Q_II"] - truth[(f"gyro{k}", "Q_II")]) / sig)
+    assert max(ratio_only) > 4.0, ratio_only

@@ -36,7 +36,12 @@ from procedures.isu.calibration.neglected import g_terms
 from procedures.isu.carry_forward import PriorSheet
 from procedures.isu.day import DayData
 from procedures.isu.j_term import JNoise, j_result
-from procedures.isu.nonlinearity import NonlinearityFit, fit_nonlinearity, q_is_from_fit
+from procedures.isu.nonlinearity import (
+    NonlinearityFit,
+    fit_nonlinearity,
+    q_is_from_fit,
+    q_terms,
+)
 from procedures.isu.plan import DayPlan
 from procedures.isu.plausibility import Implausible
 from procedures.isu.settings import STRINGS
@@ -218,10 +223,12 @@ def special_experiments(rows: list[ResultRow], data: DayData, plan: DayPlan, sit
     """Q_II from II-1.2 and J from II-1.3, in place (Chart II-16: special experiments); the
     z of each speed and gate pair against the others (a wrong count stops the step)."""
     checks: dict[str, list[float]] = {}
+    along_g: dict[int, tuple[float, float]] = {}  # Chart II-7's a2/a1 and sigma per gyro
     for k, pts in data.nonlinearity.items():
         dphi = _dphi_arcsec(rows, k)
         fit = fit_nonlinearity(pts, _series_sigmas(noise, pts, dphi))
         checks[f"II-7 gyro{k}"] = _check_speeds("II-7", k, pts, fit)
+        along_g[k] = fit["Q_II"], fit["sigma"]
         r = _row(rows, f"gyro{k}", "Q_II")
         r.estimate, r.sigma = fit["Q_II"], fit["sigma"]
         r.note = "II-1.2 nonlinearity fit (positions 1, 3, 5 at several speeds)"
@@ -234,10 +241,16 @@ def special_experiments(rows: list[ResultRow], data: DayData, plan: DayPlan, sit
         fit = fit_nonlinearity(pts, _series_sigmas(noise, pts, dphi, BISECTOR_ALONG,
                                                   BISECTOR_ALONG))
         checks[f"II-7Q gyro{k}"] = _check_speeds("II-7Q", k, pts, fit)
-        q, sq = q_is_from_fit(fit["Q_II"], fit["sigma"], rq.estimate, rq.sigma, np.array(gb), k)
         r = _row(rows, f"gyro{k}", "Q_IS")
-        r.estimate, r.sigma = q, sq
         r.note = "designed speed series along (G + S)/sqrt2 (docs/special-experiments.md)"
+        if k in along_g:  # both series today: Q_II and Q_IS from the two together
+            (rq.estimate, rq.sigma), (r.estimate, r.sigma) = q_terms(
+                along_g[k], (fit["Q_II"], fit["sigma"]), np.array(gb), k)
+            rq.note = ("II-1.2 nonlinearity fit (positions 1, 3, 5 at several speeds) with "
+                       "II-7Q's for Q_IS (r.S)")
+        else:  # Q_II from another sheet (carried forward)
+            r.estimate, r.sigma = q_is_from_fit(fit["Q_II"], fit["sigma"], rq.estimate,
+                                                rq.sigma, np.array(gb), k)
     if not data.j_term:
         return checks
     sv = _survey(data)

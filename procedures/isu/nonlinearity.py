@@ -181,15 +181,39 @@ def q_is_experiment(st: IsuDrivers, run: Run, t_bi: ArrayLike, plan: DayPlan, s1
     return points
 
 
+def _along(r: np.ndarray, g_body: np.ndarray, k: int) -> tuple[float, float]:
+    """(r.G, r.S) for a rotary axis r in the plane of gyro k's nominal G and S: G is the
+    calibrated input axis; S, normal to it, differs from its nominal along G_nom by -G.S_nom
+    (first order; its turn about G, along O, does not reach r)."""
+    g_nom, s_nom = (np.array(v) for v in NOMINAL_GS[k])
+    return float(r @ g_body), float(r @ s_nom) - float(g_body @ s_nom) * float(r @ g_nom)
+
+
 def q_is_from_fit(a2_over_a1: float, sigma_ratio: float, q_ii: float, sigma_q_ii: float,
                   g_body: np.ndarray, k: int) -> tuple[float, float]:
-    """Q_IS from the bisector fit: a2/a1 = Q_II (r.G) + Q_IS (r.S), r the bisector."""
-    r = bisector(k)
-    rg = float(r @ g_body)
-    rs = float(r @ np.array(NOMINAL_GS[k][1]))
+    """Q_IS from the bisector fit alone, Q_II given (another sheet's): a2/a1 = Q_II (r.G)
+    + Q_IS (r.S), r the bisector."""
+    rg, rs = _along(bisector(k), g_body, k)
     q = (a2_over_a1 - q_ii * rg) / rs
     sig = math.hypot(sigma_ratio, sigma_q_ii * rg) / abs(rs)
     return q, sig
+
+
+def q_terms(along_g: tuple[float, float], along_bisector: tuple[float, float],
+            g_body: np.ndarray, k: int) -> tuple[tuple[float, float], tuple[float, float]]:
+    """((Q_II, sigma), (Q_IS, sigma)) from both series' (a2/a1, sigma): Chart II-7's, whose
+    rotary axis is the nominal G, and II-7Q's along the bisector. Each ratio is Q_II (r.G) +
+    Q_IS (r.S). Along the nominal G, r.S is the input axis' tilt towards the spin axis
+    (-G.S_nom, up to 1e-3 at the admitted misalignments), which the print's Q_II = a2/a1
+    leaves out: with Q_IS at its bound (1e-7 hr/deg) that put Q_II 8-13 sigma off."""
+    g7, s7 = _along(np.array(NOMINAL_GS[k][0]), g_body, k)
+    gq, sq = _along(bisector(k), g_body, k)
+    (a7, sa7), (aq, saq) = along_g, along_bisector
+    det = g7 * sq - s7 * gq
+    q_ii = (a7 * sq - aq * s7) / det
+    q_is = (g7 * aq - gq * a7) / det
+    return ((q_ii, math.hypot(sq * sa7, s7 * saq) / abs(det)),
+            (q_is, math.hypot(g7 * saq, gq * sa7) / abs(det)))
 
 
 class NonlinearityFit(TypedDict):

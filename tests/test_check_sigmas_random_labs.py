@@ -57,28 +57,10 @@ def test_q_sigmas_in_a_quiet_gyro_lab():
     within 4 sigma of the truth (they were -3.8 sigma with the noise-only sigma); the pier's
     tilt over each speed's gate is in the sigma: at least 1.3x the still pier's."""
     cfg = random_station(303, reachable=False)
-    rack = SimulatedRack(cfg)
-    st = open_isu_drivers(cfg, rack)
-    try:
-        plan, site, noise = MANUAL_DAY, site_of(cfg), noise_spec(cfg)
-        with tempfile.TemporaryDirectory() as tmp:
-            run = Run(st.clock, Journal(Path(tmp) / "journal.jsonl"))
-            day = measure_day(st, run, plan, site, cfg.isu.accels[0].f0_hz,
-                              only=("II-6", "II-7", "II-7Q"), noise=noise)
-        truth = calibration_truth(rack.world)
-    finally:
-        st.close()
-        rack.close()
-    cd = calibration_data(day, plan, site)
-
-    def special(nz: NoiseSpec) -> dict[tuple[str, str], tuple[float, float]]:
-        rows = calibrate(cd, nz)
-        special_experiments(rows, day, plan, site, nz)
-        return {(r.instrument, r.parameter): (r.estimate, r.sigma) for r in rows
-                if r.parameter in ("Q_II", "Q_IS") and r.estimate is not None}
-
-    got = special(noise)
-    still = special(noise.model_copy(update=STILL_PIER))
+    cd, day, truth = _q_day(cfg)
+    noise = noise_spec(cfg)
+    got = _q_terms(cfg, cd, day, noise)
+    still = _q_terms(cfg, cd, day, noise.model_copy(update=STILL_PIER))
     assert len(got) == 6
     for row, (est, sig) in got.items():
         assert abs(est - truth[row]) < 4.0 * sig, row
@@ -137,6 +119,14 @@ def _q_day(cfg):
     return calibration_data(day, MANUAL_DAY, site), day, truth
 
 
+def _q_terms(cfg, cd, day, noise: NoiseSpec) -> dict[tuple[str, str], tuple[float, float]]:
+    """The special experiments' Q_II and Q_IS rows (estimate, sigma) under ``noise``."""
+    rows = calibrate(cd, noise)
+    special_experiments(rows, day, MANUAL_DAY, site_of(cfg), noise)
+    return {(r.instrument, r.parameter): (r.estimate, r.sigma) for r in rows
+            if r.parameter in ("Q_II", "Q_IS") and r.estimate is not None}
+
+
 def test_q_ii_with_a_large_q_is():
     """Q_IS drawn near its admitted bound (0.5-1 x 1e-7 hr/deg, each gyro its sign) in a
     random laboratory: along the nominal input axis of Chart II-7 the spin axis is tilted by
@@ -150,11 +140,7 @@ def test_q_ii_with_a_large_q_is():
              for g in cfg.isu.gyros]
     cfg = cfg.model_copy(update={"isu": cfg.isu.model_copy(update={"gyros": tuple(gyros)})})
     cd, day, truth = _q_day(cfg)
-    noise = noise_spec(cfg)
-    rows = calibrate(cd, noise)
-    special_experiments(rows, day, MANUAL_DAY, site_of(cfg), noise)
-    got = {(r.instrument, r.parameter): (r.estimate, r.sigma) for r in rows
-           if r.parameter in ("Q_II", "Q_IS") and r.estimate is not None}
+    got = _q_terms(cfg, cd, day, noise_spec(cfg))
     assert len(got) == 6
     for row, (est, sig) in got.items():
         assert abs(est - truth[row]) < 4.0 * sig, (row, (est - truth[row]) / sig)

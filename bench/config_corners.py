@@ -24,7 +24,8 @@ from rich.console import Console
 
 from procedures.isu.accuracy import Unreachable
 from procedures.runner import ProcedureError
-from station.config.cigtf import CigtfConfig, params_of
+from station.config.cigtf import CigtfConfig
+from station.config.cigtf import params_from as cigtf_params_from
 from station.config.esg import EsgConfig, params_from
 from station.config.isu import default_dict, load_config
 from station.errors import StationError
@@ -132,7 +133,7 @@ def run(lab: str, overrides: dict, out: Path) -> str:
             from laboratory.cigtf.gyrocompassing import run_gyrocompass_test
 
             cfg = CigtfConfig.model_validate(overrides)
-            res = run_gyrocompass_test(1, out, params=params_of(cfg), limits=cfg.limits,
+            res = run_gyrocompass_test(1, out, params=cigtf_params_from(cfg), limits=cfg.limits,
                                        eq27=cfg.eq27)
             op = res["phases"][0]
             return (f"completed: operating theta {op['theta_arcsec']:+.2f} +/- "

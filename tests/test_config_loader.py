@@ -19,7 +19,7 @@ from station.config.cigtf import (
     load_cigtf_eq27,
     load_cigtf_limits,
     load_cigtf_params,
-    params_of,
+    params_from,
 )
 from station.config.esg import load_esg_params
 from station.config.file import LABORATORIES, MAX_BYTES, MAX_DEPTH
@@ -131,7 +131,7 @@ def test_cigtf_settings_beside_the_laboratorys_tables(tmp_path):
     assert params == replace(CigtfParams(), slew_deg_s=7.5)
     cfg = CigtfConfig.model_validate({"slew_deg_s": 7.5, "limits": {
         "max_operating_instability_arcsec": 9.0}, "eq27": {"b_arcsec": 2.0}})
-    assert params_of(cfg) == params
+    assert params_from(cfg) == params
     assert load_cigtf_limits(p).max_operating_instability_arcsec == 9.0
     assert load_cigtf_eq27(p).b_arcsec == 2.0
 

@@ -146,10 +146,10 @@ def load_cigtf_params(path: str | Path | None) -> CigtfParams:
     """The default CigtfParams with the file's [cigtf] settings applied."""
     if path is None:
         return CigtfParams()
-    return params_of(read_section(path, "cigtf", CigtfConfig, "CIGTF"))
+    return params_from(read_section(path, "cigtf", CigtfConfig, "CIGTF"))
 
 
-def params_of(cfg: CigtfConfig) -> CigtfParams:
+def params_from(cfg: CigtfConfig) -> CigtfParams:
     """The default CigtfParams with the settings ``cfg`` gives (its limits and eq. 27
     values are the laboratory's, not the simulation's)."""
     dumped = cfg.model_dump(exclude={"limits", "eq27"})

@@ -28,6 +28,7 @@ import numpy as np
 
 from laboratory.calfile import CalibrationFile, CalibrationFileError
 from procedures.isu.alignment.estimation import G0
+from procedures.isu.calibration.forward import lab_axes
 from station.errors import UseError
 
 ARCSEC = np.pi / (180.0 * 3600.0)
@@ -39,9 +40,6 @@ GYRO_USED = ("DeltaPhi", "G.B1", "G.B2", "G.B3", "R", "B_I", "B_O", "B_S", "C_II
 ACCEL_USED = ("D1", "A.B1", "A.B2", "A.B3", "D0", "D2", "D3")
 NEEDED = ([(f"gyro{k}", p) for k in (1, 2, 3) for p in GYRO_USED]
           + [(f"accel{k}", p) for k in (1, 2, 3) for p in ACCEL_USED])
-# Nominal output and spin axes in B (report 000, Chart III-9); G = O x S.
-O_NOMINAL = np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [1.0, 0.0, 0.0]])
-S_NOMINAL = np.array([[0.0, -1.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]])
 NEWTON_STEPS = 6
 RATE_ITERATIONS = 4
 
@@ -127,12 +125,12 @@ def specific_force(cal: CalibrationFile, strings: np.ndarray, dt: np.ndarray) ->
 
 
 def gyro_frames(cal: CalibrationFile) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Calibrated G axes and the nominal O, S squared up to them (rows: gyro k, in B)."""
+    """Calibrated G axes and the nominal O, S squared up to them (rows: gyro k, in B): the
+    axes the calibration's B and C are defined on (``forward.lab_axes``)."""
     g = _axes(cal, "gyro", "G")
-    o = O_NOMINAL - np.sum(O_NOMINAL * g, axis=1, keepdims=True) * g
-    o = o / np.linalg.norm(o, axis=1, keepdims=True)
-    s = np.cross(g, o)
-    return g, o, s
+    axes = [lab_axes(k, g[k - 1]) for k in (1, 2, 3)]
+    return (np.array([x[0] for x in axes]), np.array([x[1] for x in axes]),
+            np.array([x[2] for x in axes]))
 
 
 def body_rate(cal: CalibrationFile, pulses: np.ndarray, dt: np.ndarray,

@@ -4,13 +4,16 @@
 in either hemisphere, every ISU coefficient and misalignment redrawn at 0.3-3x with random
 sign, gyro, accelerometer and pier noise at 0.3-3x). ``calibration_day(cfg)``: only the
 position charts (II-6, II-11..II-14) measured unless told, as (CalibrationData, NoiseSpec,
-truth, II-7 speed series) documents.
+truth, II-7 speed series) documents. ``steep_station(seed)``: laboratory ``seed`` with the
+gyros' B and every instrument axis's misalignment and spin-axis turn near their bounds.
 """
 
 from __future__ import annotations
 
 import tempfile
 from pathlib import Path
+
+import numpy as np
 
 from laboratory.isu.random_lab import random_station
 from laboratory.isu.spec import noise_spec, site_of
@@ -20,7 +23,7 @@ from procedures.isu.day import measure_day
 from procedures.isu.plan import DayPlan
 from procedures.journal import Journal
 from procedures.runner import Run
-from station.config.isu import StationConfig
+from station.config.isu import StationConfig, load_config
 from station.config.plan import PlanSettings
 from station.racks.isu import SimulatedRack, open_isu_drivers
 
@@ -59,3 +62,22 @@ def calibration_day(cfg: StationConfig, charts: tuple[str, ...] = POSITION_CHART
         st.close()
         rack.close()
 
+
+def _signed(rng: np.random.Generator, lo: float, hi: float) -> float:
+    return float(rng.uniform(lo, hi) * rng.choice([-1.0, 1.0]))
+
+
+def steep_station(seed: int) -> StationConfig:
+    """Random laboratory ``seed`` with every gyro's B at 30-100 deg/hr/g and every gyro and
+    accelerometer axis 300-600 arcsec off nominal, the spin axes turned as far: admissible
+    (sim/isu/params.py), and where Chart III-9's a.G = a.A is off by 0.1-0.3 deg/hr."""
+    rng = np.random.default_rng(seed)
+    doc = random_station(seed, reachable=False).model_dump(mode="json")
+    for g in doc["isu"]["gyros"]:
+        for name in ("B_I_deg_hr_g", "B_O_deg_hr_g", "B_S_deg_hr_g"):
+            g[name] = _signed(rng, 30.0, 100.0)
+        g["misalignment_arcsec"] = [_signed(rng, 300.0, 600.0) for _ in range(2)]
+        g["spin_axis_rotation_arcsec"] = _signed(rng, 300.0, 600.0)
+    for a in doc["isu"]["accels"]:
+        a["misalignment_arcsec"] = [_signed(rng, 300.0, 600.0) for _ in range(2)]
+    return load_config(seed=seed, overrides=doc)

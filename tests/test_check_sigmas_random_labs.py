@@ -1,9 +1,10 @@
-"""Two sigmas that must hold in any admissible laboratory, not only the default (issue 19):
-Chart II-15 step 8's string-sum check and the special experiments' Q_II, Q_IS (Charts II-7,
-II-7Q). Each on one random laboratory (laboratory/isu/random_lab.py) where the former
-sigma failed, a partial day: the errors within 4 sigma of the truth (or of the check's
-model), and the sigma carries the pier's term, which does not scale with the instrument
-noise (without it the same data stop the day or fall outside)."""
+"""Sigmas that must hold in any admissible laboratory, not only the default (issue 19):
+Chart II-15 step 8's string-sum check, the special experiments' Q_II, Q_IS (Charts II-7,
+II-7Q) and the gyros' g terms with the spin axes turned. Each on one random laboratory
+(laboratory/isu/random_lab.py) where the former sigma or truth failed, a partial day: the
+errors within 4 sigma of the truth (or of the check's model); the string sums' and Q terms'
+sigma carries the pier's term, which does not scale with the instrument noise (without it
+the same data stop the day or fall outside)."""
 
 from __future__ import annotations
 
@@ -12,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from random_labs import MANUAL_DAY, calibration_day
+from random_labs import MANUAL_DAY, calibration_day, steep_station
 
 from laboratory.isu.random_lab import random_station
 from laboratory.isu.spec import noise_spec, site_of
@@ -150,3 +151,25 @@ def test_q_ii_with_a_large_q_is():
         sig = got[(f"gyro{k}", "Q_II")][1]
         ratio_only.append(abs(fit["Q_II"] - truth[(f"gyro{k}", "Q_II")]) / sig)
     assert max(ratio_only) > 4.0, ratio_only
+
+
+def test_g_terms_with_turned_spin_axes():
+    """A laboratory whose gyros have B of 30-100 deg/hr/g, axes 300-600 arcsec off and O, S
+    turned about G as far (random_labs.steep_station): no position sees the turn, so the
+    record's truth is read on the calibration's axes (laboratory.isu.truth), and the g terms
+    of the positions 7-15 are within 4 sigma of it. On the gyro's own axes B_O and B_S read
+    the turn times the other's B (0.1-0.3 deg/hr/g), many sigma."""
+    cfg = steep_station(221)
+    cd, nz, truth, _ = calibration_day(cfg)  # the position charts, II-6 and II-11..II-14
+    rows = {(r.instrument, r.parameter): r for r in calibrate(
+        CalibrationData.model_validate(cd), NoiseSpec.model_validate(nz))}
+    turned = []
+    for k, g in enumerate(cfg.isu.gyros, start=1):
+        own = {"B_I": g.B_I_deg_hr_g, "B_O": g.B_O_deg_hr_g, "B_S": g.B_S_deg_hr_g}
+        for p in ("R", "B_I", "B_O", "B_S", "C_II", "C_SS", "C_IS", "C_OS", "C_IO"):
+            r = rows[(f"gyro{k}", p)]
+            assert r.estimate is not None and r.sigma
+            assert abs(r.estimate - truth[f"gyro{k}|{p}"]) < 4.0 * r.sigma, (k, p)
+            if p in own:
+                turned.append(abs(r.estimate - own[p]) / r.sigma)
+    assert max(turned) > 4.0, turned

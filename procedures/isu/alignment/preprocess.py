@@ -12,11 +12,16 @@ calibration uses them), the model wins and the line says so:
   (arcsec/pulse on the Calibration Results Sheet), so the angle is P^G x Delta Phi.
 * Chart III-9 prints the Q_IS term as Q_IS (w.G)(a.S); Chart IV-2's model (and the
   simulated gyro) has Q_IS (w.G)(w.S). The model's is used, with w.S from the gyros'
-  first-pass rates and the nominal S axes (gyro 1: -B2, gyro 2: -B3, gyro 3: +B2). At rest
-  it is about 1e-7 deg/hr either way.
+  first-pass rates (next but one). At rest it is about 1e-7 deg/hr either way.
 * Q^A and Q^G: the charts print the first-order inverse of the matrix of (A_k.B_j)
   ((G_k.B_j)) that the calibration determines; here that matrix is inverted exactly (the
   difference is of second order in the misalignments, about 0.05 arcsec).
+* Chart III-9 takes a.G_k as accelerometer k's a.A_k and a.O_k, a.S_k as the other two
+  accelerometers' outputs (the nominal axes, gyro 1's S = -B2, gyro 2's -B3, gyro 3's +B2;
+  a (w.S_k) would come from another gyro's rate alike). That is first order in the misalignments: B_I of 100 deg/hr/g with axes 600 arcsec
+  apart is 0.3 deg/hr, 7 sigma of the gyrocompass's |omega|. Here the body-axis specific
+  force and first-pass rate (through Q^A and Q^G) are projected on the calibration's own
+  G_k, O_k, S_k (``forward.lab_axes``, the axes its B and C are defined on).
 * The J term (J d(w.O)/dt) is not in Chart III-9; on a table at rest it integrates to zero
   over an interval and is left out as the chart leaves it out.
 """
@@ -27,6 +32,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from procedures.isu.calibration.forward import lab_axes
 from procedures.isu.sheets import CalibrationResults, scale_factor_arcsec
 
 GYRO_PARAMS = (
@@ -34,9 +40,6 @@ GYRO_PARAMS = (
     "C_OS", "C_IO", "Q_II", "Q_IS",
 )
 ACCEL_PARAMS = ("D1", "A.B1", "A.B2", "A.B3", "D0", "D2", "D3")
-# Nominal gyro output and spin axes in body axes (Chart III-9; DOMAIN.md): rows pick a.A_l.
-O_MAP = np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [1.0, 0.0, 0.0]])
-S_MAP = np.array([[0.0, -1.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]])
 
 
 class MissingConstants(ValueError):
@@ -132,17 +135,20 @@ def accel_integrals(p_a: np.ndarray, dt: np.ndarray, c: Constants) -> tuple[np.n
 def gyro_integrals(p_g: np.ndarray, dt: np.ndarray, a_a: np.ndarray, c: Constants) -> np.ndarray:
     """Chart III-9: int omega.B_k dt (K x 3, arcsec) from the net pulses ``p_g`` (K x 3).
 
-    ``a_a``: the mean a.A_k of each interval (g), from ``accel_integrals``.
+    ``a_a``: the mean a.A_k of each interval (g), from ``accel_integrals``; the g terms take
+    its body-axis vector along the gyros' G, O, S (see the top).
     """
     dt = np.asarray(dt, dtype=float)[:, None]
     g = {p: c.vector("gyro", p) for p in GYRO_PARAMS if not p.startswith("G.")}
     dphi = scale_factor_arcsec(g["DeltaPhi"])  # Chart II-5's deg/pulse, in arcsec/pulse
     raw = np.asarray(p_g, dtype=float) * dphi - g["R"] * dt  # [(w.G_k) dt], arcsec
     w_g = raw / dt  # (w.G_k), deg/hr
-    a_g = a_a  # (a.G_k) = (a.A_k)
-    a_o = a_a @ O_MAP.T
-    a_s = a_a @ S_MAP.T
-    w_s = w_g @ S_MAP.T  # Chart IV-2's (w.S_k), from the gyros' first-pass rates
+    g_axes = c.matrix("gyro", "G")
+    axes = [lab_axes(k, g_axes[k - 1]) for k in (1, 2, 3)]
+    a_b = np.asarray(a_a, dtype=float) @ np.linalg.inv(c.matrix("accel", "A")).T  # a.B_j, g
+    a_g, a_o, a_s = (a_b @ np.array([x[i] for x in axes]).T for i in range(3))
+    # Chart IV-2's (w.S_k), from the gyros' first-pass rates in body axes
+    w_s = (w_g @ np.linalg.inv(g_axes).T) @ np.array([x[2] for x in axes]).T
     rate = (
         g["B_I"] * a_g + g["B_O"] * a_o + g["B_S"] * a_s
         + g["C_II"] * a_g**2 + g["C_SS"] * a_s**2

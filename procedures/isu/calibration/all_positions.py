@@ -40,12 +40,12 @@ from procedures.isu.calibration.compute import (
     estimate,
 )
 from procedures.isu.calibration.covariance import gyro_quantization_var
-from procedures.isu.calibration.forward import NOMINAL_AXES, AccelModel, GyroModel
+from procedures.isu.calibration.forward import NOMINAL_AXES, AccelModel, GyroModel, lab_axes
 from procedures.isu.calibration.geometry import FIRST_COLUMN, extra_t_br, t_br
 from procedures.isu.calibration.inputs import CalibrationData, Constants
 from procedures.isu.calibration.noise_spec import NoiseSpec
 from procedures.isu.calibration.reduce import Key, Record, Reduced, reduce_all
-from procedures.isu.calibration.vectors import cross3, norm3
+from procedures.isu.calibration.vectors import norm3
 from procedures.isu.sheets import ConstantsCorrelation, ResultRow
 
 GYRO_COEFS = ("R", "B_I", "B_O", "B_S", "C_II", "C_SS", "C_IS", "C_OS", "C_IO")
@@ -130,13 +130,9 @@ def speed_covariance(points: list[SpeedPoint], noise: NoiseSpec,
 # ------------------------------------------------------------------------------ parameters
 def _gyro_model(k: int, p: Mapping[str, float]) -> GyroModel:
     g = np.array([p["g1"], p["g2"], p["g3"]])
-    norm = float(norm3(g))
-    G = g / norm
-    o0 = NOMINAL_AXES[k - 1][1]
-    O = o0 - (o0 @ G) * G  # noqa: E741 - the report's symbol
-    O = O / norm3(O)  # noqa: E741
+    G, O, S = lab_axes(k, g)  # noqa: E741 - the report's symbols
     coef = {t: float(p.get(t, 0.0)) for t in (*GYRO_COEFS, *Q_TERMS)}
-    return GyroModel(1.0 / norm, G, O, cross3(G, O), coef)
+    return GyroModel(1.0 / float(norm3(g)), G, O, S, coef)
 
 
 def _accel_model(p: Mapping[str, float]) -> AccelModel:

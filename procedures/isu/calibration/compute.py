@@ -28,7 +28,7 @@ from procedures.isu.calibration.geometry import (
 )
 from procedures.isu.calibration.gyro_equations import GYRO_PARAMS, gyro_estimates
 from procedures.isu.calibration.inputs import CalibrationData, Constants
-from procedures.isu.calibration.neglected import corrected_gyro_estimates, spin_axis_variance
+from procedures.isu.calibration.neglected import corrected_gyro_estimates
 from procedures.isu.calibration.noise_spec import NoiseSpec
 from procedures.isu.calibration.reduce import Key, Reduced, reduce
 from procedures.isu.calibration.vectors import cross3, norm3
@@ -182,14 +182,7 @@ def _constants_covariance(data: CalibrationData, noise: NoiseSpec
     rows = [r for r, v in est.items() if v is not None]
     jac = estimator_jacobian(red.values, c, keys, rows, steps)
     m = jac @ cov @ jac.T
-    for i, (inst, p) in enumerate(rows):  # the turn of O, S about G no position measures
-        if inst.startswith("gyro"):
-            m[i, i] += spin_axis_variance(_gyro_rows(est, inst), int(inst[-1])).get(p, 0.0)
     return est, rows, 0.5 * (m + m.T)
-
-
-def _gyro_rows(est: Mapping[Row, float | None], inst: str) -> dict[str, float | None]:
-    return {p: v for (i, p), v in est.items() if i == inst}
 
 
 def _sigmas(est: dict[Row, float | None], rows: list[Row], cov: np.ndarray

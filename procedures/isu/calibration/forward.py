@@ -40,6 +40,19 @@ NOMINAL_AXES = (  # (G, O, S) of gyros 1, 2, 3 in body components (DOMAIN.md, Ch
 GYRO_TERMS = ("R", "B_I", "B_O", "B_S", "C_II", "C_SS", "C_IS", "C_OS", "C_IO", "Q_II", "Q_IS")
 
 
+def lab_axes(k: int, g_b: np.ndarray | None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Gyro k's (G, O, S) as the laboratory realizes them: G along ``g_b`` (the measured
+    G.B_j; nominal when None), O the nominal O squared up to it, S = G x O. No position
+    measures a turn of O and S about G, so the calibration's B_O, B_S and compliances are
+    defined on these axes."""
+    g0, o0, _ = NOMINAL_AXES[k - 1]
+    G = g0.copy() if g_b is None else np.asarray(g_b, dtype=float)
+    G = G / norm3(G)
+    O = o0 - (o0 @ G) * G  # noqa: E741
+    O = O / norm3(O)  # noqa: E741
+    return G, O, cross3(G, O)
+
+
 @dataclass
 class GyroModel:
     dphi_deg: float  # deg/pulse
@@ -51,13 +64,8 @@ class GyroModel:
     @staticmethod
     def from_estimates(k: int, est: dict[str, float | None]) -> GyroModel:
         """Linearization point: estimated axis G (nominal if unknown), O and S squared up."""
-        g0, o0, _ = NOMINAL_AXES[k - 1]
         gb = [est.get(f"G.B{j}") for j in (1, 2, 3)]
-        G = np.array(gb, dtype=float) if None not in gb else g0.copy()
-        G = G / norm3(G)
-        O = o0 - (o0 @ G) * G  # noqa: E741
-        O = O / norm3(O)  # noqa: E741
-        S = cross3(G, O)
+        G, O, S = lab_axes(k, np.array(gb, dtype=float) if None not in gb else None)  # noqa: E741
         dphi = est.get("DeltaPhi")
         coef = {t: float(est.get(t) or 0.0) for t in GYRO_TERMS}
         return GyroModel(float(dphi) if dphi else 3.0 / 3600.0, G, O, S, coef)  # deg/pulse

@@ -9,14 +9,15 @@ static positions 7-15 are corrected by what the full Chart IV-2 model (estimated
 squared up to it as in ``forward``) adds over the nominal-axis model at the current
 estimates, and the printed forms are applied again; two passes leave under 1e-6 deg/hr/g.
 
-What no position can separate is left to the sigma: the turn of O and S about G (the
-simulator's spin-axis rotation) only relabels B_O, B_S and the compliances among
-themselves, so Chart II-5 has no row for it; ``SPIN_AXIS_SIGMA_ARCSEC`` carries it.
+No position separates a turn of O and S about G (the simulator's spin-axis rotation): it
+only relabels B_O, B_S and the compliances among themselves. Chart II-5 has no row for it,
+and the constants are those on the axes the model above uses (``forward.lab_axes``), which
+is what a navigation program compensates with; laboratory/isu/truth.py reads the truth on
+the same axes.
 """
 
 from __future__ import annotations
 
-import math
 from collections.abc import Mapping
 
 import numpy as np
@@ -29,9 +30,6 @@ from procedures.isu.calibration.reduce import Key
 
 PASSES = 2
 STATIC = range(7, 16)
-# The turn of O and S about G the laboratory cannot measure: the cluster's mounting
-# tolerance for it (config: tens of arcsec, "a few hundred" at most), as one sigma.
-SPIN_AXIS_SIGMA_ARCSEC = 100.0
 
 
 def _dot(a: list[float], b: list[float]) -> float:
@@ -98,19 +96,3 @@ def corrected_gyro_estimates(z: Mapping[Key, float], c: Constants, k: int
         est = gyro_estimates(zc, c, k)
     return est
 
-
-def spin_axis_variance(est: Mapping[str, Value], k: int) -> dict[str, float]:
-    """Variance (lab units^2) each constant of gyro k takes from the unmeasured turn of O, S
-    about G (``SPIN_AXIS_SIGMA_ARCSEC``): B_O O + B_S S with O, S turned by e reads as B_O
-    less e B_S and B_S plus e B_O; the compliances mix alike (first order in e)."""
-    e = math.radians(SPIN_AXIS_SIGMA_ARCSEC / 3600.0)
-
-    def v(name: str) -> float:
-        x = est.get(name)
-        return float(x) if x is not None else 0.0
-
-    bo, bs = v("B_O"), v("B_S")
-    css, cos_, cis, cio = v("C_SS"), v("C_OS"), v("C_IS"), v("C_IO")
-    # (a.O', a.S') = (a.O + e a.S, a.S - e a.O): d/de of each coefficient read on nominal axes
-    d = {"B_O": -bs, "B_S": bo, "C_SS": cos_, "C_OS": -2.0 * css, "C_IO": -cis, "C_IS": cio}
-    return {p: (e * x) ** 2 for p, x in d.items()}

@@ -13,8 +13,13 @@ __all__ = ["ACCEL_COEFS", "GYRO_COEFS", "random_overrides", "random_station"]
 
 def random_overrides(rng: np.random.Generator, *, redraw_isu: bool = True,
                      noise: float | None = None) -> dict:
-    """Config overrides of one random laboratory drawn from ``rng`` over the default (its
-    ``[plan]`` left as it is: for days whose noise the default requirements cover)."""
+    """Config overrides of one random laboratory drawn from ``rng`` over the default, its
+    ``[plan]`` the manual's standard times whatever the laboratory (random_labs.MANUAL_DAY:
+    no requirement lengthens a gate or refuses the day, e.g. for a drawn oscillator's
+    offset)."""
+    from random_labs import MANUAL_DAY
+
     from laboratory.isu.random_lab import draw
 
-    return draw(rng, default_dict(), redraw_isu=redraw_isu, noise=noise).overrides
+    over = draw(rng, default_dict(), redraw_isu=redraw_isu, noise=noise).overrides
+    return {**over, "plan": MANUAL_DAY.requirements.model_dump(mode="json")}

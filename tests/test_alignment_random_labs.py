@@ -3,7 +3,8 @@
 
 Each laboratory runs turn-on and the survey (Charts I-1, I-2), then the level (Chart III-5..
 III-7) and gyrocompass (III-9..III-11) alignments by the simple average, short records. The
-calibration is a drawn one instead of a day: the true constants plus an error drawn from
+calibration is a drawn one instead of a day: the true constants (as counted against the
+laboratory's master oscillator, ``on_lab_clock``) plus an error drawn from
 the closed forms' predicted covariance of a standard day (procedures.isu.accuracy.Predictor,
 the default laboratory's, Charts II-18..II-24), with that covariance's sigmas and
 correlation on the sheet (Chart II-15 step 8). So the test holds the alignments' own models:
@@ -70,6 +71,22 @@ def drawn_calibration(truth: dict[tuple[str, str], float],
     return CalibrationResults(rows=sheet, positions_used=[], correlation=correlation(rows, c))
 
 
+def on_lab_clock(truth: dict[tuple[str, str], float], cfg: StationConfig
+                 ) -> dict[tuple[str, str], float]:
+    """The constants as a day counted against this laboratory's master oscillator would
+    find them, offset e from nominal: the accelerometers' D1 (pulses per counted second)
+    over 1 + e, the gyros' R under 1 - e (the rest by e times a fraction of a sigma). The
+    IEU's timer runs on the same oscillator, so the alignments see the same e."""
+    e = cfg.oscillator.frequency_error
+    out = dict(truth)
+    for (inst, p), v in truth.items():
+        if p == "D1":
+            out[(inst, p)] = v / (1.0 + e)
+        elif p == "R":
+            out[(inst, p)] = v * (1.0 - e)
+    return out
+
+
 def alignment_z(seed: int, cov: tuple[list[tuple[str, str]], np.ndarray],
                 cfg: StationConfig | None = None) -> list[dict]:
     """Laboratory ``seed``'s (or ``cfg``'s) level and gyrocompass alignments (results.json
@@ -82,7 +99,7 @@ def alignment_z(seed: int, cov: tuple[list[tuple[str, str]], np.ndarray],
             run = Run(st.clock, Journal(Path(d) / "j.jsonl"))
             turn_on(st, run, 60.0)
             survey = system_survey(st, run, site_of(cfg), noise=noise_spec(cfg))
-            calib = drawn_calibration(calibration_truth(rack.world), cov,
+            calib = drawn_calibration(on_lab_clock(calibration_truth(rack.world), cfg), cov,
                                       np.random.default_rng(seed))
             out = run_alignments(st, run, AlignmentOptions(
                 noise_spec(cfg), calib, survey, site_of(cfg), SHORT,

@@ -17,6 +17,7 @@ import pytest
 from laboratory.campaign.spec import LAB_COLUMNS, CampaignSpec, SpecError, load_spec, tasks
 from laboratory.campaign.summary import summarise
 from laboratory.campaign.task import random_station
+from laboratory.isu.random_lab import DRIFT_PER_DAY, FREQUENCY_ERROR
 
 
 def _spec(**kw: object) -> CampaignSpec:
@@ -28,7 +29,9 @@ def test_each_task_draws_its_own_laboratory() -> None:
     a = tasks(_spec())
     lats = [t.values["lab.latitude_deg"] for t in a]
     assert len(set(lats)) == 4 and all(5.0 <= abs(x) <= 70.0 for x in lats)
-    assert all(0.3 <= t.values[c] <= 3.0 for t in a for c in LAB_COLUMNS[2:])
+    assert all(0.3 <= t.values[c] <= 3.0 for t in a for c in LAB_COLUMNS[2:5])
+    for c, (lo, hi) in zip(LAB_COLUMNS[5:], (FREQUENCY_ERROR, DRIFT_PER_DAY), strict=True):
+        assert all(lo <= abs(t.values[c]) <= hi for t in a), c
     assert [t.values for t in tasks(_spec(seeds=6))][:4] == [t.values for t in a]
     assert _spec().sweep_paths() == list(LAB_COLUMNS)
     # the [random] draws (child 0) and the laboratory (child 1) are separate streams
@@ -43,6 +46,8 @@ def test_the_tasks_station_is_its_drawn_laboratory() -> None:
     assert cfg.seed == t.seed
     assert cfg.site.latitude_deg == t.values["lab.latitude_deg"]
     assert math.isclose(cfg.environment.wobble.amplitude_arcsec, t.values["lab.pier_noise"])
+    assert cfg.oscillator.frequency_error == t.values["lab.frequency_error"]
+    assert cfg.oscillator.drift_per_day == t.values["lab.drift_per_day"]
     assert all(v >= d for v, d in zip(cfg.plan.requirements().values(),
                                       (1e-4, 0.02, 2.0, 6.0), strict=True))
     over = random_station(_spec(), t, {"site.latitude_deg": 30.0}).cfg

@@ -173,3 +173,31 @@ def test_g_terms_with_turned_spin_axes():
             if p in own:
                 turned.append(abs(r.estimate - own[p]) / r.sigma)
     assert max(turned) > 4.0, turned
+
+
+def test_scale_factors_against_an_offset_master_oscillator():
+    """A random laboratory whose master oscillator is 6e-5..1e-4 off nominal (the config
+    admits 1e-4); the lab records the nominal (Chart I-1 step 3), so every rate it counts is
+    low by the offset and so is D1, several sigma of the counting noise. The data covariance
+    carries the offset (covariance.DataCovariance.clock, the config's offset as the lab's
+    sigma): the D1 rows are within 4 sigma of the truth in SI seconds; without the term the
+    same rows are not."""
+    rng = np.random.default_rng(2026_1128_2)
+    cfg = random_station(int(rng.integers(1, 1000)), reachable=False)
+    e = float(rng.uniform(6e-5, 1e-4) * rng.choice([-1.0, 1.0]))
+    cfg = cfg.model_copy(update={"oscillator": cfg.oscillator.model_copy(
+        update={"frequency_error": e})})
+    cd, nz, truth, _ = calibration_day(cfg, ("II-6", "II-13", "II-14"))
+    data, noise = CalibrationData.model_validate(cd), NoiseSpec.model_validate(nz)
+    assert noise.oscillator_frequency_error == abs(e)
+    blind = {(r.instrument, r.parameter): r for r in calibrate(
+        data, noise.model_copy(update={"oscillator_frequency_error": 0.0}))}
+    z_blind = []
+    for r in calibrate(data, noise):
+        if r.parameter != "D1":
+            continue
+        t = truth[f"{r.instrument}|D1"]
+        assert abs(r.estimate - t) < 4.0 * r.sigma, (r.instrument, (r.estimate - t) / r.sigma)
+        b = blind[(r.instrument, "D1")]
+        z_blind.append((b.estimate - t) / b.sigma)
+    assert len(z_blind) == 3 and max(abs(z) for z in z_blind) > 4.0, z_blind

@@ -35,7 +35,8 @@ COMMANDS = {"day": "isu", "align": "isu", "gyrocompass-test": "cigtf",
 PLAN_PREFIX = "plan."  # sweep paths into the day plan (procedures/isu/plan.py), not the config
 LAB_PREFIX = "lab."  # a random laboratory's draws (columns only, not overrides)
 LAB_COLUMNS = tuple(LAB_PREFIX + n for n in ("latitude_deg", "longitude_deg", "gyro_noise",
-                                             "accel_noise", "pier_noise"))
+                                             "accel_noise", "pier_noise", "frequency_error",
+                                             "drift_per_day"))
 
 Scalar = float | int | bool | str
 

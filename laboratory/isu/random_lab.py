@@ -6,8 +6,11 @@ accelerometer noise factors (each uniform in 0.3-3); per gyro every Chart IV-2 c
 (J taken positive) and its two misalignments at 0.3-3x the default with a random sign; per
 accelerometer D0, D2, D3 and its misalignments likewise; the latitude (5-70 deg, either
 hemisphere); then the longitude (any: the ISU's models see the latitude only, so it is
-recorded, not simulated), the pier's factor (0.3-3, on the wobble and the tilt wander) and
-the gyros' spin-axis rotations. The first draws are those of the former tests/random_labs.py.
+recorded, not simulated), the pier's factor (0.3-3, on the wobble and the tilt wander), the
+gyros' spin-axis rotations, and the master oscillator's frequency error and aging, each
+log-uniform in magnitude over its admitted range down to a floor (1e-10..1e-4 and
+1e-12..1e-6 a day, either sign; sim/isu/params.py). The first draws are those of the former
+tests/random_labs.py.
 The ``[plan]`` requirements are loosened to what the manual's standard times give in the
 drawn laboratory (II-6.2, Charts II-18..II-24), so a noisy laboratory keeps the manual's day
 instead of being refused.
@@ -28,6 +31,10 @@ GYRO_COEFS = ("R_deg_hr", "B_I_deg_hr_g", "B_O_deg_hr_g", "B_S_deg_hr_g", "C_II_
 ACCEL_COEFS = ("D0_g", "D2_g_per_g2", "D3_g_per_g3")
 FACTOR = (0.3, 3.0)  # every redrawn coefficient and noise factor
 LATITUDE = (5.0, 70.0)  # deg, either hemisphere
+# the master oscillator's |frequency error| and |aging per day|: a floor (below it the
+# effect is nil) up to the bound sim/isu/params.py admits
+FREQUENCY_ERROR = (1e-10, 1e-4)
+DRIFT_PER_DAY = (1e-12, 1e-6)
 PLAN_MARGIN = 1.05  # a requirement loosened to 1.05x the standard times' prediction
 
 
@@ -41,12 +48,15 @@ class RandomLab:
     gyro_noise: float
     accel_noise: float
     pier_noise: float
+    frequency_error: float = 0.0
+    drift_per_day: float = 0.0
 
     def describe(self) -> dict[str, float]:
         """The draws by name (``lab.<name>`` columns of a campaign's Parquet)."""
         return {"latitude_deg": self.latitude_deg, "longitude_deg": self.longitude_deg,
                 "gyro_noise": self.gyro_noise, "accel_noise": self.accel_noise,
-                "pier_noise": self.pier_noise}
+                "pier_noise": self.pier_noise, "frequency_error": self.frequency_error,
+                "drift_per_day": self.drift_per_day}
 
 
 def draw(rng: np.random.Generator, base: dict[str, Any], *, redraw_isu: bool = True,
@@ -89,9 +99,13 @@ def draw(rng: np.random.Generator, base: dict[str, Any], *, redraw_isu: bool = T
     lon = float(rng.uniform(-180.0, 180.0))
     pier = float(rng.uniform(*FACTOR)) if noise is None else float(noise)
     spin = [redraw(g["spin_axis_rotation_arcsec"]) for g in gyros] if redraw_isu else []
+    osc = dict(base["oscillator"])
+    drawn = {"frequency_error": _log_signed(rng, *FREQUENCY_ERROR),
+             "drift_per_day": _log_signed(rng, *DRIFT_PER_DAY)}
     if extras:
         for g, x in zip(gyros, spin, strict=False):
             g["spin_axis_rotation_arcsec"] = x
+        osc.update(drawn)
     else:
         pier = 1.0
     env = base["environment"]
@@ -101,8 +115,15 @@ def draw(rng: np.random.Generator, base: dict[str, Any], *, redraw_isu: bool = T
                    "pier_tilt": {**env["pier_tilt"], "wander_sigma_arcsec":
                                  env["pier_tilt"]["wander_sigma_arcsec"] * pier}}
     over = {"site": {**base["site"], "latitude_deg": lat},
-            "isu": {**isu, "gyros": gyros, "accels": accels}, "environment": environment}
-    return RandomLab(over, lat, lon, gyro_noise, accel_noise, pier)
+            "isu": {**isu, "gyros": gyros, "accels": accels}, "environment": environment,
+            "oscillator": osc}
+    return RandomLab(over, lat, lon, gyro_noise, accel_noise, pier, osc["frequency_error"],
+                     osc["drift_per_day"])
+
+
+def _log_signed(rng: np.random.Generator, lo: float, hi: float) -> float:
+    """A magnitude log-uniform in [lo, hi] with a random sign."""
+    return float(np.exp(rng.uniform(np.log(lo), np.log(hi))) * rng.choice([-1.0, 1.0]))
 
 
 def reachable_plan(cfg: StationConfig) -> dict[str, float]:

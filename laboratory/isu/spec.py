@@ -56,5 +56,6 @@ def noise_spec(cfg: StationConfig) -> NoiseSpec:
         wobble_period_s=env.wobble.period_s,
         wobble_coherence_s=env.wobble.coherence_s,
         gyro_sample_clock_ppm=(cfg.calibration or CalibrationOptions()).gyro_sample_clock_ppm,
+        oscillator_frequency_error=abs(cfg.oscillator.frequency_error),
         oscillator_drift_per_day=abs(cfg.oscillator.drift_per_day),
     )

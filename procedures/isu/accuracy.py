@@ -317,6 +317,21 @@ def _longest(gate: str, lab: Lab, max_gate_s: float) -> float:
     return float(math.floor(max_gate_s))
 
 
+def _clock_floor(lab: Lab, times: Times, name: str, req: float) -> str:
+    """What to add to an unreachable requirement's message when the master oscillator's
+    offset (``NoiseSpec.oscillator_frequency_error``) is what keeps the longest gate
+    (``times``) from it."""
+    e = lab.noise.oscillator_frequency_error
+    if not e:
+        return ""
+    still = replace(lab, noise=lab.noise.model_copy(update={"oscillator_frequency_error": 0.0}))
+    pred = Predictor(still, times)
+    if pred.quantities(pred.covariance(times))[name] > req:
+        return ""
+    return (f"; the master oscillator's offset allowed for, {e:.3g} ([oscillator] "
+            "frequency_error), keeps every gate from it")
+
+
 def choose_times(required: dict[str, float], max_gate_s: float, lab: Lab,
                  default: Times | None = None, predictor: Predictor | None = None,
                  fixed: dict[str, float] | None = None) -> tuple[Times, list[GateChoice]]:
@@ -363,7 +378,8 @@ def choose_times(required: dict[str, float], max_gate_s: float, lab: Lab,
                 raise Unreachable(
                     f"{name} = {req:g}: no admissible gate reaches it; {gate} predicted "
                     f"{at_default:.3g} at the manual's {d:g} {units} and {at_max:.3g} at the "
-                    f"longest, {hi:g} {units} (max_gate_minutes {max_gate_s / 60:g})")
+                    f"longest, {hi:g} {units} (max_gate_minutes {max_gate_s / 60:g})"
+                    + _clock_floor(lab, times.set(gate, hi), name, req))
             lo, got = d, at_max
             while hi - lo > 1:
                 mid = float(math.floor((lo + hi) / 2))

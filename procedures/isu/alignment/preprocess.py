@@ -18,8 +18,9 @@ calibration uses them), the model wins and the line says so:
   difference is of second order in the misalignments, about 0.05 arcsec).
 * Chart III-9 takes a.G_k as accelerometer k's a.A_k and a.O_k, a.S_k as the other two
   accelerometers' outputs (the nominal axes, gyro 1's S = -B2, gyro 2's -B3, gyro 3's +B2;
-  a (w.S_k) would come from another gyro's rate alike). That is first order in the misalignments: B_I of 100 deg/hr/g with axes 600 arcsec
-  apart is 0.3 deg/hr, 7 sigma of the gyrocompass's |omega|. Here the body-axis specific
+  a (w.S_k) would come from another gyro's rate alike). That is first order in the
+  misalignments: B_I of 100 deg/hr/g with axes 600 arcsec apart is 0.3 deg/hr, 7 sigma of
+  the gyrocompass's |omega|. Here the body-axis specific
   force and first-pass rate (through Q^A and Q^G) are projected on the calibration's own
   G_k, O_k, S_k (``forward.lab_axes``, the axes its B and C are defined on).
 * The J term (J d(w.O)/dt) is not in Chart III-9; on a table at rest it integrates to zero

@@ -24,7 +24,11 @@ Per datum (rates in pulses/s; gate T = n1 S1^T):
   (velocity change over the gate, independent per gate; negligible);
 * orientation: each setting's body rotation Delta (``geometry.TableErrorModel``), carried
   into the data by the forward model (``forward``) at the estimated coefficients;
-* a supplied last (D1 D3) or [(G.B)/DeltaPhi] of an earlier sheet: its stated sigma.
+* a supplied last (D1 D3) or [(G.B)/DeltaPhi] of an earlier sheet: its stated sigma;
+* the master oscillator: every rate above is counted against it (S1^T), so an offset e of
+  its frequency from the nominal the lab records (Chart I-1 step 3) puts every one off by
+  -e times itself together, a rank-one term (``NoiseSpec.oscillator_frequency_error`` as
+  e's sigma); a supplied datum is not counted here.
 """
 
 from __future__ import annotations
@@ -252,5 +256,13 @@ class DataCovariance:
         """The part of the covariance that turns the input axis: pier tilt and settings."""
         return self.tilt() + self.orientation()
 
+    def clock(self) -> np.ndarray:
+        """The master oscillator's offset from nominal: every counted rate off by the same
+        fraction of itself (rank one)."""
+        e = self.noise.oscillator_frequency_error
+        u = np.array([-self.red.values[key] * e if key[0] in ("w", "G", "F") else 0.0
+                      for key in self.keys])
+        return np.outer(u, u)
+
     def matrix(self) -> np.ndarray:
-        return self.independent() + self.drift() + self.geometric()
+        return self.independent() + self.drift() + self.geometric() + self.clock()

@@ -50,6 +50,11 @@ class NoiseSpec(BaseModel):
         0.0, ge=0, description="drift of an accelerometer's common string frequency over "
         "the day, 1 sigma (the default lab's strings keep f0)"
     )
+    oscillator_frequency_error: float = Field(
+        2e-9, ge=0, description="the master oscillator's offset from the nominal frequency "
+        "the laboratory records, fractional, 1 sigma (its calibration): every rate a counter "
+        "measures is off by it together"
+    )
     oscillator_drift_per_day: float = Field(
         1e-10, ge=0, description="the master oscillator's aging, fractional frequency per "
         "day (its specification): every frequency a counter measures drifts with it"

@@ -17,9 +17,9 @@ the per-seed errors against the predicted sigma are the campaign bench/campaigns
 
 from __future__ import annotations
 
+import argparse
 import json
 import statistics
-import sys
 import tempfile
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
@@ -84,9 +84,16 @@ def rms(xs) -> float:
     return (sum(x * x for x in xs) / len(xs)) ** 0.5
 
 
-def main() -> None:
-    n = int(sys.argv[1]) if len(sys.argv) > 1 else 20
-    first = int(sys.argv[2]) if len(sys.argv) > 2 else 3000
+def main(argv: list[str] | None = None) -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("n", metavar="N", nargs="?", type=int, default=20,
+                    help="seeds (default 20)")
+    ap.add_argument("first", metavar="first_seed", nargs="?", type=int, default=3000,
+                    help="the first seed (default 3000)")
+    a = ap.parse_args(argv)
+    if a.n < 1:
+        ap.error(f"N must be 1 or more, got {a.n}")
+    n, first = a.n, a.first
     with ProcessPoolExecutor(max_workers=2) as ex:
         runs = list(ex.map(one, range(first, first + n)))
     print(f"{n} seeds from {first}: errors against the true attitude at t_ref (arcsec)")

@@ -8,8 +8,8 @@ and the observed rms error ratio. The II-7 speed series are fitted when a lab fi
 
 from __future__ import annotations
 
+import argparse
 import json
-import sys
 from collections import defaultdict
 from pathlib import Path
 
@@ -20,9 +20,15 @@ from procedures.isu.calibration.all_positions import cramer_rao, fit
 from procedures.isu.calibration.compute import constants_covariance
 
 
-def main() -> None:
+def main(argv: list[str] | None = None) -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("labdir", metavar="LABDIR", type=Path,
+                    help="the lab*.json files of bench/random_calibration_days.py")
+    a = ap.parse_args(argv)
+    if not a.labdir.is_dir():
+        ap.error(f"LABDIR {a.labdir} is not a directory")
     stats: dict[tuple[str, str], list[tuple[float, ...]]] = defaultdict(list)
-    files = sorted(Path(sys.argv[1]).glob("lab*.json"))
+    files = sorted(a.labdir.glob("lab*.json"))
     worst = 0.0
     for p in files:
         doc = json.loads(p.read_text())

@@ -4,7 +4,7 @@ A thin wrapper over the campaign bench/campaigns/day.toml (`station campaign` on
 machine's cores): per constant the observed rms error over the predicted sigma with its
 99 % chi-square interval and the largest |error|/sigma; the rows stay as Parquet.
 
-    python bench/calibration_mc.py [N] [first_seed] [OUT]   (N days, default 30)
+    python bench/calibration_mc.py [N] [SEED] [OUT]   (N days, default 30; campaign seed 1000)
 """
 
 from __future__ import annotations
@@ -13,5 +13,12 @@ import sys
 
 from _campaign import run_bench
 
+
+def main(argv: list[str] | None = None) -> None:
+    """``argv``: the arguments after the program's name (default ``sys.argv[1:]``)."""
+    run_bench("day", [sys.argv[0], *(sys.argv[1:] if argv is None else argv)],
+              __doc__.split("\n\n")[0])
+
+
 if __name__ == "__main__":
-    run_bench("day", sys.argv)
+    main()

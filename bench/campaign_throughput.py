@@ -8,7 +8,7 @@ Prints figures only (no assertion): the machine's other load moves them.
 
 from __future__ import annotations
 
-import sys
+import argparse
 import tempfile
 import time
 from pathlib import Path
@@ -35,10 +35,19 @@ def overhead(n: int = 200) -> None:
           f"per task when {n} are submitted together")
 
 
-def main() -> None:
-    days = int(sys.argv[1]) if len(sys.argv) > 1 else 4
-    spec_file = Path(sys.argv[2]) if len(sys.argv) > 2 else Path(__file__).parent / \
-        "campaigns" / "day.toml"
+def main(argv: list[str] | None = None) -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("days", metavar="DAYS", nargs="?", type=int, default=4,
+                    help="tasks of each campaign (default 4)")
+    ap.add_argument("spec_file", metavar="COMMAND_SPEC", nargs="?", type=Path,
+                    default=Path(__file__).parent / "campaigns" / "day.toml",
+                    help="the campaign spec whose command runs (default bench/campaigns/day.toml)")
+    a = ap.parse_args(argv)
+    if a.days < 1:
+        ap.error(f"DAYS must be 1 or more, got {a.days}")
+    if not a.spec_file.is_file():
+        ap.error(f"COMMAND_SPEC {a.spec_file} is not a file")
+    days, spec_file = a.days, a.spec_file
     spec = load_spec(spec_file).model_copy(update={"seeds": days, "grid": {}, "random": {}})
     overhead()
     for workers in (0, 1, 2):

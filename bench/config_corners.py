@@ -1,7 +1,7 @@
 """Whole runs at the corners of the accepted configuration space: does any value the
 loaders accept crash a run (a traceback) instead of completing or stopping at a step?
 
-    python bench/config_corners.py [isu|cigtf|esg ...]
+    python bench/config_corners.py [LAB ...]   (LAB: isu, cigtf or esg; default all three)
 
 Each corner sets many magnitudes at once to a bound (sim/isu/params.py, station/config/isu.py,
 station/config/cigtf.py, station/config/esg.py). Prints, per corner, "completed",
@@ -13,6 +13,7 @@ admissible gate reaches: `station day` exits 2 with it, writing nothing) or
 
 from __future__ import annotations
 
+import argparse
 import copy
 import sys
 import tempfile
@@ -121,6 +122,8 @@ ESG: dict[str, dict] = {
     "a pole": {"latitude_deg": 89.0},
 }
 
+LABS: dict[str, dict[str, dict]] = {"isu": ISU, "cigtf": CIGTF, "esg": ESG}
+
 
 def run(lab: str, overrides: dict, out: Path) -> str:
     quiet = Console(quiet=True)
@@ -154,11 +157,20 @@ def run(lab: str, overrides: dict, out: Path) -> str:
     return "completed"
 
 
-def main() -> int:
-    labs = sys.argv[1:] or ["isu", "cigtf", "esg"]
+def _lab(s: str) -> str:
+    if s not in LABS:
+        raise argparse.ArgumentTypeError(f"invalid lab {s!r} (choose from {', '.join(LABS)})")
+    return s
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("labs", metavar="LAB", nargs="*", type=_lab,
+                    help=f"{' | '.join(LABS)}: whose corners run (default all three)")
+    labs = ap.parse_args(argv).labs or list(LABS)
     bad = 0
     for lab in labs:
-        for name, overrides in {"isu": ISU, "cigtf": CIGTF, "esg": ESG}[lab].items():
+        for name, overrides in LABS[lab].items():
             with tempfile.TemporaryDirectory() as d:
                 line = run(lab, overrides, Path(d) / "run")
             bad += line.startswith("TRACEBACK")

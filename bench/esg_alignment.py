@@ -4,14 +4,17 @@ per case the coning measured before and after each adjustment beside the simulat
 truth, and the true readout rms. With ``remount``: pickoff 2 misaligned too, and the run
 with remount_alignment (sheet ESG-PA2). With ``pickoff3``: pickoff 3 misaligned as well,
 its tilt towards mirror 1 measured and translated out after step 3 (procedures.esg.pickoff3).
+With ``pickoff3m2``: pickoff 3 translated along both axes, both its tilts measured and
+removed after step 3 (pickoff3_mirror2); START, the index of the first of its cases to run
+(default 0), resumes an interrupted series.
 
-    python bench/esg_alignment.py [remount | pickoff3]
+    python bench/esg_alignment.py [remount | pickoff3 | pickoff3m2 [START]]
 """
 
 from __future__ import annotations
 
+import argparse
 import json
-import sys
 import tempfile
 from collections.abc import Callable
 from pathlib import Path
@@ -137,16 +140,25 @@ def pickoff3_m2(seed: int, a: float, b: float) -> dict:
             "true_readout": [s["true_readout_rms_arcsec"] for s in res["schedules"]]}
 
 
-def main() -> None:
-    if sys.argv[1:2] == ["pickoff3m2"]:
-        for pcase in PICKOFF3_M2_CASES[int(sys.argv[2]) if len(sys.argv) > 2 else 0:]:
+def main(argv: list[str] | None = None) -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("mode", nargs="?", choices=("remount", "pickoff3", "pickoff3m2"),
+                    help="the cases to run (default: mirror and pickoff-1 alignment)")
+    ap.add_argument("start", metavar="START", nargs="?", type=int, default=None,
+                    help=f"pickoff3m2 only: the first of its {len(PICKOFF3_M2_CASES)} cases "
+                    "to run (default 0)")
+    a = ap.parse_args(argv)
+    if a.start is not None and a.mode != "pickoff3m2":
+        ap.error("START goes with pickoff3m2 only")
+    if a.mode == "pickoff3m2":
+        for pcase in PICKOFF3_M2_CASES[a.start or 0:]:
             print(pcase, json.dumps(pickoff3_m2(*pcase), indent=None), flush=True)
         return
-    if sys.argv[1:] == ["pickoff3"]:
+    if a.mode == "pickoff3":
         for pcase in PICKOFF3_CASES:
             print(pcase, json.dumps(pickoff3(*pcase), indent=None), flush=True)
         return
-    if sys.argv[1:] == ["remount"]:
+    if a.mode == "remount":
         for rcase in REMOUNT_CASES:
             print(rcase, json.dumps(remounted(*rcase), indent=None))
         return

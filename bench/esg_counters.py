@@ -6,8 +6,8 @@ simulated time, step 4's time, the equal-ratio spread and the true readout rms.
 
 from __future__ import annotations
 
+import argparse
 import json
-import sys
 import tempfile
 from dataclasses import replace
 from pathlib import Path
@@ -33,8 +33,14 @@ def one(seed: int, counters: int) -> dict:
             **{s["name"]: s["true_readout_rms_arcsec"] for s in res["schedules"]}}
 
 
-def main() -> None:
-    n = int(sys.argv[1]) if len(sys.argv) > 1 else 4
+def main(argv: list[str] | None = None) -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("n", metavar="n_seeds", nargs="?", type=int, default=4,
+                    help="seeds 1..n_seeds (default 4)")
+    a = ap.parse_args(argv)
+    if a.n < 1:
+        ap.error(f"n_seeds must be 1 or more, got {a.n}")
+    n = a.n
     for counters in (2, 3):
         rows = [one(seed, counters) for seed in range(1, n + 1)]
         mean = {k: sum(r[k] for r in rows) / n for k in rows[0]}

@@ -3,7 +3,7 @@
 A thin wrapper over the campaign bench/campaigns/esg.toml: per schedule the observed
 assignment rms against the predicted one, the readout and calibration rms against the true.
 
-    python bench/esg_mc.py [N] [campaign_seed] [OUT]   (default 20 calibrations)
+    python bench/esg_mc.py [N] [SEED] [OUT]   (N calibrations, default 20; campaign seed 100)
 """
 
 from __future__ import annotations
@@ -12,5 +12,12 @@ import sys
 
 from _campaign import run_bench
 
+
+def main(argv: list[str] | None = None) -> None:
+    """``argv``: the arguments after the program's name (default ``sys.argv[1:]``)."""
+    run_bench("esg", [sys.argv[0], *(sys.argv[1:] if argv is None else argv)],
+              __doc__.split("\n\n")[0])
+
+
 if __name__ == "__main__":
-    run_bench("esg", sys.argv)
+    main()

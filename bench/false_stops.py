@@ -122,12 +122,19 @@ def scan(recs: list[dict]) -> dict:
     return {"z": dict(z), "events": dict(events)}
 
 
-def main() -> None:
-    ap = argparse.ArgumentParser()
-    ap.add_argument("n", nargs="?", type=int, default=40)
-    ap.add_argument("first", nargs="?", type=int, default=2000)
-    ap.add_argument("--jobs", type=int, default=2)
-    args = ap.parse_args()
+def main(argv: list[str] | None = None) -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("n", metavar="N", nargs="?", type=int, default=40,
+                    help="fault-free days (default 40)")
+    ap.add_argument("first", metavar="FIRST_SEED", nargs="?", type=int, default=2000,
+                    help="the first day's seed (default 2000)")
+    ap.add_argument("--jobs", metavar="J", type=int, default=2,
+                    help="days run at once (default 2)")
+    args = ap.parse_args(argv)
+    if args.n < 1:
+        ap.error(f"N must be 1 or more, got {args.n}")
+    if args.jobs < 1:
+        ap.error(f"--jobs must be 1 or more, got {args.jobs}")
     from procedures.isu.alignment.checks import K_RESULT
     from procedures.isu.calibration.checks import K_RESULT as K_CAL
 

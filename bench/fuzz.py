@@ -32,12 +32,16 @@ def targets() -> list[FuzzTarget]:
     return out
 
 
-def main() -> int:
+def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("n", nargs="?", type=int, default=100_000)
-    ap.add_argument("--seed", type=int, default=1)
-    ap.add_argument("--only", default="")
-    args = ap.parse_args()
+    ap.add_argument("n", metavar="N", nargs="?", type=int, default=100_000,
+                    help="inputs per parser (default 100000)")
+    ap.add_argument("--seed", metavar="S", type=int, default=1, help="(default 1)")
+    ap.add_argument("--only", metavar="SUBSTRING", default="",
+                    help="only the parsers whose name contains this")
+    args = ap.parse_args(argv)
+    if args.n < 1:
+        ap.error(f"N must be 1 or more, got {args.n}")
     bad = 0
     for t in targets():
         if args.only not in t.name:

@@ -21,6 +21,7 @@ line with the rate the check's width predicts (2^-32 for samples, 2^-8 for repli
 
 from __future__ import annotations
 
+import argparse
 import random
 import struct
 import sys
@@ -376,8 +377,16 @@ def distances() -> None:
               f"{weight(s, up_to)} bits")
 
 
-if __name__ == "__main__":
-    if "--distance" in sys.argv:
+def main(argv: list[str] | None = None) -> None:
+    """``--distance``: each check's distances; without it, this module's documentation."""
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--distance", action="store_true",
+                    help="print each check's smallest undetected error weight")
+    if ap.parse_args(argv).distance:
         distances()
     else:
         print(__doc__)
+
+
+if __name__ == "__main__":
+    main()

@@ -8,6 +8,7 @@ strings. ``gate_cost_ratio`` is importable (bench/speed.py).
 
 from __future__ import annotations
 
+import argparse
 import statistics
 import time
 
@@ -78,7 +79,8 @@ def gate_cost_ratio(repeats: int = 15) -> float:
     return statistics.median(longs) / statistics.median(shorts)
 
 
-def main() -> None:
+def main(argv: list[str] | None = None) -> None:
+    argparse.ArgumentParser(description=__doc__.split("\n\n")[0]).parse_args(argv)
     shorts, longs = gate_times(15)
     short, long = statistics.median(shorts), statistics.median(longs)
     print(f"1-second gate:  {short * 1e3:8.2f} ms wall (median of 15)")

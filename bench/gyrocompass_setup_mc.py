@@ -10,7 +10,7 @@ expected), the rms of the true residuals, and the rounds the levels and the azim
 
 from __future__ import annotations
 
-import sys
+import argparse
 import tempfile
 from pathlib import Path
 
@@ -23,9 +23,16 @@ from sim.units import to_arcsec
 from station.racks.cigtf import CigtfRack, open_cigtf_drivers
 
 
-def main() -> None:
-    n = int(sys.argv[1]) if len(sys.argv) > 1 else 30
-    first = int(sys.argv[2]) if len(sys.argv) > 2 else 100
+def main(argv: list[str] | None = None) -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("n", metavar="N", nargs="?", type=int, default=30,
+                    help="seeds (default 30)")
+    ap.add_argument("first", metavar="first_seed", nargs="?", type=int, default=100,
+                    help="the first seed (default 100)")
+    a = ap.parse_args(argv)
+    if a.n < 1:
+        ap.error(f"N must be 1 or more, got {a.n}")
+    n, first = a.n, a.first
     z, true, rounds = [], [], []
     with tempfile.TemporaryDirectory() as d:
         for seed in range(first, first + n):

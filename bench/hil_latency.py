@@ -403,8 +403,10 @@ def main(argv: list[str]) -> None:
         flooder(argv[1], Path(argv[2]), stop, int(argv[3]))
         os._exit(0)  # daemon readers may still be blocked in a read
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    p.add_argument("queries", nargs="?", type=int, default=2000)
-    p.add_argument("seconds", nargs="?", type=float, default=10.0)
+    p.add_argument("queries", nargs="?", type=int, default=2000,
+                   help="*IDN? queries to the oscillator (default 2000)")
+    p.add_argument("seconds", nargs="?", type=float, default=10.0,
+                   help="seconds of IEU frames (default 10)")
     p.add_argument("period", nargs="?", type=int, default=SERVED_MIN_PERIOD,
                    help=f"S2^T pulses (default {SERVED_MIN_PERIOD}, 20 ms: the least a served "
                    "IEU accepts)")

@@ -5,11 +5,14 @@ through ``station day --links`` as a subprocess, runs the virtual twin (same see
 at the simulated instant the rehearsal began) and prints: wall time, commands applied by
 the server, how much later the rehearsal's steps ran (largest, and as a fraction of the
 elapsed simulated time), the largest differences of the compared quantities, and the
-verdict of station.hil.twin.compare_rehearsal. ``python bench/hil_twin.py [speed] [seed]``.
+verdict of station.hil.twin.compare_rehearsal.
+
+    python bench/hil_twin.py [speed] [seed]   (default 500x, seed 11)
 """
 
 from __future__ import annotations
 
+import argparse
 import json
 import signal
 import subprocess
@@ -31,8 +34,15 @@ def _sheet(d: Path, name: str) -> dict:
 
 
 def main(argv: list[str]) -> None:
-    speed = float(argv[0]) if argv else 500.0
-    seed = int(argv[1]) if len(argv) > 1 else 11
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("speed", nargs="?", type=float, default=500.0,
+                    help="the served rack's speed, simulated s per wall s (default 500)")
+    ap.add_argument("seed", nargs="?", type=int, default=11,
+                    help="the laboratory's seed (default 11)")
+    a = ap.parse_args(argv)
+    if not a.speed > 0:
+        ap.error(f"speed must be above 0, got {a.speed:g}")
+    speed, seed = a.speed, a.seed
     with tempfile.TemporaryDirectory() as d:
         base = Path(d)
         links = base / "links"

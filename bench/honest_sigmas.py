@@ -6,6 +6,7 @@ error / predicted sigma over the seeds, with the largest |z|; ``--json FILE`` ke
 z for a before/after comparison (run the same seeds against another tree).
 
     nice python bench/honest_sigmas.py [N] [first_seed] [--fixed-isu] [--noise F] [--json F]
+                                       [--workers W]
 """
 
 from __future__ import annotations
@@ -47,15 +48,26 @@ def one(job: tuple[int, bool, float | None]) -> dict:
     return {"seed": seed, "lat": cfg.site.latitude_deg, "z": z}
 
 
-def main() -> None:
-    ap = argparse.ArgumentParser()
-    ap.add_argument("n", type=int, nargs="?", default=20)
-    ap.add_argument("first", type=int, nargs="?", default=1)
-    ap.add_argument("--fixed-isu", action="store_true")
-    ap.add_argument("--noise", type=float, default=None)
-    ap.add_argument("--json", type=Path, default=None)
-    ap.add_argument("--workers", type=int, default=2)
-    a = ap.parse_args()
+def main(argv: list[str] | None = None) -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("n", metavar="N", type=int, nargs="?", default=20,
+                    help="days, one random laboratory each (default 20)")
+    ap.add_argument("first", metavar="first_seed", type=int, nargs="?", default=1,
+                    help="the first laboratory's seed (default 1)")
+    ap.add_argument("--fixed-isu", action="store_true",
+                    help="keep the default ISU's coefficients (redraw the rest)")
+    ap.add_argument("--noise", metavar="F", type=float, default=None,
+                    help="every noise factor (gyro, accelerometer, pier) fixed to F "
+                    "(default: drawn)")
+    ap.add_argument("--json", metavar="F", type=Path, default=None,
+                    help="write the per-day z here")
+    ap.add_argument("--workers", metavar="W", type=int, default=2,
+                    help="days run at once (default 2)")
+    a = ap.parse_args(argv)
+    if a.n < 1:
+        ap.error(f"N must be 1 or more, got {a.n}")
+    if a.workers < 1:
+        ap.error(f"--workers must be 1 or more, got {a.workers}")
     jobs = [(s, not a.fixed_isu, a.noise) for s in range(a.first, a.first + a.n)]
     with ProcessPoolExecutor(a.workers) as ex:
         days = list(ex.map(one, jobs))

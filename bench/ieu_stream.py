@@ -11,7 +11,7 @@ Usage: python bench/ieu_stream.py [HOURS]   (default 4)
 
 from __future__ import annotations
 
-import sys
+import argparse
 import time
 
 from station.config.isu import load_config
@@ -41,8 +41,14 @@ def ieu_cost_per_sample(hours: float, seed: int = 1) -> float:
         rack.close()
 
 
-def main() -> None:
-    hours = float(sys.argv[1]) if len(sys.argv) > 1 else 4.0
+def main(argv: list[str] | None = None) -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("hours", metavar="HOURS", nargs="?", type=float, default=4.0,
+                    help="simulated hours of samples streamed (default 4)")
+    a = ap.parse_args(argv)
+    if not a.hours > 0:
+        ap.error(f"HOURS must be above 0, got {a.hours:g}")
+    hours = a.hours
     ieu_cost_per_sample(0.01)  # warm imports and caches of the interpreter
     per = ieu_cost_per_sample(hours)
     print(f"IEU stream of {hours:g} h at 0.1 s: {per * 1e3:.4f} ms wall per sample "

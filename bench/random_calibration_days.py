@@ -7,6 +7,7 @@ per seed (CalibrationData, NoiseSpec, truth), for bench/all_positions_stats.py.
 
 from __future__ import annotations
 
+import argparse
 import json
 import os
 import sys
@@ -17,10 +18,18 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 from random_labs import POSITION_CHARTS, calibration_day, random_lab  # noqa: E402
 
 
-def main() -> None:
-    out = Path(sys.argv[1])
+def main(argv: list[str] | None = None) -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
+                                 epilog="CHARTS=II7 in the environment: the II-7 speed "
+                                 "series too.")
+    ap.add_argument("out", metavar="OUTDIR", type=Path,
+                    help="where the lab<SEED>.json files go (made if missing)")
+    ap.add_argument("seeds", metavar="SEED", type=int, nargs="+",
+                    help="the random laboratories' seeds")
+    a = ap.parse_args(argv)
+    out = a.out
     out.mkdir(parents=True, exist_ok=True)
-    for seed in (int(s) for s in sys.argv[2:]):
+    for seed in a.seeds:
         charts = (*POSITION_CHARTS, "II-7") if "II7" in os.environ.get("CHARTS", "") else \
             POSITION_CHARTS
         cd, noise, truth, series = calibration_day(random_lab(seed), charts)

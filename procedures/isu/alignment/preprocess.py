@@ -30,6 +30,7 @@ calibration uses them), the model wins and the line says so:
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import lru_cache
 
 import numpy as np
 
@@ -105,6 +106,11 @@ class Constants:
     def vector(self, inst: str, par: str) -> np.ndarray:
         return np.array([self.get(inst, k, par) for k in (1, 2, 3)])
 
+    def flat(self, inst: str, prefix: str) -> tuple[float, ...]:
+        """``matrix`` row by row as a tuple (a cache key)."""
+        v = self.values
+        return tuple(v[(f"{inst}{k}", f"{prefix}.B{j}")] for k in (1, 2, 3) for j in (1, 2, 3))
+
     def matrix(self, inst: str, prefix: str) -> np.ndarray:
         """[X_k . B_j] (rows k = instrument, columns j = body axis): (Q^X)^-1."""
         return np.array(
@@ -133,6 +139,23 @@ def accel_integrals(p_a: np.ndarray, dt: np.ndarray, c: Constants) -> tuple[np.n
     return int_a @ q_a.T, int_a, u
 
 
+@lru_cache(maxsize=64)
+def _inverse(m: tuple[float, ...]) -> np.ndarray:
+    """Q^X of the 3 x 3 [X_k.B_j] given row by row (an error model's perturbation passes
+    move one constant at a time: most of them keep the axes)."""
+    return np.linalg.inv(np.array(m).reshape(3, 3))
+
+
+@lru_cache(maxsize=64)
+def _gyro_frames(g: tuple[float, ...]) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Rows G_k, O_k, S_k of the calibration's axes (``forward.lab_axes``) and Q^G, from
+    [G_k.B_j] given row by row."""
+    m = np.array(g).reshape(3, 3)
+    axes = [lab_axes(k, m[k - 1]) for k in (1, 2, 3)]
+    return (np.array([x[0] for x in axes]), np.array([x[1] for x in axes]),
+            np.array([x[2] for x in axes]), _inverse(g))
+
+
 def gyro_integrals(p_g: np.ndarray, dt: np.ndarray, a_a: np.ndarray, c: Constants) -> np.ndarray:
     """Chart III-9: int omega.B_k dt (K x 3, arcsec) from the net pulses ``p_g`` (K x 3).
 
@@ -144,12 +167,10 @@ def gyro_integrals(p_g: np.ndarray, dt: np.ndarray, a_a: np.ndarray, c: Constant
     dphi = scale_factor_arcsec(g["DeltaPhi"])  # Chart II-5's deg/pulse, in arcsec/pulse
     raw = np.asarray(p_g, dtype=float) * dphi - g["R"] * dt  # [(w.G_k) dt], arcsec
     w_g = raw / dt  # (w.G_k), deg/hr
-    g_axes = c.matrix("gyro", "G")
-    axes = [lab_axes(k, g_axes[k - 1]) for k in (1, 2, 3)]
-    a_b = np.asarray(a_a, dtype=float) @ np.linalg.inv(c.matrix("accel", "A")).T  # a.B_j, g
-    a_g, a_o, a_s = (a_b @ np.array([x[i] for x in axes]).T for i in range(3))
-    # Chart IV-2's (w.S_k), from the gyros' first-pass rates in body axes
-    w_s = (w_g @ np.linalg.inv(g_axes).T) @ np.array([x[2] for x in axes]).T
+    g_rows, o_rows, s_rows, q_g = _gyro_frames(c.flat("gyro", "G"))
+    a_b = np.asarray(a_a, dtype=float) @ _inverse(c.flat("accel", "A")).T
+    a_g, a_o, a_s = a_b @ g_rows.T, a_b @ o_rows.T, a_b @ s_rows.T  # a_b: a.B_j, g
+    w_s = (w_g @ q_g.T) @ s_rows.T  # Chart IV-2's (w.S_k), from the first-pass body rate
     rate = (
         g["B_I"] * a_g + g["B_O"] * a_o + g["B_S"] * a_s
         + g["C_II"] * a_g**2 + g["C_SS"] * a_s**2

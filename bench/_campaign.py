@@ -6,6 +6,7 @@ import argparse
 import sys
 from pathlib import Path
 
+from _args import count
 from rich.console import Console
 
 from laboratory.campaign.cli import show
@@ -23,7 +24,7 @@ def run_bench(name: str, argv: list[str], description: str | None = None) -> Non
     spec_file = Path(__file__).parent / "campaigns" / f"{name}.toml"
     ap = argparse.ArgumentParser(prog=Path(argv[0]).name if argv else None,
                                  description=description)
-    ap.add_argument("n", metavar="N", nargs="?", type=int, default=None,
+    ap.add_argument("n", metavar="N", nargs="?", type=count, default=None,
                     help=f"tasks (seeds) of the campaign (default: the spec's, {spec_file.name})")
     ap.add_argument("seed", metavar="SEED", nargs="?", type=int, default=None,
                     help="the campaign seed (default: the spec's)")
@@ -31,8 +32,6 @@ def run_bench(name: str, argv: list[str], description: str | None = None) -> Non
                     help=f"the campaign's directory, resumed if there (default "
                     f"runs/campaign/bench-{name}-SEED-N)")
     a = ap.parse_args(argv[1:])
-    if a.n is not None and a.n < 1:
-        ap.error(f"N must be 1 or more, got {a.n}")
     if a.seed is not None and a.seed < 0:
         ap.error(f"SEED must be 0 or more, got {a.seed}")
     spec = load_spec(spec_file)

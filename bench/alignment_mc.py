@@ -17,12 +17,13 @@ the per-seed errors against the predicted sigma are the campaign bench/campaigns
 
 from __future__ import annotations
 
-import argparse
 import json
 import statistics
 import tempfile
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
+
+from _args import parser, seeds
 
 
 def one(seed: int) -> dict:
@@ -85,14 +86,9 @@ def rms(xs) -> float:
 
 
 def main(argv: list[str] | None = None) -> None:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("n", metavar="N", nargs="?", type=int, default=20,
-                    help="seeds (default 20)")
-    ap.add_argument("first", metavar="first_seed", nargs="?", type=int, default=3000,
-                    help="the first seed (default 3000)")
+    ap = parser(__doc__)
+    seeds(ap, 20, 3000)
     a = ap.parse_args(argv)
-    if a.n < 1:
-        ap.error(f"N must be 1 or more, got {a.n}")
     n, first = a.n, a.first
     with ProcessPoolExecutor(max_workers=2) as ex:
         runs = list(ex.map(one, range(first, first + n)))

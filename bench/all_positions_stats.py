@@ -8,12 +8,12 @@ and the observed rms error ratio. The II-7 speed series are fitted when a lab fi
 
 from __future__ import annotations
 
-import argparse
 import json
 from collections import defaultdict
 from pathlib import Path
 
 import numpy as np
+from _args import parser
 
 from procedures.isu.calibration import CalibrationData, NoiseSpec
 from procedures.isu.calibration.all_positions import cramer_rao, fit
@@ -21,7 +21,7 @@ from procedures.isu.calibration.compute import constants_covariance
 
 
 def main(argv: list[str] | None = None) -> None:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap = parser(__doc__)
     ap.add_argument("labdir", metavar="LABDIR", type=Path,
                     help="the lab*.json files of bench/random_calibration_days.py")
     a = ap.parse_args(argv)

@@ -8,10 +8,11 @@ Prints figures only (no assertion): the machine's other load moves them.
 
 from __future__ import annotations
 
-import argparse
 import tempfile
 import time
 from pathlib import Path
+
+from _args import count, parser
 
 from laboratory.campaign.run import dask_client, run_campaign
 from laboratory.campaign.spec import load_spec
@@ -36,15 +37,13 @@ def overhead(n: int = 200) -> None:
 
 
 def main(argv: list[str] | None = None) -> None:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("days", metavar="DAYS", nargs="?", type=int, default=4,
+    ap = parser(__doc__)
+    ap.add_argument("days", metavar="DAYS", nargs="?", type=count, default=4,
                     help="tasks of each campaign (default 4)")
     ap.add_argument("spec_file", metavar="COMMAND_SPEC", nargs="?", type=Path,
                     default=Path(__file__).parent / "campaigns" / "day.toml",
                     help="the campaign spec whose command runs (default bench/campaigns/day.toml)")
     a = ap.parse_args(argv)
-    if a.days < 1:
-        ap.error(f"DAYS must be 1 or more, got {a.days}")
     if not a.spec_file.is_file():
         ap.error(f"COMMAND_SPEC {a.spec_file} is not a file")
     days, spec_file = a.days, a.spec_file

@@ -21,6 +21,7 @@ import traceback
 from pathlib import Path
 from typing import Any
 
+from _args import parser
 from rich.console import Console
 
 from procedures.isu.accuracy import Unreachable
@@ -164,7 +165,7 @@ def _lab(s: str) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap = parser(__doc__)
     ap.add_argument("labs", metavar="LAB", nargs="*", type=_lab,
                     help=f"{' | '.join(LABS)}: whose corners run (default all three)")
     labs = ap.parse_args(argv).labs or list(LABS)

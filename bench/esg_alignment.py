@@ -13,11 +13,12 @@ removed after step 3 (pickoff3_mirror2); START, the index of the first of its ca
 
 from __future__ import annotations
 
-import argparse
 import json
 import tempfile
 from collections.abc import Callable
 from pathlib import Path
+
+from _args import parser
 
 from laboratory.esg.calibration import run_esg_calibration
 from laboratory.esg.truth import (
@@ -141,7 +142,7 @@ def pickoff3_m2(seed: int, a: float, b: float) -> dict:
 
 
 def main(argv: list[str] | None = None) -> None:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap = parser(__doc__)
     ap.add_argument("mode", nargs="?", choices=("remount", "pickoff3", "pickoff3m2"),
                     help="the cases to run (default: mirror and pickoff-1 alignment)")
     ap.add_argument("start", metavar="START", nargs="?", type=int, default=None,

@@ -7,11 +7,12 @@ mis-gated.
 
 from __future__ import annotations
 
-import argparse
 import json
 import tempfile
 from dataclasses import replace
 from pathlib import Path
+
+from _args import count, parser
 
 from laboratory.esg.calibration import run_esg_calibration
 from sim.esg import EsgParams
@@ -34,14 +35,12 @@ def one(seed: int, spec: PatternSpec) -> dict:
 
 
 def main(argv: list[str] | None = None) -> None:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("n", metavar="n_seeds", nargs="?", type=int, default=4,
+    ap = parser(__doc__)
+    ap.add_argument("n", metavar="n_seeds", nargs="?", type=count, default=4,
                     help="seeds 1..n_seeds (default 4)")
     ap.add_argument("top", metavar="top_colatitude_deg", nargs="?", type=float, default=37.0,
                     help="the cosine pattern's top colatitude, degrees (default 37)")
     a = ap.parse_args(argv)
-    if a.n < 1:
-        ap.error(f"n_seeds must be 1 or more, got {a.n}")
     n, top = a.n, a.top
     for spec in (PatternSpec(), PatternSpec(kind="cosine", top_colatitude_deg=top)):
         rows = [one(seed, spec) for seed in range(1, n + 1)]

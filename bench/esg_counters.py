@@ -6,11 +6,12 @@ simulated time, step 4's time, the equal-ratio spread and the true readout rms.
 
 from __future__ import annotations
 
-import argparse
 import json
 import tempfile
 from dataclasses import replace
 from pathlib import Path
+
+from _args import count, parser
 
 from laboratory.esg.calibration import run_esg_calibration
 from sim.esg import EsgParams
@@ -34,12 +35,10 @@ def one(seed: int, counters: int) -> dict:
 
 
 def main(argv: list[str] | None = None) -> None:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("n", metavar="n_seeds", nargs="?", type=int, default=4,
+    ap = parser(__doc__)
+    ap.add_argument("n", metavar="n_seeds", nargs="?", type=count, default=4,
                     help="seeds 1..n_seeds (default 4)")
     a = ap.parse_args(argv)
-    if a.n < 1:
-        ap.error(f"n_seeds must be 1 or more, got {a.n}")
     n = a.n
     for counters in (2, 3):
         rows = [one(seed, counters) for seed in range(1, n + 1)]

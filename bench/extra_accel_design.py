@@ -10,10 +10,10 @@ compared with the closed forms' sigma.
 
 from __future__ import annotations
 
-import argparse
 import math
 
 import numpy as np
+from _args import count, parser
 from random_labs import calibration_day, random_lab
 
 from procedures.isu.calibration import CalibrationData, NoiseSpec
@@ -81,12 +81,10 @@ def extend(doc: dict, truth: dict, ups: list[np.ndarray], vertical_s: float,
 
 
 def main(argv: list[str] | None = None) -> None:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("n", metavar="N_LABS", nargs="?", type=int, default=4,
+    ap = parser(__doc__)
+    ap.add_argument("n", metavar="N_LABS", nargs="?", type=count, default=4,
                     help="labs: the default and random labs 1..N_LABS-1 (default 4)")
     a = ap.parse_args(argv)
-    if a.n < 1:
-        ap.error(f"N_LABS must be 1 or more, got {a.n}")
     n = a.n
     s2 = 1.0 / math.sqrt(2.0)
     diag = [np.ones(3) / math.sqrt(3.0), -np.ones(3) / math.sqrt(3.0)]

@@ -11,7 +11,6 @@ day. Every number comes from the days' journals.
 
 from __future__ import annotations
 
-import argparse
 import json
 import math
 import sys
@@ -19,6 +18,8 @@ import tempfile
 from collections import defaultdict
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
+
+from _args import count, parser
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
@@ -123,18 +124,14 @@ def scan(recs: list[dict]) -> dict:
 
 
 def main(argv: list[str] | None = None) -> None:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("n", metavar="N", nargs="?", type=int, default=40,
+    ap = parser(__doc__)
+    ap.add_argument("n", metavar="N", nargs="?", type=count, default=40,
                     help="fault-free days (default 40)")
     ap.add_argument("first", metavar="FIRST_SEED", nargs="?", type=int, default=2000,
                     help="the first day's seed (default 2000)")
-    ap.add_argument("--jobs", metavar="J", type=int, default=2,
+    ap.add_argument("--jobs", metavar="J", type=count, default=2,
                     help="days run at once (default 2)")
     args = ap.parse_args(argv)
-    if args.n < 1:
-        ap.error(f"N must be 1 or more, got {args.n}")
-    if args.jobs < 1:
-        ap.error(f"--jobs must be 1 or more, got {args.jobs}")
     from procedures.isu.alignment.checks import K_RESULT
     from procedures.isu.calibration.checks import K_RESULT as K_CAL
 

@@ -26,7 +26,6 @@ issue's two cases run too (``--cases issue``): bubble-level
 
 from __future__ import annotations
 
-import argparse
 import json
 import os
 import subprocess
@@ -37,6 +36,8 @@ from collections import Counter
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
+
+from _args import count, parser, positive
 
 ROOT = Path(__file__).resolve().parents[1]
 Z_LIMIT = 4.0
@@ -192,13 +193,13 @@ def classify(case: Case, res: dict, clean: dict) -> tuple[str, str]:
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--seeds", metavar="N", type=int, default=1,
+    ap = parser(__doc__)
+    ap.add_argument("--seeds", metavar="N", type=count, default=1,
                     help="seeds per matrix cell (default 1)")
     ap.add_argument("--first-seed", metavar="S", type=int, default=1, help="(default 1)")
-    ap.add_argument("--jobs", metavar="J", type=int, default=2,
+    ap.add_argument("--jobs", metavar="J", type=count, default=2,
                     help="days run at once (default 2)")
-    ap.add_argument("--timeout", metavar="SEC", type=float, default=300.0,
+    ap.add_argument("--timeout", metavar="SEC", type=positive, default=300.0,
                     help="per day, wall seconds (default 300)")
     ap.add_argument("--only", metavar="KIND", default="",
                     help="only fault kinds/instruments containing this")
@@ -206,12 +207,6 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--json", metavar="FILE", type=Path, default=None,
                     help="write every outcome here")
     args = ap.parse_args(argv)
-    if args.seeds < 1:
-        ap.error(f"--seeds must be 1 or more, got {args.seeds}")
-    if args.jobs < 1:
-        ap.error(f"--jobs must be 1 or more, got {args.jobs}")
-    if not args.timeout > 0:
-        ap.error(f"--timeout must be above 0, got {args.timeout:g}")
     seeds = list(range(args.first_seed, args.first_seed + args.seeds))
     cases: list[Case] = []
     if args.cases in ("matrix", "all"):

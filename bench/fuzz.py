@@ -10,7 +10,6 @@ parser let an exception escape, hung or accepted a malformed input.
 
 from __future__ import annotations
 
-import argparse
 import importlib
 import sys
 import time
@@ -20,6 +19,7 @@ HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 sys.path.insert(0, str(HERE.parent))
 
+from _args import count, parser  # noqa: E402
 from fuzz_core import FuzzTarget, run_target  # noqa: E402
 
 
@@ -33,15 +33,13 @@ def targets() -> list[FuzzTarget]:
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("n", metavar="N", nargs="?", type=int, default=100_000,
+    ap = parser(__doc__)
+    ap.add_argument("n", metavar="N", nargs="?", type=count, default=100_000,
                     help="inputs per parser (default 100000)")
     ap.add_argument("--seed", metavar="S", type=int, default=1, help="(default 1)")
     ap.add_argument("--only", metavar="SUBSTRING", default="",
                     help="only the parsers whose name contains this")
     args = ap.parse_args(argv)
-    if args.n < 1:
-        ap.error(f"N must be 1 or more, got {args.n}")
     bad = 0
     for t in targets():
         if args.only not in t.name:

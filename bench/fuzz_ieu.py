@@ -21,7 +21,6 @@ line with the rate the check's width predicts (2^-32 for samples, 2^-8 for repli
 
 from __future__ import annotations
 
-import argparse
 import random
 import struct
 import sys
@@ -30,6 +29,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
+from _args import parser  # noqa: E402
 from crccheck.crc import Crc8Autosar, Crc32C  # type: ignore[import-untyped]  # noqa: E402
 from fuzz_core import FuzzTarget  # noqa: E402
 
@@ -379,7 +379,7 @@ def distances() -> None:
 
 def main(argv: list[str] | None = None) -> None:
     """``--distance``: each check's distances; without it, this module's documentation."""
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap = parser(__doc__)
     ap.add_argument("--distance", action="store_true",
                     help="print each check's smallest undetected error weight")
     if ap.parse_args(argv).distance:

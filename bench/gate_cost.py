@@ -8,9 +8,10 @@ strings. ``gate_cost_ratio`` is importable (bench/speed.py).
 
 from __future__ import annotations
 
-import argparse
 import statistics
 import time
+
+from _args import parser
 
 from station.config.isu import load_config
 from station.racks.isu import SimulatedRack, open_isu_drivers
@@ -80,7 +81,7 @@ def gate_cost_ratio(repeats: int = 15) -> float:
 
 
 def main(argv: list[str] | None = None) -> None:
-    argparse.ArgumentParser(description=__doc__.split("\n\n")[0]).parse_args(argv)
+    parser(__doc__).parse_args(argv)
     shorts, longs = gate_times(15)
     short, long = statistics.median(shorts), statistics.median(longs)
     print(f"1-second gate:  {short * 1e3:8.2f} ms wall (median of 15)")

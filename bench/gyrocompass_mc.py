@@ -15,12 +15,12 @@ the per-seed errors against the predicted sigma are the campaign bench/campaigns
 
 from __future__ import annotations
 
-import argparse
 import statistics
 import tempfile
 from dataclasses import replace
 from pathlib import Path
 
+from _args import parser, seeds
 from scipy import stats
 
 from laboratory.cigtf.gyrocompassing import run_gyrocompass_test
@@ -28,14 +28,9 @@ from sim.cigtf.world import CigtfParams
 
 
 def main(argv: list[str] | None = None) -> None:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("n", metavar="N", nargs="?", type=int, default=30,
-                    help="seeds (default 30)")
-    ap.add_argument("first", metavar="first_seed", nargs="?", type=int, default=100,
-                    help="the first seed (default 100)")
+    ap = parser(__doc__)
+    seeds(ap, 30, 100)
     a = ap.parse_args(argv)
-    if a.n < 1:
-        ap.error(f"N must be 1 or more, got {a.n}")
     n, first = a.n, a.first
     quiet = replace(CigtfParams(), current_noise_ma=0.0)
     ratios: dict[str, list[float]] = {"operating": [], "shutdown": []}

@@ -10,11 +10,11 @@ expected), the rms of the true residuals, and the rounds the levels and the azim
 
 from __future__ import annotations
 
-import argparse
 import tempfile
 from pathlib import Path
 
 import numpy as np
+from _args import parser, seeds
 
 from procedures.cigtf.setup import pretest_setup
 from procedures.journal import Journal
@@ -24,14 +24,9 @@ from station.racks.cigtf import CigtfRack, open_cigtf_drivers
 
 
 def main(argv: list[str] | None = None) -> None:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("n", metavar="N", nargs="?", type=int, default=30,
-                    help="seeds (default 30)")
-    ap.add_argument("first", metavar="first_seed", nargs="?", type=int, default=100,
-                    help="the first seed (default 100)")
+    ap = parser(__doc__)
+    seeds(ap, 30, 100)
     a = ap.parse_args(argv)
-    if a.n < 1:
-        ap.error(f"N must be 1 or more, got {a.n}")
     n, first = a.n, a.first
     z, true, rounds = [], [], []
     with tempfile.TemporaryDirectory() as d:

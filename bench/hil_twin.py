@@ -12,7 +12,6 @@ verdict of station.hil.twin.compare_rehearsal.
 
 from __future__ import annotations
 
-import argparse
 import json
 import signal
 import subprocess
@@ -20,6 +19,8 @@ import sys
 import tempfile
 import time
 from pathlib import Path
+
+from _args import parser, positive
 
 from laboratory.isu.day import DayRequest, run_day
 from station.config.isu import load_config
@@ -34,14 +35,12 @@ def _sheet(d: Path, name: str) -> dict:
 
 
 def main(argv: list[str]) -> None:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("speed", nargs="?", type=float, default=500.0,
+    ap = parser(__doc__)
+    ap.add_argument("speed", nargs="?", type=positive, default=500.0,
                     help="the served rack's speed, simulated s per wall s (default 500)")
     ap.add_argument("seed", nargs="?", type=int, default=11,
                     help="the laboratory's seed (default 11)")
     a = ap.parse_args(argv)
-    if not a.speed > 0:
-        ap.error(f"speed must be above 0, got {a.speed:g}")
     speed, seed = a.speed, a.seed
     with tempfile.TemporaryDirectory() as d:
         base = Path(d)

@@ -11,7 +11,6 @@ z for a before/after comparison (run the same seeds against another tree).
 
 from __future__ import annotations
 
-import argparse
 import json
 import math
 import sys
@@ -19,6 +18,7 @@ import tempfile
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
+from _args import count, parser
 from scipy.stats import chi2
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -49,8 +49,8 @@ def one(job: tuple[int, bool, float | None]) -> dict:
 
 
 def main(argv: list[str] | None = None) -> None:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("n", metavar="N", type=int, nargs="?", default=20,
+    ap = parser(__doc__)
+    ap.add_argument("n", metavar="N", type=count, nargs="?", default=20,
                     help="days, one random laboratory each (default 20)")
     ap.add_argument("first", metavar="first_seed", type=int, nargs="?", default=1,
                     help="the first laboratory's seed (default 1)")
@@ -61,13 +61,9 @@ def main(argv: list[str] | None = None) -> None:
                     "(default: drawn)")
     ap.add_argument("--json", metavar="F", type=Path, default=None,
                     help="write the per-day z here")
-    ap.add_argument("--workers", metavar="W", type=int, default=2,
+    ap.add_argument("--workers", metavar="W", type=count, default=2,
                     help="days run at once (default 2)")
     a = ap.parse_args(argv)
-    if a.n < 1:
-        ap.error(f"N must be 1 or more, got {a.n}")
-    if a.workers < 1:
-        ap.error(f"--workers must be 1 or more, got {a.workers}")
     jobs = [(s, not a.fixed_isu, a.noise) for s in range(a.first, a.first + a.n)]
     with ProcessPoolExecutor(a.workers) as ex:
         days = list(ex.map(one, jobs))

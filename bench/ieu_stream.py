@@ -11,8 +11,9 @@ Usage: python bench/ieu_stream.py [HOURS]   (default 4)
 
 from __future__ import annotations
 
-import argparse
 import time
+
+from _args import parser, positive
 
 from station.config.isu import load_config
 from station.racks.isu import SimulatedRack, open_isu_drivers
@@ -42,12 +43,10 @@ def ieu_cost_per_sample(hours: float, seed: int = 1) -> float:
 
 
 def main(argv: list[str] | None = None) -> None:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("hours", metavar="HOURS", nargs="?", type=float, default=4.0,
+    ap = parser(__doc__)
+    ap.add_argument("hours", metavar="HOURS", nargs="?", type=positive, default=4.0,
                     help="simulated hours of samples streamed (default 4)")
     a = ap.parse_args(argv)
-    if not a.hours > 0:
-        ap.error(f"HOURS must be above 0, got {a.hours:g}")
     hours = a.hours
     ieu_cost_per_sample(0.01)  # warm imports and caches of the interpreter
     per = ieu_cost_per_sample(hours)

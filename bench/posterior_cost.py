@@ -7,7 +7,6 @@ here: tests hold no wall-clock assertion.
 
 from __future__ import annotations
 
-import argparse
 import statistics
 import sys
 import time
@@ -15,13 +14,14 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 
+from _args import parser  # noqa: E402
 from test_alignment_estimator import default_params  # noqa: E402
 
 from procedures.isu.alignment.estimation import posterior_level  # noqa: E402
 
 
 def main(argv: list[str] | None = None) -> None:
-    argparse.ArgumentParser(description=__doc__.split("\n\n")[0]).parse_args(argv)
+    parser(__doc__).parse_args(argv)
     for K, dt in ((10, 1.0), (60, 1.0), (120, 1.0), (300, 1.0), (600, 1.0)):
         params = default_params(K, dt)
         times = []

@@ -7,7 +7,6 @@ per seed (CalibrationData, NoiseSpec, truth), for bench/all_positions_stats.py.
 
 from __future__ import annotations
 
-import argparse
 import json
 import os
 import sys
@@ -15,11 +14,12 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 
+from _args import parser  # noqa: E402
 from random_labs import POSITION_CHARTS, calibration_day, random_lab  # noqa: E402
 
 
 def main(argv: list[str] | None = None) -> None:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
+    ap = parser(__doc__,
                                  epilog="CHARTS=II7 in the environment: the II-7 speed "
                                  "series too.")
     ap.add_argument("out", metavar="OUTDIR", type=Path,

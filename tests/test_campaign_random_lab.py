@@ -29,8 +29,8 @@ def test_each_task_draws_its_own_laboratory() -> None:
     a = tasks(_spec())
     lats = [t.values["lab.latitude_deg"] for t in a]
     assert len(set(lats)) == 4 and all(5.0 <= abs(x) <= 70.0 for x in lats)
-    assert all(0.3 <= t.values[c] <= 3.0 for t in a for c in LAB_COLUMNS[2:5])
-    for c, (lo, hi) in zip(LAB_COLUMNS[5:], (FREQUENCY_ERROR, DRIFT_PER_DAY), strict=True):
+    assert all(0.3 <= t.values[c] <= 3.0 for t in a for c in LAB_COLUMNS[2:5] + LAB_COLUMNS[7:])
+    for c, (lo, hi) in zip(LAB_COLUMNS[5:7], (FREQUENCY_ERROR, DRIFT_PER_DAY), strict=True):
         assert all(lo <= abs(t.values[c]) <= hi for t in a), c
     assert [t.values for t in tasks(_spec(seeds=6))][:4] == [t.values for t in a]
     assert _spec().sweep_paths() == list(LAB_COLUMNS)
@@ -48,6 +48,11 @@ def test_the_tasks_station_is_its_drawn_laboratory() -> None:
     assert math.isclose(cfg.environment.wobble.amplitude_arcsec, t.values["lab.pier_noise"])
     assert cfg.oscillator.frequency_error == t.values["lab.frequency_error"]
     assert cfg.oscillator.drift_per_day == t.values["lab.drift_per_day"]
+    assert math.isclose(cfg.table.setting_noise_arcsec, 0.3 * t.values["lab.table_noise"])
+    assert math.isclose(cfg.instruments.bubble_level.noise_arcsec,
+                        0.2 * t.values["lab.reading_noise"])
+    assert math.isclose(cfg.environment.vibration.rms_micro_g,
+                        100.0 * t.values["lab.vibration_noise"])
     assert all(v >= d for v, d in zip(cfg.plan.requirements().values(),
                                       (1e-4, 0.02, 2.0, 6.0), strict=True))
     over = random_station(_spec(), t, {"site.latitude_deg": 30.0}).cfg

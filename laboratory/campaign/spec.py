@@ -36,7 +36,8 @@ PLAN_PREFIX = "plan."  # sweep paths into the day plan (procedures/isu/plan.py),
 LAB_PREFIX = "lab."  # a random laboratory's draws (columns only, not overrides)
 LAB_COLUMNS = tuple(LAB_PREFIX + n for n in ("latitude_deg", "longitude_deg", "gyro_noise",
                                              "accel_noise", "pier_noise", "frequency_error",
-                                             "drift_per_day"))
+                                             "drift_per_day", "table_noise", "reading_noise",
+                                             "vibration_noise"))
 
 Scalar = float | int | bool | str
 

@@ -7,10 +7,12 @@ accelerometer noise factors (each uniform in 0.3-3); per gyro every Chart IV-2 c
 accelerometer D0, D2, D3 and its misalignments likewise; the latitude (5-70 deg, either
 hemisphere); then the longitude (any: the ISU's models see the latitude only, so it is
 recorded, not simulated), the pier's factor (0.3-3, on the wobble and the tilt wander), the
-gyros' spin-axis rotations, and the master oscillator's frequency error and aging, each
+gyros' spin-axis rotations, the master oscillator's frequency error and aging, each
 log-uniform in magnitude over its admitted range down to a floor (1e-10..1e-4 and
-1e-12..1e-6 a day, either sign; sim/isu/params.py). The first draws are those of the former
-tests/random_labs.py.
+1e-12..1e-6 a day, either sign; sim/isu/params.py), and three more factors of 0.3-3: the
+table's errors (resolver cyclic error, setting scatter, non-orthogonality), the
+autocollimators' and bubble levels' reading noise, and the floor vibration. The first
+draws are those of the former tests/random_labs.py.
 The ``[plan]`` requirements are loosened to what the manual's standard times give in the
 drawn laboratory (II-6.2, Charts II-18..II-24), so a noisy laboratory keeps the manual's day
 instead of being refused.
@@ -35,6 +37,9 @@ LATITUDE = (5.0, 70.0)  # deg, either hemisphere
 # effect is nil) up to the bound sim/isu/params.py admits
 FREQUENCY_ERROR = (1e-10, 1e-4)
 DRIFT_PER_DAY = (1e-12, 1e-6)
+# the table's errors and the operators' readings, each group under one factor
+TABLE_ERRORS = ("resolver_error_arcsec", "setting_noise_arcsec", "nonorthogonality_arcsec")
+READINGS = ("autocollimator", "bubble_level")
 PLAN_MARGIN = 1.05  # a requirement loosened to 1.05x the standard times' prediction
 
 
@@ -50,13 +55,17 @@ class RandomLab:
     pier_noise: float
     frequency_error: float = 0.0
     drift_per_day: float = 0.0
+    table_noise: float = 1.0
+    reading_noise: float = 1.0
+    vibration_noise: float = 1.0
 
     def describe(self) -> dict[str, float]:
         """The draws by name (``lab.<name>`` columns of a campaign's Parquet)."""
         return {"latitude_deg": self.latitude_deg, "longitude_deg": self.longitude_deg,
                 "gyro_noise": self.gyro_noise, "accel_noise": self.accel_noise,
                 "pier_noise": self.pier_noise, "frequency_error": self.frequency_error,
-                "drift_per_day": self.drift_per_day}
+                "drift_per_day": self.drift_per_day, "table_noise": self.table_noise,
+                "reading_noise": self.reading_noise, "vibration_noise": self.vibration_noise}
 
 
 def draw(rng: np.random.Generator, base: dict[str, Any], *, redraw_isu: bool = True,
@@ -102,23 +111,31 @@ def draw(rng: np.random.Generator, base: dict[str, Any], *, redraw_isu: bool = T
     osc = dict(base["oscillator"])
     drawn = {"frequency_error": _log_signed(rng, *FREQUENCY_ERROR),
              "drift_per_day": _log_signed(rng, *DRIFT_PER_DAY)}
+    table_f, reading_f, vibration_f = (
+        (float(x) for x in rng.uniform(*FACTOR, size=3)) if noise is None else (float(noise),) * 3)
     if extras:
         for g, x in zip(gyros, spin, strict=False):
             g["spin_axis_rotation_arcsec"] = x
         osc.update(drawn)
     else:
-        pier = 1.0
+        pier = table_f = reading_f = vibration_f = 1.0
     env = base["environment"]
     environment = {**env,
                    "wobble": {**env["wobble"], "amplitude_arcsec":
                               env["wobble"]["amplitude_arcsec"] * pier},
                    "pier_tilt": {**env["pier_tilt"], "wander_sigma_arcsec":
-                                 env["pier_tilt"]["wander_sigma_arcsec"] * pier}}
+                                 env["pier_tilt"]["wander_sigma_arcsec"] * pier},
+                   "vibration": {**env["vibration"], "rms_micro_g":
+                                 env["vibration"]["rms_micro_g"] * vibration_f}}
+    table = {**base["table"], **{k: base["table"][k] * table_f for k in TABLE_ERRORS}}
+    ins = base["instruments"]
+    instruments = {**ins, **{k: {**ins[k], "noise_arcsec": ins[k]["noise_arcsec"] * reading_f}
+                             for k in READINGS}}
     over = {"site": {**base["site"], "latitude_deg": lat},
             "isu": {**isu, "gyros": gyros, "accels": accels}, "environment": environment,
-            "oscillator": osc}
+            "oscillator": osc, "table": table, "instruments": instruments}
     return RandomLab(over, lat, lon, gyro_noise, accel_noise, pier, osc["frequency_error"],
-                     osc["drift_per_day"])
+                     osc["drift_per_day"], table_f, reading_f, vibration_f)
 
 
 def _log_signed(rng: np.random.Generator, lo: float, hi: float) -> float:

@@ -28,7 +28,7 @@ import numpy as np
 
 from laboratory.calfile import CalibrationFile, CalibrationFileError
 from procedures.isu.alignment.estimation import G0
-from procedures.isu.calibration.forward import lab_axes
+from procedures.isu.calibration.forward import lab_frames
 from station.errors import UseError
 
 ARCSEC = np.pi / (180.0 * 3600.0)
@@ -126,11 +126,8 @@ def specific_force(cal: CalibrationFile, strings: np.ndarray, dt: np.ndarray) ->
 
 def gyro_frames(cal: CalibrationFile) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Calibrated G axes and the nominal O, S squared up to them (rows: gyro k, in B): the
-    axes the calibration's B and C are defined on (``forward.lab_axes``)."""
-    g = _axes(cal, "gyro", "G")
-    axes = [lab_axes(k, g[k - 1]) for k in (1, 2, 3)]
-    return (np.array([x[0] for x in axes]), np.array([x[1] for x in axes]),
-            np.array([x[2] for x in axes]))
+    axes the calibration's B and C are defined on (``forward.lab_frames``)."""
+    return lab_frames(_axes(cal, "gyro", "G"))
 
 
 def body_rate(cal: CalibrationFile, pulses: np.ndarray, dt: np.ndarray,

@@ -22,7 +22,7 @@ calibration uses them), the model wins and the line says so:
   misalignments: B_I of 100 deg/hr/g with axes 600 arcsec apart is 0.3 deg/hr, 7 sigma of
   the gyrocompass's |omega|. Here the body-axis specific
   force and first-pass rate (through Q^A and Q^G) are projected on the calibration's own
-  G_k, O_k, S_k (``forward.lab_axes``, the axes its B and C are defined on).
+  G_k, O_k, S_k (``forward.lab_frames``, the axes its B and C are defined on).
 * The J term (J d(w.O)/dt) is not in Chart III-9; on a table at rest it integrates to zero
   over an interval and is left out as the chart leaves it out.
 """
@@ -34,7 +34,7 @@ from functools import lru_cache
 
 import numpy as np
 
-from procedures.isu.calibration.forward import lab_axes
+from procedures.isu.calibration.forward import lab_frames
 from procedures.isu.sheets import CalibrationResults, scale_factor_arcsec
 
 GYRO_PARAMS = (
@@ -148,12 +148,9 @@ def _inverse(m: tuple[float, ...]) -> np.ndarray:
 
 @lru_cache(maxsize=64)
 def _gyro_frames(g: tuple[float, ...]) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Rows G_k, O_k, S_k of the calibration's axes (``forward.lab_axes``) and Q^G, from
+    """Rows G_k, O_k, S_k of the calibration's axes (``forward.lab_frames``) and Q^G, from
     [G_k.B_j] given row by row."""
-    m = np.array(g).reshape(3, 3)
-    axes = [lab_axes(k, m[k - 1]) for k in (1, 2, 3)]
-    return (np.array([x[0] for x in axes]), np.array([x[1] for x in axes]),
-            np.array([x[2] for x in axes]), _inverse(g))
+    return (*lab_frames(np.array(g).reshape(3, 3)), _inverse(g))
 
 
 def gyro_integrals(p_g: np.ndarray, dt: np.ndarray, a_a: np.ndarray, c: Constants) -> np.ndarray:

@@ -53,6 +53,13 @@ def lab_axes(k: int, g_b: np.ndarray | None) -> tuple[np.ndarray, np.ndarray, np
     return G, O, cross3(G, O)
 
 
+def lab_frames(g_rows: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``lab_axes`` of gyros 1-3 from the rows [G_k.B_j]: the rows G_k, O_k, S_k."""
+    axes = [lab_axes(k, g_rows[k - 1]) for k in (1, 2, 3)]
+    return (np.array([x[0] for x in axes]), np.array([x[1] for x in axes]),
+            np.array([x[2] for x in axes]))
+
+
 @dataclass
 class GyroModel:
     dphi_deg: float  # deg/pulse

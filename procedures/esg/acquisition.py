@@ -73,6 +73,7 @@ class EsgPlan:
     equal_iterations: int = 6
     search_tolerance: float = 3e-6  # count ratio, about 1 arcsec at 55 deg
     search_iterations: int = 6
+    local_slope_step_deg: float = 0.05  # step 7's readings either side of the equator
     coning_positions: int = 8
     mount_coning_limit_arcsec: float = 3.0
     pickoff_coning_limit_arcsec: float = 15.0
@@ -198,6 +199,11 @@ class Acquisition:
     gamma_b_deg: float = 0.0
     cr_eq: float = 0.0
     gamma_eq_deg: float = 0.0
+    # d(CR)/d(spindle angle) measured at the equal-ratio tracks (step 6's secants) and at
+    # the equator's track (step 7), per degree; 0.0: not measured (a journal before them)
+    slope_a_per_deg: float = 0.0
+    slope_b_per_deg: float = 0.0
+    slope_eq_per_deg: float = 0.0
     colatitude_sign: int = 1  # +1: pickoff-2 colatitude grows with the spindle angle
     unbalance_k_deg_hr: float = 0.0
     residual_drift_deg_hr: float = 0.0
@@ -549,26 +555,52 @@ def equator(st: EsgDrivers, run: Run, plan: EsgPlan, sh: CheckSheetRun, acq: Acq
         # towards the second ratio (falls on a great circle, rises on a cosine pattern)
         direction = 1.0 if slope_a * (acq.cr_b - acq.cr_a) > 0 else -1.0
         span = 180.0 - 2.0 * acq.theta_star_deg
-        gb, tb, _ = find_ratio(st, plan, acq.cr_b, ga1 + direction * span)
+        gb, tb, slope_b = find_ratio(st, plan, acq.cr_b, ga1 + direction * span)
         ga2, ta2, _ = find_ratio(st, plan, acq.cr_a, ga1, slope_a)
         acq.gamma_a_deg = 0.5 * (ga1 + ga2)
         acq.gamma_b_deg = gb
         acq.colatitude_sign = 1 if gb > acq.gamma_a_deg else -1
+        acq.slope_a_per_deg, acq.slope_b_per_deg = slope_a, slope_b
         rate = (ga2 - ga1) / (ta2 - ta1)  # deg/s of spindle: drift about the spindle
         s.reading = {"gamma_a_deg": [ga1, ga2], "t_a_s": [ta1, ta2], "gamma_b_deg": gb,
                      "t_b_s": tb, "separation_deg": gb - acq.gamma_a_deg,
                      "drift_about_spindle_deg_hr": rate * 3600.0}
     with sh.step("7", "pickoff 2 midway: the equator's count ratio") as s:
         g_mid = 0.5 * (acq.gamma_a_deg + acq.gamma_b_deg)
-        g_set = _move_head(st, plan, g_mid)
+        # the mid angle is the equator at time tb: each setting is aimed where the drift
+        # has taken it by then, so only seconds of drift are carried through a slope (a
+        # rough pattern's local slope can be half the drawing's: carrying a minute's drift
+        # through the drawing's put the equator 11 arcsec off). The slope is this track's,
+        # read first, so the equator's own setting follows a short move (the first setting
+        # after the long move from step 6 read further from the truth in our trials)
+        def aim() -> float:
+            return g_mid + rate * (st.clock.now() - acq.t_zero_s - tb)
+        slope_g = _local_slope(st, plan, aim(), rate)
+        g_aim = aim()
+        g_set = _move_head(st, plan, g_aim)
         r = _read(st, plan, _scan_pickoffs(plan))
-        # the mid angle belongs to time tb; move it on by the drift to the reading's time
-        slope_eq = plan_slope_per_deg(90.0, plan) * (
-            acq.colatitude_sign)
-        acq.cr_eq = r.ratio(2) - slope_eq * ((g_set - g_mid) - rate * (r.t_s - tb))
+        acq.cr_eq = r.ratio(2) - slope_g * ((g_set - g_mid) - rate * (r.t_s - tb))
         acq.gamma_eq_deg = g_mid + rate * (r.t_s - tb)
-        s.reading = {"gamma_mid_deg": g_mid, "cr_read": r.ratio(2), "cr_eq": acq.cr_eq,
-                     "t_s": r.t_s}
+        acq.slope_eq_per_deg = slope_g
+        s.reading = {"gamma_mid_deg": g_mid, "gamma_aim_deg": g_aim, "cr_read": r.ratio(2),
+                     "cr_eq": acq.cr_eq, "t_s": r.t_s,
+                     "slope_eq_per_deg": acq.slope_eq_per_deg}
+
+
+def _local_slope(st: EsgDrivers, plan: EsgPlan, gamma: float, rate: float) -> float:
+    """d(CR)/d(spindle angle) on pickoff 2's track at ``gamma``: readings a little either
+    side, the drift about the spindle (``rate``, deg/s) between them taken out.
+
+    Beyond the report: step 9's slope is a fit over two degrees, while a rough pattern's
+    count ratio bends on the scale of its roughness's correlation (0.1-0.4 deg of
+    colatitude), so the small count-ratio differences at the equator (the baselines'
+    drift, the search's residual) are carried through the slope of their own track."""
+    d = plan.local_slope_step_deg
+    g_lo = _move_head(st, plan, gamma - d)
+    lo = _read(st, plan, (2, 3))
+    g_hi = _move_head(st, plan, gamma + d)
+    hi = _read(st, plan, (2, 3))
+    return (hi.ratio(2) - lo.ratio(2)) / ((g_hi - g_lo) - rate * (hi.t_s - lo.t_s))
 
 
 def tilt_to_equator(st: EsgDrivers, plan: EsgPlan, cr_eq: float) -> dict:

@@ -80,28 +80,48 @@ class Budget:
     equator_deg: float  # the equator's count ratio (steps 4, 6, 7)
     head_deg: float
     drift_bound_deg_s: float  # change of drift rate allowed over a scan
+    # d(CR)/d(colatitude) on the equator's own track (step 7; step 9's without it) and
+    # the 1-sigma of that measurement, per degree
+    slope_eq_per_deg: float = 0.0
+    slope_eq_sigma: float = 0.0
+
+
+def _track_slope(measured: float, cs: int, fallback: float) -> float:
+    """A slope measured along the spindle as d(CR)/d(colatitude); ``fallback`` when the
+    journal predates the measurement (0.0)."""
+    return cs * measured if measured else fallback
 
 
 def budget(acq: Acquisition, plan: EsgPlan, n_lines: int = 5) -> Budget:
-    """The error sources of the colatitude assignment, from the data and the lab's specs."""
+    """The error sources of the colatitude assignment, from the data and the lab's specs.
+
+    The count-ratio noise at a track is carried into colatitude through that track's own
+    measured slope (steps 6 and 7): on a rough pattern it can be a fraction of the
+    drawing's or of step 9's two-degree fit, and the noise then moves the track more."""
     sc9 = next(s for s in acq.scans if s.name == "9")
     k = -fine_slope(sc9)  # per degree of colatitude
     s_line = _line_sigma(acq)
     s_set = s_line / math.sqrt(n_lines)
-    k_a = abs(plan_slope_per_deg(acq.theta_star_deg, plan))
+    k_design = abs(plan_slope_per_deg(acq.theta_star_deg, plan))
+    k_a = abs(acq.slope_a_per_deg) or k_design
+    k_b = abs(acq.slope_b_per_deg) or k_design
+    k_eq = _track_slope(acq.slope_eq_per_deg, acq.colatitude_sign, k)
     head = HEAD_SIGMA_ARCSEC / 3600.0
     s_cr_ab = s_set * math.sqrt(2.5) / 3.0  # mean of three pickoffs, pickoff 2 read twice
     var_ga = s_set ** 2 / (2 * k_a ** 2) + (s_cr_ab / k_a) ** 2 + head ** 2
-    var_gb = s_set ** 2 / k_a ** 2 + (s_cr_ab / k_a) ** 2 + head ** 2
+    var_gb = s_set ** 2 / k_b ** 2 + (s_cr_ab / k_b) ** 2 + head ** 2
     bound = plan.electric_drift_spec_deg_hr / 3600.0
-    eq = math.sqrt((s_set / k) ** 2 + 0.25 * (var_ga + var_gb))
-    return Budget(k, s_line, eq, head, bound)
+    eq = math.sqrt((s_set / k_eq) ** 2 + 0.25 * (var_ga + var_gb))
+    # step 7's two readings 2 * step apart, each a setting's mean
+    k_sigma = s_set * math.sqrt(2.0) / (2.0 * plan.local_slope_step_deg)
+    return Budget(k, s_line, eq, head, bound, k_eq,
+                  k_sigma if acq.slope_eq_per_deg else 0.0)
 
 
 def assign(acq: Acquisition, plan: EsgPlan, n_lines: int = 5) -> tuple[list[Point], Budget]:
     """Colatitude and predicted sigma of every scan point (docs/esg.md, error budget)."""
     bud = budget(acq, plan, n_lines)
-    k = bud.slope_per_deg  # d(CR)/d(theta)
+    k = bud.slope_eq_per_deg  # d(CR)/d(theta) on the equator's track
     cs = acq.colatitude_sign
     pts: list[Point] = []
     for sc in acq.scans:
@@ -128,6 +148,8 @@ def _scan_points(sc: Scan, acq: Acquisition, bud: Budget, k: float, cs: int,
         tau = s.t_s - t0
         nl = bud.drift_bound_deg_s / math.sqrt(3.0) * tau * (span - tau) / (2.0 * span)
         var = ((1 - f) * s0 / k) ** 2 + (f * s1 / k) ** 2 + bud.equator_deg ** 2 + nl ** 2
+        # the count-ratio differences carried through the measured slope, and its error
+        var += ((theta0 - 90.0 + drift * f) * bud.slope_eq_sigma / k) ** 2
         if off != 0.0:
             var += 2.0 * bud.head_deg ** 2
         out.append(Point(sc.name, sc.increment_deg, off, s.t_s, list(s.times_s), s.ratio(2),

@@ -86,12 +86,6 @@ class Budget:
     slope_eq_sigma: float = 0.0
 
 
-def _track_slope(measured: float, cs: int, fallback: float) -> float:
-    """A slope measured along the spindle as d(CR)/d(colatitude); ``fallback`` when the
-    journal predates the measurement (0.0)."""
-    return cs * measured if measured else fallback
-
-
 def budget(acq: Acquisition, plan: EsgPlan, n_lines: int = 5) -> Budget:
     """The error sources of the colatitude assignment, from the data and the lab's specs.
 
@@ -105,7 +99,9 @@ def budget(acq: Acquisition, plan: EsgPlan, n_lines: int = 5) -> Budget:
     k_design = abs(plan_slope_per_deg(acq.theta_star_deg, plan))
     k_a = abs(acq.slope_a_per_deg) or k_design
     k_b = abs(acq.slope_b_per_deg) or k_design
-    k_eq = _track_slope(acq.slope_eq_per_deg, acq.colatitude_sign, k)
+    # signed like k (colatitude_sign turns it from per degree of spindle); a journal
+    # recorded before step 7 read it (0.0) keeps step 9's
+    k_eq = acq.colatitude_sign * acq.slope_eq_per_deg or k
     head = HEAD_SIGMA_ARCSEC / 3600.0
     s_cr_ab = s_set * math.sqrt(2.5) / 3.0  # mean of three pickoffs, pickoff 2 read twice
     var_ga = s_set ** 2 / (2 * k_a ** 2) + (s_cr_ab / k_a) ** 2 + head ** 2

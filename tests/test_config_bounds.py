@@ -194,3 +194,53 @@ def test_the_limit_separates_honest_results_from_misleading_ones(tmp_path):
     the truth: the test would mislead rather than fail."""
     assert all(abs(_z(87.9, seed, tmp_path)) < 3.0 for seed in (1, 2))
     assert abs(_z(89.9, 2, tmp_path)) > 5.0
+
+
+def _esg_file(tmp_path, pattern: dict) -> str:
+    lines = "".join(f"{k} = {v!r}\n".replace("'", '"') for k, v in pattern.items())
+    f = tmp_path / "esg.toml"
+    f.write_text("[esg.pattern]\n" + lines)
+    return str(f)
+
+
+def test_esg_patterns_the_calibration_cannot_use_are_refused_naming_the_field(tmp_path):
+    """Lines ending too near the equal-ratio colatitude (steps 4, 6), or a great circle too
+    flat to reach its lines' end (ESG-DPX found no pattern there), are refused at loading;
+    the limits themselves are accepted."""
+    from station.config.esg import load_esg_params
+
+    with pytest.raises(ConfigError, match=r"esg\.pattern\.top_colatitude_deg: lines that end "
+                       r"at colatitude 54 deg .* at most 53\.7 on a great circle"):
+        load_esg_params(_esg_file(tmp_path, {"top_colatitude_deg": 54.0}))
+    with pytest.raises(ConfigError, match=r"esg\.pattern\.top_colatitude_deg: .* at most 51 "
+                       r"on a cosine"):
+        load_esg_params(_esg_file(tmp_path, {"kind": "cosine", "top_colatitude_deg": 52.0}))
+    with pytest.raises(ConfigError, match=r"esg\.pattern: inclination_deg = 53 with "
+                       r"top_colatitude_deg = 43: .* at least 53\.33 deg"):
+        load_esg_params(_esg_file(tmp_path, {"inclination_deg": 53.0}))
+    # the default inclination with lines that end higher up: the same check
+    with pytest.raises(ConfigError, match=r"inclination_deg = 56 with top_colatitude_deg = 36"):
+        load_esg_params(_esg_file(tmp_path, {"top_colatitude_deg": 36.0}))
+    # a wider set-up offset needs more inclination (3 sd of it at the logic line's edge)
+    with pytest.raises(ConfigError, match=r"at least 54\.97 deg"):
+        load_esg_params(_esg_file(tmp_path, {"inclination_deg": 54.9, "d0_sd_in": 0.01}))
+    assert load_esg_params(_esg_file(tmp_path, {"top_colatitude_deg": 53.7})).pattern \
+        .top_colatitude_deg == 53.7
+    assert load_esg_params(_esg_file(tmp_path, {"kind": "cosine", "top_colatitude_deg": 30.0,
+                                                "inclination_deg": 20.0})).pattern.kind == "cosine"
+    assert load_esg_params(_esg_file(tmp_path, {"inclination_deg": 53.34})).pattern \
+        .inclination_deg == 53.34
+
+
+def test_esg_pattern_limits_agree_with_the_procedure():
+    """The loader's equal-ratio colatitude is the procedure's for the measured mirror angle,
+    and the extremity margin is one of sheet ESG-DPX's tries."""
+    from procedures.esg.acquisition import MIRROR_ANGLE_DEG
+    from procedures.esg.mechanization import equal_ratio_colatitude, pickoff_gram
+    from procedures.esg.setup import EXTREMITY_STEPS_DEG
+    from station.config import esg
+
+    theta = equal_ratio_colatitude(pickoff_gram(MIRROR_ANGLE_DEG))
+    assert esg.EQUAL_RATIO_COLATITUDE_DEG == pytest.approx(theta, abs=0.005)
+    assert esg.TOP_LIMIT_DEG["great_circle"] <= theta - 1.0
+    assert esg.EXTREMITY_MARGIN_DEG in EXTREMITY_STEPS_DEG

@@ -200,6 +200,17 @@ def drawing(spec: PatternSpec) -> dict:
             "scan_end_deg": math.floor(89.0 - spec.top_colatitude_deg)}
 
 
+def lab_spec(params: EsgParams, revolutions: int) -> dict:
+    """What the plan takes from the gyro's and the processor's specification: the electric
+    torque's drift (the drift budget's bound) and the line-to-line count-ratio scatter.
+    A line's C1 sums ``revolutions`` start-stop intervals, two jittered trailing edges
+    each, over as many periods 1 / spin: sigma(CR) = sqrt(2 / revolutions) jitter spin
+    (80 ns at 250 rps, ten revolutions: 8.9e-6, Appendix A's 9e-6)."""
+    return {"electric_drift_spec_deg_hr": params.rotor.electric_deg_h,
+            "line_scatter_spec": math.sqrt(2.0 / revolutions) * params.signal.jitter_ns * 1e-9
+            * params.rotor.spin_rps}
+
+
 def mechanization_record(nom: Mechanization) -> dict:
     """The nominal mechanization as esg.json keeps it."""
     if isinstance(nom, CosineParams):
@@ -253,8 +264,9 @@ def run_esg_calibration(seed: int, out: Path, params: EsgParams | None = None,
     """
     out = Path(out)
     params = params or EsgParams()
-    plan = replace(plan or EsgPlan(latitude_deg=0.0), latitude_deg=params.latitude_deg,
-                   counters=params.counters, **drawing(params.pattern))
+    plan = plan or EsgPlan(latitude_deg=0.0)
+    plan = replace(plan, latitude_deg=params.latitude_deg, counters=params.counters,
+                   **drawing(params.pattern), **lab_spec(params, plan.revolutions))
     prepare(out, resume, links)
     wall0 = time.perf_counter()
     conn = connect(registry.get("esg"), Seeded(params, seed), links, rack_hook)

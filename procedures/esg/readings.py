@@ -82,9 +82,9 @@ def agreeing(rows: list[list[float]], tol: float = AGREE) -> list[bool]:
 
 
 def read_setting(proc: ProcessorDriver, pickoffs: tuple[int, ...], n_lines: int = 5,
-                 min_lines: int = 3, attempts: int = 3) -> Setting:
+                 min_lines: int = 3, attempts: int = 3, agree: float = AGREE) -> Setting:
     """Select two pickoffs (three on a three-counter processor), take ``n_lines`` lines,
-    reject bad ones, average the rest."""
+    reject bad ones (``agree``: the count-ratio agreement kept), average the rest."""
     proc.select(*pickoffs)
     rejected: list[str] = []
     printed: list[str] = []
@@ -101,7 +101,8 @@ def read_setting(proc: ProcessorDriver, pickoffs: tuple[int, ...], n_lines: int 
         crs = {p: [_cr(ln, p) for ln in good] for p in pickoffs}
         on = {p: [v for v in vals if v is not None] for p, vals in crs.items()
               if vals and None not in vals}
-        keep = agreeing([[on[p][i] for p in pickoffs if p in on] for i in range(len(good))])
+        keep = agreeing([[on[p][i] for p in pickoffs if p in on] for i in range(len(good))],
+                        agree)
         for i, k in enumerate(keep):
             if not k:
                 rejected.append(f"count ratio off the setting's agreeing lines: "

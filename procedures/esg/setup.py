@@ -106,12 +106,16 @@ def extremity_setup(st: EsgDrivers, run: Run, latitude_deg: float, mirror_angle_
             st.processor.discriminator(disc)
             s.reading = {"narrowest_us": narrowest, "set_us": disc,
                          "read_back_us": st.processor.settings()["min_width_us"]}
-        with sh.step("DPX.4", "logic-line delay: logic-to-line time at the extremity plus "
-                     "20 us") as s:
+        with sh.step("DPX.4", "logic-line delay: the longest logic-to-line time on the "
+                     "scope (the extremity's; the equator's where longer) plus 20 us") as s:
+            # beyond the report: on its great circle the extremity's time is the longest;
+            # on a cosine pattern ending past 45 deg the equator's is (pickoff 3 shows it)
             t_ll = on[2]["logic_to_line_us"]
-            dly = delay_us(t_ll)
+            t_eq = on[3]["logic_to_line_us"] if 3 in on else t_ll
+            dly = delay_us(max(t_ll, t_eq))
             st.processor.delay(dly)
-            s.reading = {"logic_to_line_us": t_ll, "set_us": dly,
+            s.reading = {"logic_to_line_us": t_ll, "equator_logic_to_line_us": t_eq,
+                         "set_us": dly,
                          "read_back_us": st.processor.settings()["logic_delay_us"]}
         with sh.step("DPX.5", "case back: spindle on the polar axis; rotor damped") as s:
             move(0.0, latitude_deg, 0.0)

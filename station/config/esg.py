@@ -16,12 +16,21 @@ least two of the rotor's 5-s integration steps (RK4: accurate to 1e-4 per step t
 
 from __future__ import annotations
 
+import math
 from dataclasses import replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Literal, TypeVar
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import (
+    BaseModel,
+    ConfigDict,
+    Field,
+    ValidationInfo,
+    field_validator,
+    model_validator,
+)
 
+from sim.esg.pattern import PatternSpec
 from sim.esg.world import EsgParams
 from station.config.file import read_section
 from station.config.limits import EsgLimits
@@ -33,8 +42,22 @@ _D = TypeVar("_D", bound="DataclassInstance")
 
 _STRICT = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False, strict=True)
 
+# Where the three pickoffs make equal angles with the spin axis, for mirrors 89 deg 56 min
+# 5 sec apart (procedures.esg.mechanization.equal_ratio_colatitude; a test ties the two)
+EQUAL_RATIO_COLATITUDE_DEG = 54.72
+# The lines' end at least a degree short of it (the spin axis's pointing and drift); on a
+# cosine pattern 3.7 deg: nearer, step 6's pickoff at 180 deg - 54.72 sits close enough to
+# the lower extremity for its logic gate to meet line 2 (docs/esg-options.md: 52.5 deg
+# stopped one seed in three there, 51 none of six)
+TOP_LIMIT_DEG = {"great_circle": 53.7, "cosine": 51.0}
+EXTREMITY_MARGIN_DEG = 1.0  # ESG-DPX's pickoff 2 this far past the lines' end, at most
+
 
 class PatternConfig(BaseModel):
+    """The pattern's drawing and flaws. The drawing must be one the calibration can use:
+    its lines end short of the equal-ratio colatitude, and a great circle is inclined
+    enough to reach that end (the validators below; docs/esg.md, "Admitted patterns")."""
+
     model_config = _STRICT
     kind: Literal["great_circle", "cosine"] | None = None
     inclination_deg: float | None = Field(None, gt=10.0, lt=80.0)
@@ -44,6 +67,42 @@ class PatternConfig(BaseModel):
     # the roughness is tabulated every corr/6 of arc: 1e-3 in is 2e4 points per edge
     roughness_corr_in: float | None = Field(None, ge=0.001, le=0.1)
     d0_sd_in: float | None = Field(None, ge=0, le=0.01)
+
+    @field_validator("top_colatitude_deg")
+    @classmethod
+    def _ends_short_of_the_equal_ratio_point(cls, v: float | None,
+                                             info: ValidationInfo) -> float | None:
+        """Steps 4 and 6 set pickoffs at the equal-ratio colatitude and its mirror image
+        below the equator: the lines must reach past both (TOP_LIMIT_DEG)."""
+        kind = info.data.get("kind") or PatternSpec().kind
+        if v is not None and v > TOP_LIMIT_DEG[kind]:
+            raise ValueError(
+                f"lines that end at colatitude {v:g} deg leave too little pattern around "
+                f"the equal-ratio colatitude {EQUAL_RATIO_COLATITUDE_DEG:g} deg (steps 4 "
+                f"and 6): at most {TOP_LIMIT_DEG[kind]:g} on a {kind.replace('_', ' ')}")
+        return v
+
+    @model_validator(mode="after")
+    def _great_circle_reaches_the_end(self) -> PatternConfig:
+        """A great circle's edge F = d exists at colatitude th only where
+        sin(i) sin(th) - cos(i) cos(th) = -cos(i + th) >= |d|: every edge, the logic line's
+        leading edge farthest out (3 sd of the set-up offsets), must exist a degree past
+        the lines' end, where sheet ESG-DPX sets pickoff 2 on them."""
+        spec = PatternSpec()
+        if (self.kind or spec.kind) != "great_circle":
+            return self
+        incl = self.inclination_deg or spec.inclination_deg
+        top = self.top_colatitude_deg or spec.top_colatitude_deg
+        d0_sd = spec.d0_sd_in if self.d0_sd_in is None else self.d0_sd_in
+        d_max = (spec.width_in / 2 + spec.logic_gap_in + spec.logic_width_in
+                 + 3.0 * (d0_sd + spec.logic_offset_sd_in))
+        least = 90.0 + math.degrees(math.asin(d_max)) - top - EXTREMITY_MARGIN_DEG
+        if incl < least:
+            raise ValueError(
+                f"inclination_deg = {incl:g} with top_colatitude_deg = {top:g}: the great "
+                f"circle does not reach the lines' end (its logic line's edge, {d_max:.3f} "
+                f"in from the circle, needs an inclination of at least {least:.2f} deg)")
+        return self
 
 
 class SignalConfig(BaseModel):

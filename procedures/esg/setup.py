@@ -111,7 +111,7 @@ def extremity_setup(st: EsgDrivers, run: Run, latitude_deg: float, mirror_angle_
             # beyond the report: on its great circle the extremity's time is the longest;
             # on a cosine pattern ending past 45 deg the equator's is (pickoff 3 shows it)
             t_ll = on[2]["logic_to_line_us"]
-            t_eq = on[3]["logic_to_line_us"] if 3 in on else t_ll
+            t_eq = on[3]["logic_to_line_us"]  # DPX.1 stopped unless 2 and 3 see pulses
             dly = delay_us(max(t_ll, t_eq))
             st.processor.delay(dly)
             s.reading = {"logic_to_line_us": t_ll, "equator_logic_to_line_us": t_eq,

@@ -276,12 +276,12 @@ def test_a_cosine_pattern_ending_past_45_deg_gates_on_the_equators_logic_time(tm
 
 def _random_lab(rng: np.random.Generator) -> dict:
     """An ESG laboratory drawn inside the loader's bounds, where the procedure completes:
-    electric torque up to 0.3 deg/h, jitter up to 400 ns, rundown 100 h and longer
-    (beyond those, steps 3.4 and 4a stop by name: bench/config_corners.py)."""
+    electric torque up to 0.3 deg/h, jitter up to 1000 ns, rundown 25 h and longer
+    (log-uniform; beyond those, steps 3, 4a and 4b stop by name: docs/esg.md)."""
     top = float(rng.uniform(38.0, 53.7))
     return {"latitude_deg": float(rng.uniform(-80, 80)),
             "spin_rps": float(rng.uniform(250, 400)),
-            "rundown_tau_h": float(rng.uniform(100, 1000)),
+            "rundown_tau_h": float(math.exp(rng.uniform(math.log(25.0), math.log(1000.0)))),
             "unbalance_dyne_cm": float(rng.uniform(2, 60)),
             "electric_deg_h": float(rng.uniform(0, 0.3)),
             "damping_tau_s": float(rng.uniform(10, 300)),
@@ -290,16 +290,18 @@ def _random_lab(rng: np.random.Generator) -> dict:
                         "application_in": float(rng.uniform(0, 0.001)),
                         "roughness_rms_in": float(rng.uniform(0, 2e-4)),
                         "d0_sd_in": float(rng.uniform(0, 0.005))},
-            "signal": {"jitter_ns": float(rng.uniform(40, 400)),
+            "signal": {"jitter_ns": float(rng.uniform(40, 1000)),
                        "arc_rate_per_rev": float(rng.uniform(0, 3))}}
 
 
 def test_random_laboratories_keep_their_predicted_assignment_error(tmp_path):
     """Sites, rotors, patterns and pickoff jitter drawn at random: the procedure takes its
-    agreement, step-4 spread and tilt-probe figures from the lab's line scatter
-    (sqrt(2 / revolutions) jitter spin), so a noisier lab completes with a larger sigma
-    that is still honest (bench: pooled 1.01 over 11 of 16 labs, seeds 500-515). Stops
-    are by name at a step; the completed runs pool within 0.6-1.6."""
+    agreement, step-4 spread, tilt-probe and step-3 drift-wait figures from the lab's line
+    scatter (sqrt(2 / revolutions) jitter spin) and judges step 3's drift without the
+    rundown's share, so a noisier or faster-running-down lab completes with a larger
+    sigma that is still honest (bench: 14 of 16 labs, seeds 500-515, pooled 0.93; before,
+    rundown under about 50 h or jitter over about 400 ns stopped at step 3.4). Stops are
+    by name at a step; the completed runs pool within 0.6-1.6."""
     from station.config.esg import EsgConfig, params_from
 
     obs, pred, stops = [], [], []
@@ -316,7 +318,56 @@ def test_random_laboratories_keep_their_predicted_assignment_error(tmp_path):
         s = res["schedules"][0]
         obs.append(s["assignment_rms_arcsec"])
         pred.append(s["predicted_assignment_rms_arcsec"])
-    assert len(obs) >= 6, stops
+    assert len(obs) >= 8, stops
     q = math.sqrt(sum(x * x for x in obs) / sum(x * x for x in pred))
     assert 0.6 < q < 1.6, (q, obs, pred)
     assert max(pred) > 2.0 * min(pred), pred  # the labs differ: the sigmas follow them
+
+
+def test_step_3_waits_longer_in_a_noisier_lab():
+    """Step 3's drift is two settings' difference over the wait: the plan keeps three
+    sigmas of it at half the 0.1 deg/h tolerance, so the report's 600 s holds at the
+    default lab (which would need about 330 s), a noisier lab waits in proportion to its
+    line scatter, up to an hour."""
+    from procedures.esg.acquisition import MAX_DRIFT_WAIT_S
+
+    plan = EsgPlan(latitude_deg=40.0)
+    assert plan.drift_wait == plan.drift_wait_s == 600.0
+    slope = abs(plan_slope_per_deg(90.0, plan))
+    waits = []
+    for jitter_ns in (300.0, 500.0, 700.0):
+        p = replace(plan, line_scatter_spec=9e-6 * jitter_ns / 80.0)
+        sigma_rate = math.sqrt(2.0) * p.setting_sigma / slope / (p.drift_wait / 3600.0)
+        assert 3.0 * sigma_rate == pytest.approx(0.5 * p.drift_tolerance_deg_hr)
+        waits.append(p.drift_wait)
+    assert waits == sorted(waits) and waits[0] > 600.0
+    noisy = replace(plan, line_scatter_spec=9e-6 * 5000.0 / 80.0)
+    assert noisy.drift_wait == MAX_DRIFT_WAIT_S
+
+
+def test_step_3_does_not_chase_the_rundown(tmp_path):
+    """A rotor running down in 30 h (the default 88): its unbalance drift grows as the
+    spin falls, about 0.17 deg/h in one of step 3's offsets, so every re-measured drift
+    was over the 0.1 deg/h tolerance and the run stopped at step 3.4. The drift the
+    rundown added since the last offset (k times the growth of the spin period's count
+    the lines carry) is now left to the scans' interpolation; the drift left beside it is
+    within the tolerance, the measured drift agrees with that share, and the run
+    completes with an honest assignment error."""
+    from station.config.esg import EsgConfig, params_from
+
+    params = params_from(EsgConfig.model_validate({"rundown_tau_h": 30.0}))
+    obs, pred = [], []
+    for seed in (1, 2, 3):
+        out = tmp_path / str(seed)
+        res = run_esg_calibration(seed, out, params=params, with_study=False)
+        s = res["schedules"][0]
+        obs.append(s["assignment_rms_arcsec"])
+        pred.append(s["predicted_assignment_rms_arcsec"])
+        last = None
+        for it in range(2, 5):
+            last = _step(out, f"3.{it}") or last
+        assert last is not None and last["within_tolerance"], last
+        assert last["rundown_drift_deg_hr"] < -0.1  # the rundown's share, same sign as k's
+        assert abs(last["east_drift_deg_hr"] - last["rundown_drift_deg_hr"]) <= 0.1, last
+    q = math.sqrt(sum(x * x for x in obs) / sum(x * x for x in pred))
+    assert 0.5 < q < 1.8, (q, obs, pred)

@@ -107,7 +107,12 @@ def budget(acq: Acquisition, plan: EsgPlan, n_lines: int = 5) -> Budget:
     var_ga = s_set ** 2 / (2 * k_a ** 2) + (s_cr_ab / k_a) ** 2 + head ** 2
     var_gb = s_set ** 2 / k_b ** 2 + (s_cr_ab / k_b) ** 2 + head ** 2
     bound = plan.electric_drift_spec_deg_hr / 3600.0
-    eq = math.sqrt((s_set / k_eq) ** 2 + 0.25 * (var_ga + var_gb))
+    # step 7 aims at the equator where the drift about the spindle has taken it: that
+    # drift is step 6's two readings of the first ratio over their span, carried over the
+    # lever (their noise, a setting's each; the head's scale error and the ratio's own
+    # error are common to both and cancel)
+    var_rate = 2.0 * s_set ** 2 / k_a ** 2 * acq.equator_rate_lever ** 2
+    eq = math.sqrt((s_set / k_eq) ** 2 + 0.25 * (var_ga + var_gb) + var_rate)
     # step 7's two readings 2 * step apart, each a setting's mean
     k_sigma = s_set * math.sqrt(2.0) / (2.0 * plan.local_slope_step_deg)
     return Budget(k, s_line, eq, head, bound, k_eq,

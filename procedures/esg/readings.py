@@ -31,6 +31,9 @@ class Setting:
     # every line the processor printed for the setting, as received (Appendix A, Table
     # A-1), rejected ones included, in order; "" for a line that never came
     lines: list[str] = field(default_factory=list)
+    # mean 100 MHz count over a used line's revolutions (the spin period's measure; not
+    # journaled: step 3 compares it between its own readings); 0.0 when not known
+    period_sum: float = 0.0
 
     def reading(self) -> dict:
         """What the journal keeps of the setting (enough to reduce again)."""
@@ -114,6 +117,6 @@ def read_setting(proc: ProcessorDriver, pickoffs: tuple[int, ...], n_lines: int 
             cr = {p: (sum(v) / len(v) if p in line_cr else None)
                   for p, v in ((p, line_cr.get(p, [])) for p in pickoffs)}
             return Setting(pickoffs, sum(times) / len(times), cr, times, line_cr, rejected,
-                           printed)
+                           printed, sum(ln.period_sum for ln in used) / len(used))
     raise TooFewLines(f"fewer than {min_lines} usable lines of {n_lines} in {attempts} "
                       f"attempts; rejected: {'; '.join(rejected[-3:])}")

@@ -132,10 +132,9 @@ class EsgPlan:
         sigmas of the measured rate (two settings' difference on the drawing's equator
         slope) are half the tolerance, up to MAX_DRIFT_WAIT_S (a noisy lab measures the
         drift longer, as it would by hand; the report gives no figure)."""
-        slope = abs(plan_slope_per_deg(90.0, self))
-        need = 6.0 * math.sqrt(2.0) * self.setting_sigma / slope * 3600.0 \
-            / self.drift_tolerance_deg_hr
-        return min(max(self.drift_wait_s, need), max(self.drift_wait_s, MAX_DRIFT_WAIT_S))
+        rate_per_s = math.sqrt(2.0) * self.setting_sigma / abs(plan_slope_per_deg(90.0, self))
+        need = 6.0 * rate_per_s * 3600.0 / self.drift_tolerance_deg_hr
+        return max(self.drift_wait_s, min(need, MAX_DRIFT_WAIT_S))
 
     @property
     def tilt_probe_deg(self) -> float:

@@ -302,12 +302,13 @@ class PlotWorker:
                 self._here.add(i)
         return out
 
-    def wait(self, meanwhile: Callable[[], None] | None = None) -> None:
+    def wait(self, meanwhile: Callable[[], None] | None = None, keep: bool = False) -> None:
         """Every job's plot is in place once this returns; ``meanwhile`` runs here while
         the child may still be drawing (work the run needs next, e.g. the report's
-        template)."""
+        template). ``keep``: the child stays for later computations (the report, once the
+        record is closed: ``report_beside``), else it ends here."""
         p = self._proc
-        if p is not None and p.stdin is not None and not p.stdin.closed:
+        if not keep and p is not None and p.stdin is not None and not p.stdin.closed:
             try:
                 p.stdin.close()  # no more batches
             except OSError:
@@ -315,7 +316,8 @@ class PlotWorker:
         if meanwhile is not None:
             meanwhile()
         self._read_answers(len(self._batches) - 1)
-        self._end_child()
+        if not keep:
+            self._end_child()
         again = []
         for i, (job, tmp) in enumerate(zip(self._jobs, self._temps, strict=True)):
             outcome = self._outcomes[i]

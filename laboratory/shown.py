@@ -13,16 +13,19 @@ from laboratory.report import prepare_report
 
 class Shown:
     """``show(res)`` made early (``meanwhile``) or else at ``done``; its error raised by
-    ``done``, once the record is complete. ``show`` None: nothing is displayed."""
+    ``done``, once the record is complete. ``show`` None: nothing is displayed. ``prepare``
+    False: the report is written by the plot child, which has its template ready."""
 
-    def __init__(self, show: Callable[[dict], None] | None) -> None:
+    def __init__(self, show: Callable[[dict], None] | None, prepare: bool = True) -> None:
         self.show = show
+        self.prepare = prepare  # False: the plot child compiles the template (report_after)
         self.made = False
         self.error: Exception | None = None
 
     def meanwhile(self, res: dict) -> None:
         """The report's template, then the display of ``res`` (an error kept for ``done``)."""
-        prepare_report()
+        if self.prepare:
+            prepare_report()
         if self.show is not None and not self.made:
             self.made = True
             try:

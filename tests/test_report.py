@@ -243,3 +243,48 @@ def test_prepare_report_leaves_a_broken_template_to_report_after(
     err = capsys.readouterr().err
     assert "warning" in err and "templates unreadable" in err
     assert not (tmp_path / "report.html").exists()
+
+
+def test_the_plot_child_writes_the_report_this_process_writes(
+        runs: dict[str, Path], tmp_path: Path) -> None:
+    """report_after with the run's plot child (`station day` ends so): the child's
+    report.html has the bytes this process writes, and a child that has died leaves the
+    report to this process, with the same bytes."""
+    import shutil
+
+    from laboratory.plot_worker import PlotWorker
+    from laboratory.report import html as report_html
+
+    here, child, dead = (tmp_path / n for n in ("here", "child", "dead"))
+    for d in (here, child, dead):  # the same record three times, in the same-length paths
+        shutil.copytree(runs["day"], d)
+        (d / report_html.REPORT_NAME).unlink()
+    report_html.report_after(here)
+    with PlotWorker() as w:
+        w.compute(report_html.PREPARE_JOB, {})
+        report_html.report_after(child, w)
+        assert w._outcomes[-1] == ("ok", child / report_html.REPORT_NAME)  # the child wrote it
+    with PlotWorker() as w:
+        assert w._proc is not None
+        w._proc.kill()
+        w._proc.wait()
+        report_html.report_after(dead, w)
+
+    def body(d: Path) -> str:
+        return (d / report_html.REPORT_NAME).read_text(encoding="utf-8").replace(str(d), "D")
+
+    assert body(child) == body(here) == body(dead)
+    assert "D" in body(here)
+
+
+def test_a_report_the_plot_child_cannot_write_is_a_warning(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """The child's failure is met again here, and is report_after's warning as without it."""
+    from laboratory.plot_worker import PlotWorker
+    from laboratory.report import html as report_html
+
+    (tmp_path / "journal.jsonl").write_text("", encoding="utf-8")
+    (tmp_path / report_html.REPORT_NAME).mkdir()  # in the way of the file
+    with PlotWorker() as w:
+        report_html.report_after(tmp_path, w)
+    assert "warning" in capsys.readouterr().err

@@ -31,6 +31,7 @@ from laboratory.isu.truth import calibration_truth
 from laboratory.plot_worker import PlotWorker
 from laboratory.record import sheet_values, write_results, write_sheet_values
 from laboratory.report import report_after
+from laboratory.report.html import PREPARE_JOB
 from laboratory.rundir import opened_journal, prepare, resume_note
 from laboratory.shown import Shown
 from laboratory.tables import Column, print_fitted
@@ -227,14 +228,17 @@ def run_day(req: DayRequest, console: Console | None = None,
     conn = connect(registry.get("isu"), req.cfg, req.links, rack_hook, req.start_s)
     try:
         with opened_journal(req.out, req.resume) as journal, ExitStack() as stack:
+            # the plot child (importing matplotlib meanwhile) outlives the record: it
+            # compiles the report's template when idle and writes the report at the end
+            plotter = stack.enter_context(PlotWorker(*DAY_CHILD))
+            plotter.compute(PREPARE_JOB, {})
             # report.html of what the record holds, however it ended: after run.json is
             # closed, while this run still holds the directory (a refused run writes none)
-            stack.callback(report_after, req.out)
+            stack.callback(report_after, req.out, plotter)
             stack.callback(index_after, req.out)  # history: after run.json closes
             ident = stack.enter_context(identified(
                 req.out, "isu", "day", req.cfg.seed, isu_config(req.cfg),
                 *isu_identity(req.cfg), req.resume, journal.records))
-            plotter = stack.enter_context(PlotWorker(*DAY_CHILD))  # imports matplotlib meanwhile
             return _day(req, conn, journal, console, wall0, ident, carried, plotter)
     finally:
         conn.close()
@@ -305,13 +309,13 @@ def _day(req: DayRequest, conn: Connection, journal: Journal, console: Console,
         if res["alignment"]:
             render_alignment(console, res["alignment"])
 
-    shown = Shown(None if req.quiet else show)
+    shown = Shown(None if req.quiet else show, prepare=False)  # the child has the template
 
     def meanwhile() -> None:
         shown.meanwhile(res)
         sheets()  # written by the child, or here if it did not (the run's error then)
 
-    plotter.wait(meanwhile=meanwhile)
+    plotter.wait(meanwhile=meanwhile, keep=True)  # the child writes the report later
     run.note(event="end", sim_seconds=st.clock.now())
     shown.done(res)  # or its error, as when the display followed the end note
     return res

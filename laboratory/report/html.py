@@ -21,6 +21,8 @@ from station.files import write_bytes
 if TYPE_CHECKING:
     from jinja2 import Environment
 
+    from procedures.runner import Beside
+
 REPORT_NAME = "report.html"
 RESULT_FILES = ("results.json", "gyrocompass.json", "esg.json", "gyrocompass_analysis.json")
 LABORATORIES = {"results.json": "isu", "gyrocompass.json": "cigtf", "esg.json": "esg"}
@@ -425,14 +427,25 @@ def write_report(run_dir: Path, out: Path | None = None) -> Path:
     return target
 
 
-def report_after(run_dir: Path) -> None:
+# The same two functions as jobs for a run's plot child (laboratory.plot_worker), which
+# imports jinja2 and compiles the template while it is idle and writes the report while
+# this process waits (issue 17: 0.1-0.15 s off the end of `station day`).
+PREPARE_JOB = "laboratory.report.html:prepare_report"
+WRITE_JOB = "laboratory.report.html:write_report"
+
+
+def report_after(run_dir: Path, beside: Beside | None = None) -> None:
     """What every run command calls at its end, however the run ended: the report of what
     the record holds (nothing when the directory holds no record). A report that cannot be
-    written is a warning on stderr, never the run's failure."""
+    written is a warning on stderr, never the run's failure. ``beside``: a plot child that
+    writes it (``WRITE_JOB``; here if the child cannot), with the same file."""
     from laboratory.rundir import holds_record
 
     try:
         if Path(run_dir).is_dir() and holds_record(Path(run_dir)):
-            write_report(run_dir)
+            if beside is None:
+                write_report(run_dir)
+            else:
+                beside.compute(WRITE_JOB, {"run_dir": Path(run_dir)})()
     except Exception as e:  # noqa: BLE001 - the run's own outcome must come through
         print(f"warning: {Path(run_dir) / REPORT_NAME} not written: {e}", file=sys.stderr)

@@ -232,10 +232,13 @@ class PlotWorker:
         except OSError:  # the child is gone
             self._end_child()
 
-    def compute(self, job: str, kwargs: dict[str, Any]) -> Callable[[], Any]:
+    def compute(self, job: str, kwargs: dict[str, Any], race: bool = False
+                ) -> Callable[[], Any]:
         """Send the computation ``job`` (``"module:function"``, no file) to the child on its
         arguments as they are now; the returned callable gives its value (computed here, on
-        those same arguments, if the child could not: an error then is the run's)."""
+        those same arguments, if the child could not: an error then is the run's).
+        ``race``: the callable does not wait for a child still busy (with the plots sent
+        before): unless its value has come, it computes it here at once (the same bits)."""
         first = len(self._jobs)
         sent = pickle.dumps([(job, kwargs)])  # the arguments now, whatever they become
         self._jobs.append((job, {}))
@@ -245,7 +248,36 @@ class PlotWorker:
         self._batches.append(range(first, first + 1))
         batch = len(self._batches) - 1
         self._send(sent)
+        if race:
+            return lambda: self._first(batch)
         return lambda: self.values(batch)[0]
+
+    def _first(self, batch: int) -> Any:
+        """The value of the computation ``batch``: the child's if it has come, else made here
+        now (its answer, when it comes, is read and left)."""
+        if self._proc is None or self._answered_now(batch):
+            return self.values(batch)[0]
+        (i,) = self._batches[batch]
+        ((name, kw),) = pickle.loads(self._sent[i])
+        self._here.add(i)
+        return _draw(name, kw)
+
+    def _answered_now(self, batch: int) -> bool:
+        """Whether the child has answered every batch up to ``batch``, reading the answers
+        that have come without waiting for more. One already read into this side's buffer
+        but not yet unpickled reads as not come (the pipe shows nothing)."""
+        while self._answered <= batch:
+            p = self._proc
+            if p is None or p.stdout is None:
+                return False
+            try:
+                ready, _, _ = select.select([p.stdout], [], [], 0.0)
+            except (OSError, ValueError):
+                return False
+            if not ready:
+                return False
+            self._read_answers(self._answered)  # its first bytes are here: the rest follow
+        return True
 
     def idle(self) -> bool:
         """Whether the child has answered every batch sent (reading the answers that have
@@ -255,15 +287,7 @@ class PlotWorker:
         p = self._proc
         if p is None or p.stdin is None or p.stdin.closed or p.stdout is None:
             return False
-        while self._answered < len(self._batches):
-            try:
-                ready, _, _ = select.select([p.stdout], [], [], 0.0)
-            except (OSError, ValueError):
-                return False
-            if not ready:
-                return False
-            self._read_answers(self._answered)  # its first bytes are here: the rest follow
-        return self._proc is not None
+        return self._answered_now(len(self._batches) - 1) and self._proc is not None
 
     def _read_answers(self, upto: int) -> None:
         """The child's answers to every batch up to ``upto`` (the child gone: none)."""

@@ -85,7 +85,8 @@ def _sheet_value(journal: Journal, rec: dict, line: int,
 class Beside(Protocol):
     """A second process the run hands computations to (laboratory.plot_worker.PlotWorker)."""
 
-    def compute(self, job: str, kwargs: dict[str, Any]) -> Callable[[], Any]: ...
+    def compute(self, job: str, kwargs: dict[str, Any], race: bool = False
+                ) -> Callable[[], Any]: ...
 
 
 class StepContext:
@@ -169,11 +170,12 @@ class Run:
     def meanwhile(self, job: str, **kwargs: Any) -> Callable[[], Any]:
         """The pure function ``job`` (``"module:function"``) of ``kwargs`` as they are now,
         computed beside the run while it goes on (on the second core, issue 17) or, without
-        ``beside``, here and now; call the returned callable for its value. Only a
-        computation whose value does not depend on where it runs belongs here (no clock, no
-        drivers, no journal)."""
+        ``beside``, here and now; call the returned callable for its value, which is then
+        made here if the second process has not given it yet (busy with a plot, on a
+        loaded machine: the run does not wait for it). Only a computation whose value does
+        not depend on where it runs belongs here (no clock, no drivers, no journal)."""
         if self.beside is not None:
-            return self.beside.compute(job, kwargs)
+            return self.beside.compute(job, kwargs, race=True)
         module, _, function = job.partition(":")
         value = getattr(import_module(module), function)(**kwargs)
         return lambda: value

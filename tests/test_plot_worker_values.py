@@ -38,3 +38,22 @@ def test_without_a_child_the_study_is_computed_here(tmp_path: Path,
         (value,) = w.values(first)
         w.wait()
     assert value == study() and (tmp_path / "s.png").stat().st_size > 1000
+
+
+def test_a_race_does_not_wait_for_a_busy_child(tmp_path: Path) -> None:
+    """Run.meanwhile's computations (race): a child still busy with what was sent before
+    (here held until a file appears) does not hold the run up; the value is made here, and
+    the child's answer, once it comes, is read and left. A child that has answered gives
+    its value."""
+    gate = tmp_path / "gate"
+    with PlotWorker() as w:
+        w.compute("subprocess:run",
+                  {"args": ["sh", "-c", f"while [ ! -e '{gate}' ]; do sleep 0.01; done"]})
+        raced = w.compute("json:dumps", {"obj": [1, 2]}, race=True)
+        assert raced() == "[1, 2]"
+        assert w._outcomes[-1] is None and 1 in w._here  # made here: the child is held
+        gate.touch()
+        later = w.compute("json:dumps", {"obj": [3]}, race=True)
+        w.values(2)  # the child has answered all three now
+        assert later() == "[3]" and 2 not in w._here and w._outcomes[2] == ("ok", "[3]")
+        w.wait()

@@ -41,7 +41,8 @@ class FaultSpec(BaseModel):
     (station.config.isu) reads a table of these, one per instrument name.
     """
 
-    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False, strict=True)
+    model_config = ConfigDict(defer_build=True,
+                              extra="forbid", frozen=True, allow_inf_nan=False, strict=True)
     # Extra delay per reply / frame. Past a minute (twelve times the drivers' 5 s reply
     # timeout) a late reply is silence: rehearse that with silent_after_s.
     latency_s: float = Field(0.0, ge=0, le=60.0)

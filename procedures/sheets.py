@@ -13,7 +13,7 @@ from pydantic import BaseModel, ConfigDict, Field
 class Sheet(BaseModel):
     """A sheet of the record: plain data, no unknown fields."""
 
-    model_config = ConfigDict(extra="forbid")
+    model_config = ConfigDict(defer_build=True, extra="forbid")
 
 
 class SheetHeader(Sheet):

@@ -50,7 +50,7 @@ class LaboratorySpec(BaseModel):
     """``[laboratory]``: each task on a random admissible laboratory (issue 19;
     laboratory/isu/random_lab.py), drawn from the task's own SeedSequence."""
 
-    model_config = ConfigDict(extra="forbid", frozen=True)
+    model_config = ConfigDict(defer_build=True, extra="forbid", frozen=True)
 
     random: bool = False
     redraw_isu: bool = True  # every ISU coefficient at 0.3-3x with random sign
@@ -60,7 +60,7 @@ class LaboratorySpec(BaseModel):
 class CampaignSpec(BaseModel):
     """SPEC.toml: see docs/campaigns.md."""
 
-    model_config = ConfigDict(extra="forbid", frozen=True)
+    model_config = ConfigDict(defer_build=True, extra="forbid", frozen=True)
 
     command: str
     seeds: int = Field(1, ge=1, le=1_000_000)  # tasks per grid point

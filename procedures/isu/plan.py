@@ -14,7 +14,7 @@ from station.config.plan import PlanSettings
 
 
 class DayPlan(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True)
+    model_config = ConfigDict(defer_build=True, extra="forbid", frozen=True)
 
     # Required accuracies (1 sigma) and the longest gate, II-6.2 and Charts II-18..II-24
     requirements: PlanSettings = PlanSettings()

@@ -59,7 +59,8 @@ MountDeg = Annotated[float, Field(ge=-2.0, le=2.0)]
 
 
 class _Model(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False, strict=True)
+    model_config = ConfigDict(defer_build=True,
+                              extra="forbid", frozen=True, allow_inf_nan=False, strict=True)
 
 
 def _tau(knot_s: float) -> Any:

@@ -37,7 +37,7 @@ class AlignPlan(BaseModel):
     alignment by the simple average over ``quick_K`` intervals of the gyrocompass Delta t.
     """
 
-    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
+    model_config = ConfigDict(defer_build=True, extra="forbid", frozen=True, allow_inf_nan=False)
 
     mirror_readings: int = Field(8, ge=1, le=1000,
                                  description="autocollimator readings per mirror")

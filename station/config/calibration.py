@@ -21,7 +21,7 @@ class CalibrationOptions(BaseModel):
     False runs those positions uncorrected: the table keeps the survey's one level
     reading (Chart I-2 step 5), the uncorrected cases of Charts II-21/II-22."""
 
-    model_config = ConfigDict(extra="forbid", frozen=True, strict=True)
+    model_config = ConfigDict(defer_build=True, extra="forbid", frozen=True, strict=True)
 
     bubble_gyro: bool = True
     bubble_accel: bool = True

@@ -69,7 +69,8 @@ class Eq27Config(BaseModel):
     (arcsec), the gyro's calibrated D_I and D_OS (deg/hr per g), the error of the fixture's
     180 deg vertical null (arcsec). ``apply`` (or ``--eq27``) corrects each phase's theta."""
 
-    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False, strict=True)
+    model_config = ConfigDict(defer_build=True,
+                              extra="forbid", frozen=True, allow_inf_nan=False, strict=True)
     apply: bool = False
     b_arcsec: float = Field(0.0, ge=-600, le=600)
     c_arcsec: float = Field(0.0, ge=-600, le=600)
@@ -84,7 +85,8 @@ class Eq27Config(BaseModel):
 class CigtfConfig(BaseModel):
     # Field order matters: the latitude is checked against the level error, then the
     # noise against the latitude (each error names the field that is out of bounds).
-    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False, strict=True)
+    model_config = ConfigDict(defer_build=True,
+                              extra="forbid", frozen=True, allow_inf_nan=False, strict=True)
     level_sd_arcsec: float | None = Field(None, ge=0, le=60)  # a, b, c: a levelled fixture
     perpendicular_sd_arcsec: float | None = Field(None, ge=0, le=60)  # d, e, f
     mount_sd_arcsec: float | None = Field(None, ge=0, le=600)  # h, i, j: first-order models

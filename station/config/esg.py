@@ -40,7 +40,8 @@ if TYPE_CHECKING:
 
 _D = TypeVar("_D", bound="DataclassInstance")
 
-_STRICT = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False, strict=True)
+_STRICT = ConfigDict(defer_build=True,
+                     extra="forbid", frozen=True, allow_inf_nan=False, strict=True)
 
 # Where the three pickoffs make equal angles with the spin axis, for mirrors 89 deg 56 min
 # 5 sec apart (procedures.esg.mechanization.equal_ratio_colatitude; a test ties the two)

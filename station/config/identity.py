@@ -12,7 +12,7 @@ from pydantic import BaseModel, ConfigDict, Field, StringConstraints
 
 from station.config.file import check_sections, read_document, validate
 
-_STRICT = ConfigDict(extra="forbid", frozen=True, strict=True)
+_STRICT = ConfigDict(defer_build=True, extra="forbid", frozen=True, strict=True)
 # a serial number or station id: printable ASCII, one line, at most 64 characters
 Serial = Annotated[str, StringConstraints(min_length=1, max_length=64,
                                           pattern=r"^[ -~]+$", strip_whitespace=True)]

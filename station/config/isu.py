@@ -59,7 +59,8 @@ from station.drivers.isu import SERIAL_INSTRUMENTS
 __all__ = ["ConfigError", "StationConfig", "default_dict", "load_config", "read_section"]
 
 MAX_SEED = 2**63 - 1  # the journal stores the seed as a JSON number
-_STRICT = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False, strict=True)
+_STRICT = ConfigDict(defer_build=True,
+                     extra="forbid", frozen=True, allow_inf_nan=False, strict=True)
 _BUS_KEY = re.compile(r"[a-z_][a-z0-9_]*")
 
 
@@ -67,7 +68,7 @@ class CanLink(BaseModel):
     """python-can settings of the IEU's bus; extra keys go to ``can.Bus`` as given
     (scalars only: a python-can option is a number, a string or a flag)."""
 
-    model_config = ConfigDict(extra="allow", frozen=True, strict=True)
+    model_config = ConfigDict(defer_build=True, extra="allow", frozen=True, strict=True)
     interface: str
     channel: str
 

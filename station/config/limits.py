@@ -19,7 +19,8 @@ from typing import Annotated
 
 from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
 
-_STRICT = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False, strict=True)
+_STRICT = ConfigDict(defer_build=True,
+                     extra="forbid", frozen=True, allow_inf_nan=False, strict=True)
 
 # The rows of the Calibration Results Sheet (Chart II-5), by kind of instrument.
 GYRO_PARAMETERS = ("DeltaPhi", "G.B1", "G.B2", "G.B3", "R", "B_I", "B_O", "B_S", "C_II",

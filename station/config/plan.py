@@ -28,7 +28,8 @@ REQUIREMENT_TEXT = {
 class PlanSettings(BaseModel):
     """``[plan]``: required accuracies (1 sigma) and the longest gate the day may use."""
 
-    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False, strict=True)
+    model_config = ConfigDict(defer_build=True,
+                              extra="forbid", frozen=True, allow_inf_nan=False, strict=True)
 
     gyro_scale_factor: float = Field(1e-4, gt=0, le=0.01,
                                      description="relative, Chart II-18 (1e-4 in one turn)")

@@ -101,7 +101,7 @@ class StationParams(BaseModel):
     are dumped to JSON data first; a client that loads the same ``[cigtf]``/``[esg]`` config
     (``load_cigtf_params``/``load_esg_params``) gets the same params, hence the same digest."""
 
-    model_config = ConfigDict(frozen=True)
+    model_config = ConfigDict(defer_build=True, frozen=True)
     station: str
     params: dict
 

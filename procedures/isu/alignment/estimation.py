@@ -134,7 +134,7 @@ LagFunctions = Callable[[np.ndarray], tuple[np.ndarray, ...]]
 # Tables
 # ---------------------------------------------------------------------------------------------
 class _Model(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
+    model_config = ConfigDict(defer_build=True, extra="forbid", frozen=True, allow_inf_nan=False)
 
 
 def _check_lags(lags: tuple[float, ...]) -> tuple[float, ...]:

@@ -34,7 +34,7 @@ PRIOR_FRACTION = 0.25  # of sigma_theta and sigma_g: how far T1 and g~ may move 
 class AlignmentParameterSheet(BaseModel):
     """Chart I-8: the identification of the tape and the inputs of Chart I-9."""
 
-    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
+    model_config = ConfigDict(defer_build=True, extra="forbid", frozen=True, allow_inf_nan=False)
 
     reel_id: str = Field(min_length=1, description="tape (reel) identification, Chart I-7 step 5")
     prepared_by: str = ""
@@ -49,7 +49,7 @@ class AlignmentParameterSheet(BaseModel):
 class Tape(BaseModel):
     """The sheet with the outputs of the parameter evaluation: M, b and A^-1."""
 
-    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
+    model_config = ConfigDict(defer_build=True, extra="forbid", frozen=True, allow_inf_nan=False)
 
     format: Literal["isu-station alignment tape 1"] = TAPE_FORMAT
     sheet: AlignmentParameterSheet

@@ -19,7 +19,7 @@ ESTIMATORS = ("average", "posterior", "hybrid")
 
 
 class _Sheet(BaseModel):
-    model_config = ConfigDict(extra="forbid")
+    model_config = ConfigDict(defer_build=True, extra="forbid")
 
 
 class AlignmentResults(_Sheet):

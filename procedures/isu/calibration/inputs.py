@@ -35,7 +35,7 @@ EXTRA_FIRST = 16  # the first extra accelerometer position (beyond the manual's 
 
 
 class _In(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
+    model_config = ConfigDict(defer_build=True, extra="forbid", frozen=True, allow_inf_nan=False)
 
 
 class Constants(_In):

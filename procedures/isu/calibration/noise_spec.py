@@ -26,7 +26,7 @@ DAY = 86400.0
 
 
 class NoiseSpec(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
+    model_config = ConfigDict(defer_build=True, extra="forbid", frozen=True, allow_inf_nan=False)
 
     # --- gyros (Chart IV-2 noise) ---
     gyro_arw_deg_rt_hr: float = Field(0.003, ge=0, description="angle random walk")

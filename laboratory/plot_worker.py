@@ -258,9 +258,15 @@ class PlotWorker:
         if self._proc is None or self._answered_now(batch):
             return self.values(batch)[0]
         (i,) = self._batches[batch]
+        return self._computed_here(i)
+
+    def _computed_here(self, i: int) -> Any:
+        """Computation ``i`` made in this process on its arguments as they were sent (its
+        error is the run's)."""
         ((name, kw),) = pickle.loads(self._sent[i])
+        value = _draw(name, kw)
         self._here.add(i)
-        return _draw(name, kw)
+        return value
 
     def _answered_now(self, batch: int) -> bool:
         """Whether the child has answered every batch up to ``batch``, reading the answers
@@ -316,10 +322,8 @@ class PlotWorker:
             outcome, tmp = self._outcomes[i], self._temps[i]
             if outcome is not None and outcome[0] == "ok" and (tmp is None or tmp.exists()):
                 out.append(outcome[1])
-            elif tmp is None:  # on the arguments as they were sent
-                ((name, kw),) = pickle.loads(self._sent[i])
-                out.append(_draw(name, kw))
-                self._here.add(i)
+            elif tmp is None:
+                out.append(self._computed_here(i))
             else:
                 tmp.unlink(missing_ok=True)
                 out.append(_drawn_here(self._jobs[i]))
@@ -330,7 +334,7 @@ class PlotWorker:
         """Every job's plot is in place once this returns; ``meanwhile`` runs here while
         the child may still be drawing (work the run needs next, e.g. the report's
         template). ``keep``: the child stays for later computations (the report, once the
-        record is closed: ``report_beside``), else it ends here."""
+        record is closed: ``report.html.report_after``), else it ends here."""
         p = self._proc
         if not keep and p is not None and p.stdin is not None and not p.stdin.closed:
             try:

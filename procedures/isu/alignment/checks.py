@@ -109,7 +109,7 @@ def cal_sigma(constants: Constants, f: Callable[[Constants], float]) -> float:
     d = np.array([moves[k] for k in keys])
     if not keys:
         return 0.0
-    rho = np.array([[constants.rho(a, b) for b in keys] for a in keys])
+    rho = constants.rho_matrix(keys)
     return math.sqrt(max(float(d @ rho @ d), 0.0))
 
 

@@ -200,7 +200,7 @@ def correlated_cov(terms: dict[tuple[str, str], np.ndarray], constants: Constant
     if not keys:
         return np.zeros((3, 3))
     v = np.array([terms[k] for k in keys])  # n x 3
-    rho = np.array([[constants.rho(a, b) for b in keys] for a in keys])
+    rho = constants.rho_matrix(keys)
     c = v.T @ rho @ v
     return 0.5 * (c + c.T)
 

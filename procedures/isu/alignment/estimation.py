@@ -112,7 +112,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
-from functools import cached_property
+from functools import cached_property, lru_cache
 from typing import TypedDict, Unpack
 
 import numpy as np
@@ -423,7 +423,11 @@ def noise_block(params: LevelParams) -> np.ndarray:
     )
 
 
+@lru_cache(maxsize=2)  # a day's two parameter sheets; each of its 3K x 3K blocks asked for thrice
 def joint(params: LevelParams) -> Joint:
+    """The joint Gaussian of ``params`` (Chart I-9), made once per sheet: the estimator and
+    each error covariance of one alignment ask for the same (issue 17: 4 of a day's 6 builds,
+    40 ms). Its arrays are shared and read-only."""
     K, dt = params.K, params.dt
     sg = prior_covariance(params)
     cm = tilt_coefficients(params)
@@ -438,7 +442,10 @@ def joint(params: LevelParams) -> Joint:
             outer = np.outer(cm[:, a], cm[:, b])
             s_yx += np.kron(outer, tm.c[a, b][None, :])
             s_xx += np.kron(outer, tm.gram[a, b])
-    return Joint(a1, a2, s_yy, s_yx, 0.5 * (s_xx + s_xx.T))
+    j = Joint(a1, a2, s_yy, s_yx, 0.5 * (s_xx + s_xx.T))
+    for arr in (j.a1, j.a2, j.s_yy, j.s_yx, j.s_xx):
+        arr.setflags(write=False)  # shared by the cache: a write would change later answers
+    return j
 
 
 # ---------------------------------------------------------------------------------------------

@@ -65,6 +65,20 @@ class Constants:
             return 1.0
         return self.correlation.get((a, b), self.correlation.get((b, a), 0.0))
 
+    def rho_matrix(self, keys: list[tuple[str, str]]) -> np.ndarray:
+        """[rho(a, b)] over ``keys``: ``rho``'s values, set from the listed pairs rather
+        than looked up pair by pair (issue 17: 4,356 lookups per error model)."""
+        at = {k: i for i, k in enumerate(keys)}
+        out = np.zeros((len(keys), len(keys)))
+        for (a, b), r in self.correlation.items():
+            i, j = at.get(a), at.get(b)
+            if i is not None and j is not None:
+                out[i, j] = r
+                if (b, a) not in self.correlation:  # rho(b, a) falls back on (a, b)
+                    out[j, i] = r
+        np.fill_diagonal(out, 1.0)  # rho(a, a) is 1 whatever the sheet lists
+        return out
+
     @classmethod
     def from_sheet(cls, sheet: CalibrationResults, gyros: bool) -> Constants:
         """Constants of the accelerometers (and of the gyros if ``gyros``) from Chart II-5.

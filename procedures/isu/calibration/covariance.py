@@ -34,6 +34,7 @@ Per datum (rates in pulses/s; gate T = n1 S1^T):
 from __future__ import annotations
 
 import math
+from functools import lru_cache
 
 import numpy as np
 
@@ -70,6 +71,28 @@ def gyro_quantization_var(rate: float, rec: Record, nz: NoiseSpec) -> float:
     edges = edge_sampling_var(T, rec.n1, nz.gyro_sample_rate_hz, nz.gyro_sample_clock_ppm,
                               nz.clock_quantization_var)
     return (nz.count_quantization_var + edges * (rate * tau_s) ** 2) / T**2
+
+
+@lru_cache(maxsize=4)
+def tilt_grams(fs: tuple[Functional, ...], nz: NoiseSpec
+               ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Gram matrices (rad^2) of the tilt functionals ``fs`` under the diurnal term, the
+    wander and the wobble of ``nz``. They depend on the gates' times only, so the fits of
+    one day's data share them (issue 17: 3 covariances of the same records, 12 ms each,
+    most of it the wobble band's transforms); read-only, as the cache shares them."""
+    times = [t for f in fs for _, a, b in f.atoms for t in (a, b)]
+    span = (max(times) - min(times)) if times else 0.0
+    amp = 0.5 * nz.tilt_diurnal_pp_arcsec * ARCSEC
+    diurnal = cosine_gram(list(fs), np.array([1.0 / DAY]), np.array([1.0])) * 0.5 * amp * amp
+    wander = exp_gram(list(fs), nz.tilt_wander_tau_s) * (nz.tilt_wander_sigma_arcsec
+                                                         * ARCSEC) ** 2
+    fb, df = 1.0 / nz.wobble_period_s, 1.0 / nz.wobble_coherence_s
+    nodes, weights = band_nodes(fb - 0.5 * df, fb + 0.5 * df, span)
+    b = nz.wobble_amplitude_arcsec * ARCSEC
+    wobble = cosine_gram(list(fs), nodes, weights) * 0.5 * b * b
+    for g in (diurnal, wander, wobble):
+        g.setflags(write=False)
+    return diurnal, wander, wobble
 
 
 def setting_of(key: Key) -> SettingKey | None:
@@ -192,16 +215,8 @@ class DataCovariance:
     def tilt(self) -> np.ndarray:
         nz = self.noise
         fs, he, hn = self._tilt_terms()
-        times = [t for f in fs for _, a, b in f.atoms for t in (a, b)]
-        span = (max(times) - min(times)) if times else 0.0
-        amp = 0.5 * nz.tilt_diurnal_pp_arcsec * ARCSEC
+        diurnal, wander, wobble = tilt_grams(tuple(fs), nz)
         az = math.radians(nz.tilt_diurnal_azimuth_deg)
-        diurnal = cosine_gram(fs, np.array([1.0 / DAY]), np.array([1.0])) * 0.5 * amp * amp
-        wander = exp_gram(fs, nz.tilt_wander_tau_s) * (nz.tilt_wander_sigma_arcsec * ARCSEC) ** 2
-        fb, df = 1.0 / nz.wobble_period_s, 1.0 / nz.wobble_coherence_s
-        nodes, weights = band_nodes(fb - 0.5 * df, fb + 0.5 * df, span)
-        b = nz.wobble_amplitude_arcsec * ARCSEC
-        wobble = cosine_gram(fs, nodes, weights) * 0.5 * b * b
         ee = diurnal * math.cos(az) ** 2 + wander + wobble
         nn = diurnal * math.sin(az) ** 2 + wander + wobble
         en = diurnal * math.cos(az) * math.sin(az)

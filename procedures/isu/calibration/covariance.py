@@ -83,13 +83,12 @@ def tilt_grams(fs: tuple[Functional, ...], nz: NoiseSpec
     times = [t for f in fs for _, a, b in f.atoms for t in (a, b)]
     span = (max(times) - min(times)) if times else 0.0
     amp = 0.5 * nz.tilt_diurnal_pp_arcsec * ARCSEC
-    diurnal = cosine_gram(list(fs), np.array([1.0 / DAY]), np.array([1.0])) * 0.5 * amp * amp
-    wander = exp_gram(list(fs), nz.tilt_wander_tau_s) * (nz.tilt_wander_sigma_arcsec
-                                                         * ARCSEC) ** 2
+    diurnal = cosine_gram(fs, np.array([1.0 / DAY]), np.array([1.0])) * 0.5 * amp * amp
+    wander = exp_gram(fs, nz.tilt_wander_tau_s) * (nz.tilt_wander_sigma_arcsec * ARCSEC) ** 2
     fb, df = 1.0 / nz.wobble_period_s, 1.0 / nz.wobble_coherence_s
     nodes, weights = band_nodes(fb - 0.5 * df, fb + 0.5 * df, span)
     b = nz.wobble_amplitude_arcsec * ARCSEC
-    wobble = cosine_gram(list(fs), nodes, weights) * 0.5 * b * b
+    wobble = cosine_gram(fs, nodes, weights) * 0.5 * b * b
     for g in (diurnal, wander, wobble):
         g.setflags(write=False)
     return diurnal, wander, wobble

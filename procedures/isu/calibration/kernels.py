@@ -16,6 +16,7 @@ wobble (a band of nodes) are exact up to the band quadrature.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -43,7 +44,7 @@ class Functional:
 ZERO = Functional(())
 
 
-def _flatten(fs: list[Functional]) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+def _flatten(fs: Sequence[Functional]) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     owner, w, a, b = [], [], [], []
     for i, f in enumerate(fs):
         for wi, ai, bi in f.atoms:
@@ -65,7 +66,7 @@ def _phi2(x: np.ndarray, tc: float) -> np.ndarray:
     return tc * tc * (np.expm1(-ax / tc) + ax / tc)
 
 
-def exp_gram(fs: list[Functional], tc: float) -> np.ndarray:
+def exp_gram(fs: Sequence[Functional], tc: float) -> np.ndarray:
     """Matrix of E[F_i x F_j x] for a unit-variance process with covariance exp(-|tau|/tc).
 
     Written through each functional's coefficients on the distinct times it reads (P for
@@ -98,7 +99,7 @@ def exp_gram(fs: list[Functional], tc: float) -> np.ndarray:
     return out
 
 
-def fourier(fs: list[Functional], freqs: np.ndarray) -> np.ndarray:
+def fourier(fs: Sequence[Functional], freqs: np.ndarray) -> np.ndarray:
     """F_i applied to exp(2 pi i f t), shape (len(fs), len(freqs))."""
     owner, w, a, b = _flatten(fs)
     out = np.zeros((len(fs), freqs.size), dtype=complex)
@@ -110,7 +111,7 @@ def fourier(fs: list[Functional], freqs: np.ndarray) -> np.ndarray:
     return out
 
 
-def cosine_gram(fs: list[Functional], freqs: np.ndarray, weights: np.ndarray) -> np.ndarray:
+def cosine_gram(fs: Sequence[Functional], freqs: np.ndarray, weights: np.ndarray) -> np.ndarray:
     """E[F_i x F_j x] for covariance sum_k weights_k cos(2 pi freqs_k tau)."""
     lam = fourier(fs, np.asarray(freqs, dtype=float))
     return np.real((lam * np.asarray(weights)[None, :]) @ lam.conj().T)

@@ -10,7 +10,7 @@ from __future__ import annotations
 import csv
 import io
 import json
-from collections.abc import Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -27,6 +27,9 @@ SAMPLES_DIR = "alignments"
 def csv_cell(v: Any) -> str:
     """A value as a CSV cell: empty for None, repr for floats (exact round trip), JSON for
     lists and dicts."""
+    plain = _PLAIN.get(type(v))  # the exact types most cells hold (an alignment's samples)
+    if plain is not None:
+        return plain(v)
     if v is None:
         return ""
     if isinstance(v, bool):
@@ -36,6 +39,9 @@ def csv_cell(v: Any) -> str:
     if isinstance(v, (list, tuple, dict)):
         return json.dumps(v, sort_keys=True)
     return str(v)
+
+
+_PLAIN: dict[type, Callable[[Any], str]] = {float: float.__repr__, int: int.__repr__, str: str}
 
 
 def csv_text(rows: Iterable[dict]) -> str:

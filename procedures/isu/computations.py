@@ -140,7 +140,13 @@ def _tilt_seen_turning_arcsec(noise: NoiseSpec, gate_s: float, rate_deg_s: float
     phi) dt, phi uniform; near the wobble's period (60 s against 72 s a turn at 5 deg/s) it
     does not average out over whole turns."""
     t = np.linspace(0.0, gate_s, steps + 1)
-    ee, _, _ = noise.tilt_covariance(np.subtract.outer(t, t))
+    # ee at |t_i - t_j| is symmetric bit for bit (x - y = -(y - x) in floating point): the
+    # upper triangle is evaluated once and mirrored (half the cosines, exps and sincs)
+    upper = np.triu_indices(t.size)
+    ee_upper, _, _ = noise.tilt_covariance(np.subtract.outer(t, t)[upper])
+    ee = np.empty((t.size, t.size))
+    ee[upper] = ee_upper
+    ee.T[upper] = ee_upper
     cov = np.diff(np.diff(ee, axis=0), axis=1)  # of the tilt changes over the steps
     w = math.radians(rate_deg_s) * 0.5 * (t[1:] + t[:-1])
     c, s = np.cos(w), np.sin(w)

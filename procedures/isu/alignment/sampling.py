@@ -55,12 +55,10 @@ class RawSamples:
 
     def rows(self) -> list[dict]:
         """One dict per sample, keys ``RAW_COLUMNS``."""
-        out = []
-        for i in range(self.seq.size):
-            vals = (int(self.seq[i]), float(self.t[i]), int(self.timer[i]), int(self.flags[i]),
-                    *(int(x) for x in self.gyro[i]), *(int(x) for x in self.strings[i]))
-            out.append(dict(zip(RAW_COLUMNS, vals, strict=True)))
-        return out
+        cols = (self.seq.astype(np.int64).tolist(), self.t.astype(float).tolist(),
+                self.timer.astype(np.int64).tolist(), self.flags.astype(np.int64).tolist(),
+                *self.gyro.astype(np.int64).T.tolist(), *self.strings.astype(np.int64).T.tolist())
+        return [dict(zip(RAW_COLUMNS, vals, strict=True)) for vals in zip(*cols, strict=True)]
 
 
 @dataclass

@@ -1,0 +1,113 @@
+"""Faster paths of issue 17 held bit for bit to the computation each replaced, on random
+inputs: a table axis at a few instants, an alignment's raw samples as rows, CSV cells, and
+the pier tilt a turning gyro sees over a gate (Chart II-7Q's speed sigmas)."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+
+from laboratory.export import csv_cell
+from procedures.isu.alignment.sampling import RAW_COLUMNS, RawSamples
+from procedures.isu.calibration.noise_spec import NoiseSpec
+from procedures.isu.computations import _tilt_seen_turning_arcsec
+from sim.isu.trajectory import Trajectory, plan_move, plan_rate
+
+
+def _random_trajectory(rng: np.random.Generator) -> tuple[Trajectory, float]:
+    tr = Trajectory(rng.uniform(-1, 1))
+    t = 0.0
+    for _ in range(6):
+        p, v = tr.cut(t)
+        if rng.random() < 0.5:
+            segs, _ = plan_move(t, p, p + rng.uniform(-3, 3), 0.5, 0.3, rng.uniform(0, 1e-3),
+                                rng.uniform(0.1, 2))
+        else:
+            segs, _ = plan_rate(t, p, v, rng.uniform(-1, 1), 0.2)
+        tr.append(segs)
+        t += rng.uniform(1, 30)
+    return tr, t
+
+
+def test_a_few_instants_carry_the_bits_of_the_same_instants_in_a_long_array() -> None:
+    rng = np.random.default_rng(20261128)
+    for _ in range(20):
+        tr, t_end = _random_trajectory(rng)
+        ts = rng.uniform(-1, t_end + 10, 200)
+        p_all, v_all = tr.evaluate(ts)
+        for n in (2, 3, 7, 16, 17):
+            i = int(rng.integers(0, ts.size - n))
+            p, v = tr.evaluate(ts[i:i + n])
+            assert p.shape == v.shape == (n,)
+            assert np.array_equal(p, p_all[i:i + n]) and np.array_equal(v, v_all[i:i + n])
+        p2, v2 = tr.evaluate(ts[:6].reshape(2, 3))  # the shape asked for comes back
+        assert p2.shape == (2, 3) and np.array_equal(p2.ravel(), p_all[:6])
+        assert np.array_equal(v2.ravel(), v_all[:6])
+
+
+def test_raw_samples_rows_are_the_samples_element_by_element() -> None:
+    rng = np.random.default_rng(7)
+    n = 57
+    raw = RawSamples(np.arange(100, 100 + n), np.cumsum(rng.uniform(0.09, 0.11, n)),
+                     rng.integers(0, 2**20, n), rng.integers(0, 16, n),
+                     rng.integers(-5000, 5000, (n, 3)), rng.integers(0, 2**24, (n, 6)))
+    rows = raw.rows()
+    assert len(rows) == n
+    for i, row in enumerate(rows):
+        want = (int(raw.seq[i]), float(raw.t[i]), int(raw.timer[i]), int(raw.flags[i]),
+                *(int(x) for x in raw.gyro[i]), *(int(x) for x in raw.strings[i]))
+        assert list(row) == list(RAW_COLUMNS)
+        assert tuple(row.values()) == want
+        assert [type(x) for x in row.values()] == [type(x) for x in want]
+
+
+def _csv_cell_as_it_was(v: object) -> str:
+    if v is None:
+        return ""
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, float):
+        return repr(v)
+    if isinstance(v, (list, tuple, dict)):
+        return json.dumps(v, sort_keys=True)
+    return str(v)
+
+
+def test_csv_cells_are_written_as_before() -> None:
+    rng = np.random.default_rng(11)
+    values: list[object] = [None, True, False, 0, -0.0, math.inf, -math.inf, math.nan, 10**30,
+                            "a,b", "", [1, 2.5], (1,), {"b": 1, "a": [None]}, np.float64(2.5),
+                            np.int64(3)]
+    values += [float(x) for x in rng.normal(0, 1e6, 50)]
+    values += [int(x) for x in rng.integers(-2**40, 2**40, 50)]
+    for v in values:
+        assert csv_cell(v) == _csv_cell_as_it_was(v), v
+
+
+def _tilt_seen_turning_full(noise: NoiseSpec, gate_s: float, rate_deg_s: float,
+                            steps: int = 240) -> float:
+    t = np.linspace(0.0, gate_s, steps + 1)
+    ee, _, _ = noise.tilt_covariance(np.subtract.outer(t, t))
+    cov = np.diff(np.diff(ee, axis=0), axis=1)
+    w = math.radians(rate_deg_s) * 0.5 * (t[1:] + t[:-1])
+    c, s = np.cos(w), np.sin(w)
+    var = 0.5 * float(c @ cov @ c + s @ cov @ s)
+    return math.sqrt(max(var, 0.0)) * 180.0 / math.pi * 3600.0
+
+
+def test_tilt_seen_by_a_turning_axis_from_the_mirrored_triangle() -> None:
+    rng = np.random.default_rng(3)
+    for _ in range(40):
+        noise = NoiseSpec.model_validate({
+            "wobble_period_s": float(rng.uniform(20, 200)),
+            "wobble_coherence_s": float(rng.uniform(50, 5000)),
+            "wobble_amplitude_arcsec": float(rng.uniform(0, 3)),
+            "tilt_wander_tau_s": float(rng.uniform(100, 1e5)),
+            "tilt_wander_sigma_arcsec": float(rng.uniform(0, 3)),
+        })
+        gate, rate = float(rng.uniform(1, 400)), float(rng.uniform(0.1, 20))
+        steps = int(rng.integers(20, 260))
+        assert (_tilt_seen_turning_arcsec(noise, gate, rate, steps)
+                == _tilt_seen_turning_full(noise, gate, rate, steps))

@@ -10,8 +10,10 @@ from __future__ import annotations
 def run() -> None:
     """`station`: laboratory.cli.run with the collector deferred while it imports."""
     from laboratory import startup
+    from station.numerics import pin_blas_threads_at_start
 
     startup.defer()
+    pin_blas_threads_at_start()  # one BLAS thread, as the run pins it, from the start
     from laboratory.cli import run as cli_run
 
     cli_run()

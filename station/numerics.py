@@ -14,14 +14,27 @@ it) and for the processes the run starts.
 from __future__ import annotations
 
 import os
+import sys
 from typing import Any
 
 _limit: list[Any] = []  # the process's one controller, kept alive while the process runs
+_before_numpy: list[bool] = []  # pinned by the environment before numpy loaded its BLAS
+
+
+def pin_blas_threads_at_start() -> None:
+    """The console script's first step: OPENBLAS_NUM_THREADS=1 before numpy is imported, so
+    that OpenBLAS starts with one thread. What the process computes before its run pins the
+    count (the plan check) then has the run's bits, no second BLAS thread spins beside the
+    plot child, and ``pin_blas_threads`` has nothing left to limit (no threadpoolctl)."""
+    if _limit or _before_numpy or "numpy" in sys.modules:
+        return  # numpy's BLAS already loaded: pin_blas_threads limits it with threadpoolctl
+    os.environ["OPENBLAS_NUM_THREADS"] = "1"
+    _before_numpy.append(True)
 
 
 def pin_blas_threads() -> None:
     """Limit the BLAS libraries of this process to one thread (idempotent, process-wide)."""
-    if _limit:
+    if _limit or (_before_numpy and os.environ.get("OPENBLAS_NUM_THREADS") == "1"):
         return
     os.environ["OPENBLAS_NUM_THREADS"] = "1"  # for the libraries loaded from now on
     import numpy  # noqa: F401 - load numpy's BLAS, so that it is limited too

@@ -34,3 +34,31 @@ def test_level_alignment_is_the_same_with_one_or_two_blas_threads(tmp_path, seed
     assert len(one) == len(two) > 300
     for a, b in zip(one, two, strict=True):
         assert a == b, (a.get("chart"), a.get("step"))
+
+
+_PROBE = """
+import sys
+{first}
+from station.numerics import pin_blas_threads, pin_blas_threads_at_start
+pin_blas_threads_at_start()
+import numpy
+pin_blas_threads()
+used = 'threadpoolctl' in sys.modules
+from threadpoolctl import threadpool_info
+print(used, [d['num_threads'] for d in threadpool_info() if d['user_api'] == 'blas'])
+"""
+
+
+@pytest.mark.parametrize(("first", "pinned_by"), [("", "environment"),
+                                                  ("import numpy", "threadpoolctl")])
+def test_blas_has_one_thread_however_the_process_started(first, pinned_by):
+    """The console script pins OpenBLAS by the environment before numpy loads it (no second
+    thread, no threadpoolctl); a process that loaded numpy first is limited by threadpoolctl
+    when its run starts. Either way every BLAS library has one thread."""
+    env = {k: v for k, v in os.environ.items() if k not in ("OPENBLAS_NUM_THREADS",
+                                                            "OMP_NUM_THREADS")}
+    out = subprocess.run([sys.executable, "-c", _PROBE.format(first=first)], env=env,
+                         check=True, capture_output=True, text=True).stdout.split(maxsplit=1)
+    assert out[0] == str(pinned_by == "threadpoolctl")
+    threads = json.loads(out[1])
+    assert threads and all(n == 1 for n in threads)

@@ -34,8 +34,8 @@ def csv_cell(v: Any) -> str:
         return ""
     if isinstance(v, bool):
         return "true" if v else "false"
-    if isinstance(v, float):
-        return repr(v)
+    if isinstance(v, float):  # numpy's float64 too: its repr is "np.float64(x)"
+        return repr(float(v))
     if isinstance(v, (list, tuple, dict)):
         return json.dumps(v, sort_keys=True)
     return str(v)

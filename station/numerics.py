@@ -32,10 +32,25 @@ def pin_blas_threads_at_start() -> None:
     _before_numpy.append(True)
 
 
+def _numpy_blas_is_openblas() -> bool:
+    """Whether numpy was built against OpenBLAS (which reads OPENBLAS_NUM_THREADS when it
+    loads); another BLAS (MKL, Accelerate) is limited by threadpoolctl as before."""
+    import numpy
+
+    try:
+        name = numpy.__config__.CONFIG["Build Dependencies"]["blas"]["name"]
+    except (AttributeError, KeyError, TypeError):
+        return False
+    return "openblas" in str(name).lower()
+
+
 def pin_blas_threads() -> None:
     """Limit the BLAS libraries of this process to one thread (idempotent, process-wide)."""
-    if _limit or (_before_numpy and os.environ.get("OPENBLAS_NUM_THREADS") == "1"):
+    if _limit:
         return
+    if (_before_numpy and os.environ.get("OPENBLAS_NUM_THREADS") == "1"
+            and _numpy_blas_is_openblas()):
+        return  # OpenBLAS started with one thread (pin_blas_threads_at_start)
     os.environ["OPENBLAS_NUM_THREADS"] = "1"  # for the libraries loaded from now on
     import numpy  # noqa: F401 - load numpy's BLAS, so that it is limited too
     from threadpoolctl import threadpool_limits

@@ -23,12 +23,13 @@ import math
 from dataclasses import replace
 from pathlib import Path
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationInfo, field_validator
+from pydantic import BaseModel, Field, ValidationInfo, field_validator
 
 from sim.cigtf.world import MA, CigtfParams
 from sim.units import ARCSEC, EARTH_RATE
 from station.config.file import read_section
 from station.config.limits import CigtfLimits
+from station.config.strict import STRICT
 
 # The test plan's figures (procedures.cigtf.procedure.TestPlan; a test checks
 # they agree): averages per orientation, operating runs, the GSF turn.
@@ -69,8 +70,7 @@ class Eq27Config(BaseModel):
     (arcsec), the gyro's calibrated D_I and D_OS (deg/hr per g), the error of the fixture's
     180 deg vertical null (arcsec). ``apply`` (or ``--eq27``) corrects each phase's theta."""
 
-    model_config = ConfigDict(defer_build=True,
-                              extra="forbid", frozen=True, allow_inf_nan=False, strict=True)
+    model_config = STRICT
     apply: bool = False
     b_arcsec: float = Field(0.0, ge=-600, le=600)
     c_arcsec: float = Field(0.0, ge=-600, le=600)
@@ -85,8 +85,7 @@ class Eq27Config(BaseModel):
 class CigtfConfig(BaseModel):
     # Field order matters: the latitude is checked against the level error, then the
     # noise against the latitude (each error names the field that is out of bounds).
-    model_config = ConfigDict(defer_build=True,
-                              extra="forbid", frozen=True, allow_inf_nan=False, strict=True)
+    model_config = STRICT
     level_sd_arcsec: float | None = Field(None, ge=0, le=60)  # a, b, c: a levelled fixture
     perpendicular_sd_arcsec: float | None = Field(None, ge=0, le=60)  # d, e, f
     mount_sd_arcsec: float | None = Field(None, ge=0, le=600)  # h, i, j: first-order models

@@ -23,7 +23,6 @@ from typing import TYPE_CHECKING, Literal, TypeVar
 
 from pydantic import (
     BaseModel,
-    ConfigDict,
     Field,
     ValidationInfo,
     field_validator,
@@ -34,14 +33,12 @@ from sim.esg.pattern import PatternSpec
 from sim.esg.world import EsgParams
 from station.config.file import read_section
 from station.config.limits import EsgLimits
+from station.config.strict import STRICT
 
 if TYPE_CHECKING:
     from _typeshed import DataclassInstance
 
 _D = TypeVar("_D", bound="DataclassInstance")
-
-_STRICT = ConfigDict(defer_build=True,
-                     extra="forbid", frozen=True, allow_inf_nan=False, strict=True)
 
 # Where the three pickoffs make equal angles with the spin axis, for mirrors 89 deg 56 min
 # 5 sec apart (procedures.esg.mechanization.equal_ratio_colatitude; a test ties the two)
@@ -59,7 +56,7 @@ class PatternConfig(BaseModel):
     its lines end short of the equal-ratio colatitude, and a great circle is inclined
     enough to reach that end (the validators below; docs/esg.md, "Admitted patterns")."""
 
-    model_config = _STRICT
+    model_config = STRICT
     kind: Literal["great_circle", "cosine"] | None = None
     inclination_deg: float | None = Field(None, gt=10.0, lt=80.0)
     top_colatitude_deg: float | None = Field(None, ge=30.0, le=60.0)
@@ -107,7 +104,7 @@ class PatternConfig(BaseModel):
 
 
 class SignalConfig(BaseModel):
-    model_config = _STRICT
+    model_config = STRICT
     jitter_ns: float | None = Field(None, ge=0, le=10000)
     arc_rate_per_rev: float | None = Field(None, ge=0, le=10)
     arc_wide_fraction: float | None = Field(None, ge=0, le=1)
@@ -116,7 +113,7 @@ class SignalConfig(BaseModel):
 class ReductionConfig(BaseModel):
     """The data reduction's choices (report 004, "Data Reduction Technique")."""
 
-    model_config = _STRICT
+    model_config = STRICT
     # eq. 11's polynomial order: 5..9 (the report's trials; it used 7) or "residuals", each
     # schedule's choice by the order trials' prediction residuals
     order: Literal[5, 6, 7, 8, 9, "residuals"] = 7
@@ -125,7 +122,7 @@ class ReductionConfig(BaseModel):
 class ProcedureConfig(BaseModel):
     """The acquisition's choices (report 004, "Before data taking")."""
 
-    model_config = _STRICT
+    model_config = STRICT
     # sheet ESG-DPX: lamps, discriminator and delay set up at the pattern extremity after
     # spin-up (false: the processor's preset 20 us and 241 us, lamps as delivered)
     extremity_setup: bool = True
@@ -151,7 +148,7 @@ class ProcedureConfig(BaseModel):
 
 
 class EsgConfig(BaseModel):
-    model_config = _STRICT
+    model_config = STRICT
     latitude_deg: float | None = Field(None, ge=-89.0, le=89.0)
     spin_rps: float | None = Field(None, ge=250.0, le=500.0)
     rundown_tau_h: float | None = Field(None, ge=13.5, le=1e6)

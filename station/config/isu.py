@@ -54,13 +54,12 @@ from station.config.file import (
 from station.config.identity import IsuIdentity
 from station.config.limits import IsuLimits
 from station.config.plan import PlanSettings
+from station.config.strict import STRICT
 from station.drivers.isu import SERIAL_INSTRUMENTS
 
 __all__ = ["ConfigError", "StationConfig", "default_dict", "load_config", "read_section"]
 
 MAX_SEED = 2**63 - 1  # the journal stores the seed as a JSON number
-_STRICT = ConfigDict(defer_build=True,
-                     extra="forbid", frozen=True, allow_inf_nan=False, strict=True)
 _BUS_KEY = re.compile(r"[a-z_][a-z0-9_]*")
 
 
@@ -98,7 +97,7 @@ class CanLink(BaseModel):
 
 
 class Links(BaseModel):
-    model_config = _STRICT
+    model_config = STRICT
     serial: dict[str, str]
     can: CanLink
 
@@ -139,12 +138,12 @@ Aim = Annotated[tuple[AzimuthDeg, ZenithDeg], AsTuple]
 
 
 class SerialSettings(SerialParams):
-    model_config = _STRICT
+    model_config = STRICT
     latency_s: float = Field(ge=0, le=1.0)
 
 
 class AutocollimatorSettings(AutocollimatorParams):
-    model_config = _STRICT
+    model_config = STRICT
     noise_arcsec: float = Field(ge=0, le=60)  # an arcminute: the coarsest of the kind
     fov_deg: float = Field(gt=0, le=5)
     # A MEAS? reply comes after the integration: within the driver's 5 s reply timeout.
@@ -172,20 +171,20 @@ class AutocollimatorSettings(AutocollimatorParams):
 
 
 class BubbleLevelSettings(BubbleLevelParams):
-    model_config = _STRICT
+    model_config = STRICT
     noise_arcsec: float = Field(ge=0, le=10)  # fifty times a precision level's 0.2
     resolution_arcsec: float = Field(ge=1e-3, le=10)
     range_arcsec: float = Field(gt=0, le=3600)
 
 
 class IeuSettings(IeuParams):
-    model_config = _STRICT
+    model_config = STRICT
     frame_gap_s: float = Field(ge=0, le=0.013)  # a frame at 10 kbit/s, CAN's slowest rate
     max_period_s: float = Field(gt=0, le=3.2)  # 65535 counts of a 20 kHz string
 
 
 class InstrumentSettings(InstrumentParams):
-    model_config = _STRICT
+    model_config = STRICT
     serial: SerialSettings
     autocollimator: AutocollimatorSettings
     bubble_level: BubbleLevelSettings
@@ -208,7 +207,7 @@ def _fault_instrument(name: str) -> str:
 
 
 class StationConfig(BaseModel):
-    model_config = _STRICT
+    model_config = STRICT
     seed: int = Field(ge=0, le=MAX_SEED)
     site: SiteParams
     environment: EnvironmentParams

@@ -17,10 +17,9 @@ import math
 import re
 from typing import Annotated
 
-from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
+from pydantic import BaseModel, Field, field_validator, model_validator
 
-_STRICT = ConfigDict(defer_build=True,
-                     extra="forbid", frozen=True, allow_inf_nan=False, strict=True)
+from station.config.strict import STRICT
 
 # The rows of the Calibration Results Sheet (Chart II-5), by kind of instrument.
 GYRO_PARAMETERS = ("DeltaPhi", "G.B1", "G.B2", "G.B3", "R", "B_I", "B_O", "B_S", "C_II",
@@ -38,7 +37,7 @@ _KEY = re.compile(r"(gyro|accel)([1-9]?)\.(.+)")
 class ConstantLimit(BaseModel):
     """A band on one constant's estimate and, optionally, its required accuracy."""
 
-    model_config = _STRICT
+    model_config = STRICT
     nominal: Value | None = None  # centre of max_abs (0 when not given)
     max_abs: Width | None = None  # |estimate - nominal| <= max_abs
     interval: list[Value] | None = None  # [low, high]: low <= estimate <= high
@@ -63,7 +62,7 @@ class ConstantLimit(BaseModel):
 class AlignmentLimit(BaseModel):
     """The largest predicted 1-sigma attitude error of an alignment, per axis, arcsec."""
 
-    model_config = _STRICT
+    model_config = STRICT
     max_sigma_arcsec: list[Arcsec]
 
     @field_validator("max_sigma_arcsec")
@@ -77,7 +76,7 @@ class AlignmentLimit(BaseModel):
 class IsuLimits(BaseModel):
     """``[limits]`` of the ISU laboratory's file."""
 
-    model_config = _STRICT
+    model_config = STRICT
     constants: dict[str, ConstantLimit] = {}
     alignment: dict[str, AlignmentLimit] = {}
 
@@ -123,7 +122,7 @@ class CigtfLimits(BaseModel):
     gyro that gives north to 1 arcmin at 3 sigma (docs/limits.md); the default fixture
     shows about 5."""
 
-    model_config = _STRICT
+    model_config = STRICT
     max_operating_instability_arcsec: float | None = Field(20.0, gt=0, le=3600.0)  # delta
     max_shutdown_instability_arcsec: float | None = Field(20.0, gt=0, le=3600.0)  # Delta
 
@@ -132,5 +131,5 @@ class EsgLimits(BaseModel):
     """``[esg.limits]``: the readout rms goal, arcsec. Report 004: "demonstration of gyro
     readout to an accuracy of 15 arc-seconds or better" (the program goal)."""
 
-    model_config = _STRICT
+    model_config = STRICT
     readout_rms_arcsec: float | None = Field(15.0, gt=0, le=3600.0)

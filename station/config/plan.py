@@ -9,9 +9,10 @@ keeps those times; procedures.isu.accuracy turns the requirements into times.
 
 from __future__ import annotations
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError
+from pydantic import BaseModel, Field, ValidationError
 
 from station.config.assignment import named_item
+from station.config.strict import STRICT
 
 # name -> (units, what it bounds, chart): the one list the command line and the sheets use
 REQUIREMENT_TEXT = {
@@ -28,8 +29,7 @@ REQUIREMENT_TEXT = {
 class PlanSettings(BaseModel):
     """``[plan]``: required accuracies (1 sigma) and the longest gate the day may use."""
 
-    model_config = ConfigDict(defer_build=True,
-                              extra="forbid", frozen=True, allow_inf_nan=False, strict=True)
+    model_config = STRICT
 
     gyro_scale_factor: float = Field(1e-4, gt=0, le=0.01,
                                      description="relative, Chart II-18 (1e-4 in one turn)")

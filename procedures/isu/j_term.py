@@ -21,8 +21,9 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from procedures.isu.calibration.kernels import Functional, band_nodes, cosine_gram, exp_gram
-from procedures.isu.calibration.noise_spec import ARCSEC, DAY, NoiseSpec
+from procedures.isu.calibration.covariance import tilt_grams
+from procedures.isu.calibration.kernels import Functional, exp_gram
+from procedures.isu.calibration.noise_spec import ARCSEC, NoiseSpec
 from procedures.isu.common import patch, set_modes, set_position
 from procedures.isu.plan import DayPlan
 from procedures.isu.plausibility import Implausible, guarded, source_of
@@ -249,20 +250,14 @@ def tilt_functionals(rec: dict, counter: int, g_r: np.ndarray, accel: float
 def tilt_covariance(records: list[dict], counter: int, dphi_arcsec: float, g_r: np.ndarray,
                     accel: float, pier: NoiseSpec) -> np.ndarray:
     """Covariance (pulses^2) of the gates' tilt angles (``tilt_functionals``) under the
-    pier's diurnal tilt, wander and wobble (``NoiseSpec``; as ``calibration.covariance``)."""
+    pier's diurnal tilt, wander and wobble (``NoiseSpec``): the Grams of
+    ``calibration.covariance.tilt_grams``, as the calibration's fits take them."""
     n = len(records)
     pairs = [tilt_functionals(r, counter, g_r, accel) for r in records]
-    fs = [e for e, _ in pairs] + [x for _, x in pairs]
-    times = [t for f in fs for _, a, b in f.atoms for t in (a, b)]
-    span = max(times) - min(times)
-    amp = 0.5 * pier.tilt_diurnal_pp_arcsec * ARCSEC
+    fs = tuple([e for e, _ in pairs] + [x for _, x in pairs])
+    diurnal, wander, wobble = tilt_grams(fs, pier)
+    iso = wander + wobble
     az = math.radians(pier.tilt_diurnal_azimuth_deg)
-    diurnal = cosine_gram(fs, np.array([1.0 / DAY]), np.array([1.0])) * 0.5 * amp * amp
-    iso = exp_gram(fs, pier.tilt_wander_tau_s) * (pier.tilt_wander_sigma_arcsec * ARCSEC) ** 2
-    fb, df = 1.0 / pier.wobble_period_s, 1.0 / pier.wobble_coherence_s
-    nodes, weights = band_nodes(fb - 0.5 * df, fb + 0.5 * df, span)
-    b = pier.wobble_amplitude_arcsec * ARCSEC
-    iso = iso + cosine_gram(fs, nodes, weights) * 0.5 * b * b
     E, N = slice(0, n), slice(n, 2 * n)
     c, s_ = math.cos(az), math.sin(az)
     rad = (diurnal[E, E] * c * c + diurnal[N, N] * s_ * s_

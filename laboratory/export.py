@@ -24,10 +24,14 @@ CAN_LOG = "ieu.asc"
 SAMPLES_DIR = "alignments"
 
 
+# the exact types most cells hold (an alignment's samples), written after one lookup
+_PLAIN: dict[type, Callable[[Any], str]] = {float: float.__repr__, int: int.__repr__, str: str}
+
+
 def csv_cell(v: Any) -> str:
     """A value as a CSV cell: empty for None, repr for floats (exact round trip), JSON for
     lists and dicts."""
-    plain = _PLAIN.get(type(v))  # the exact types most cells hold (an alignment's samples)
+    plain = _PLAIN.get(type(v))
     if plain is not None:
         return plain(v)
     if v is None:
@@ -39,9 +43,6 @@ def csv_cell(v: Any) -> str:
     if isinstance(v, (list, tuple, dict)):
         return json.dumps(v, sort_keys=True)
     return str(v)
-
-
-_PLAIN: dict[type, Callable[[Any], str]] = {float: float.__repr__, int: int.__repr__, str: str}
 
 
 def csv_text(rows: Iterable[dict]) -> str:

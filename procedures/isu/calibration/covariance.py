@@ -79,7 +79,8 @@ def tilt_grams(fs: tuple[Functional, ...], nz: NoiseSpec
     """Gram matrices (rad^2) of the tilt functionals ``fs`` under the diurnal term, the
     wander and the wobble of ``nz``. They depend on the gates' times only, so the fits of
     one day's data share them (issue 17: 3 covariances of the same records, 12 ms each,
-    most of it the wobble band's transforms); read-only, as the cache shares them."""
+    most of it the wobble band's transforms); read-only, as the cache shares them. The J
+    experiment's tilt covariance takes its Grams here too."""
     times = [t for f in fs for _, a, b in f.atoms for t in (a, b)]
     span = (max(times) - min(times)) if times else 0.0
     amp = 0.5 * nz.tilt_diurnal_pp_arcsec * ARCSEC

@@ -28,7 +28,11 @@ from procedures.isu.calibration.all_positions import (
     side_by_side,
 )
 from procedures.isu.calibration.checks import K_RESULT, check_residuals, check_string_sums
-from procedures.isu.calibration.compute import calibrate_with_correlation, without
+from procedures.isu.calibration.compute import (
+    calibrate_with_correlation,
+    constants_covariance,
+    without,
+)
 from procedures.isu.calibration.forward import GyroModel
 from procedures.isu.calibration.geometry import FIRST_COLUMN
 from procedures.isu.calibration.inputs import ExtraAccelPosition
@@ -324,7 +328,8 @@ def compute_calibration(run: Run, data: DayData, plan: DayPlan, noise: NoiseSpec
             if estimator == "closed-form":  # the fit's columns change no estimate the
                 # checks read: it runs beside them, on the rows as they are now (issue 17)
                 fitted = run.meanwhile(SIDE_BY_SIDE, rows=rows, data=cd, noise=noise,
-                                       series=data.nonlinearity)
+                                       series=data.nonlinearity,
+                                       closed_covariance=constants_covariance(cd, noise))
             else:
                 chosen = side_by_side(rows, cd, noise, estimator, data.nonlinearity)
                 corr = chosen_correlation(rows, chosen, estimator)

@@ -561,15 +561,19 @@ def side_by_side(rows: list[ResultRow], data: CalibrationData, noise: NoiseSpec 
 
 def side_by_side_columns(rows: list[ResultRow], data: CalibrationData,
                          noise: NoiseSpec | None, estimator: str = "closed-form",
-                         series: Mapping[int, list[dict]] | None = None
+                         series: Mapping[int, list[dict]] | None = None,
+                         closed_covariance: tuple[dict[Row, float | None], list[Row],
+                                                  np.ndarray] | None = None
                          ) -> tuple[list[dict[str, Any]], tuple[list[Row], np.ndarray]]:
     """``side_by_side`` without touching ``rows``: what it writes on each row (field ->
     value) and what it returns. A pure function of its arguments, so the closed-form day
-    computes it beside its checks (Run.meanwhile, issue 17)."""
+    computes it beside its checks (Run.meanwhile, issue 17). ``closed_covariance``:
+    ``constants_covariance(data, noise)`` where the caller holds it (a second process
+    would compute it again: 0.04 s of a day)."""
     if estimator not in ESTIMATORS:
         raise ValueError(f"estimator: {estimator!r} is not one of {', '.join(ESTIMATORS)}")
     noise = noise or NoiseSpec()
-    closed, cf_rows, cf_cov = constants_covariance(data, noise)
+    closed, cf_rows, cf_cov = closed_covariance or constants_covariance(data, noise)
     red = reduce_all(data)
     d = design(data, closed, red)
     cov_z = data_covariance(red, d.keys, data, noise, closed)

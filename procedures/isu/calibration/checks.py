@@ -29,10 +29,9 @@ import numpy as np
 from procedures.isu.calibration.accel_equations import ACCEL_PARAMS
 from procedures.isu.calibration.compute import (
     Row,
-    data_covariance,
     data_covariance_model,
-    estimate,
     estimate_of,
+    propagation,
     readers,
 )
 from procedures.isu.calibration.forward import AccelModel, GyroModel
@@ -72,11 +71,16 @@ def owner(key: Key) -> str:
 
 
 def predictions(z: Mapping[Key, float], c: Constants, keys: list[Key],
-                special: Mapping[Row, float]) -> np.ndarray:
-    """Each datum in ``keys`` as the constants computed from ``z`` predict it."""
+                special: Mapping[Row, float],
+                known: Mapping[Row, float | None] | None = None) -> np.ndarray:
+    """Each datum in ``keys`` as the constants computed from ``z`` predict it. ``known``:
+    those constants, already computed from ``z`` (at least every owner's of ``keys``)."""
     est: dict[Row, float | None] = {}
-    for inst in sorted({owner(key) for key in keys}):  # only the models these data need
-        est.update(estimate_of(z, c, inst))
+    if known is None:
+        for inst in sorted({owner(key) for key in keys}):  # only the models these data need
+            est.update(estimate_of(z, c, inst))
+    else:
+        est.update(known)
     est = {**est, **special}
 
     def sub(prefix: str) -> dict[str, float | None]:
@@ -105,10 +109,15 @@ def check_residuals(data: CalibrationData, rows: list[ResultRow],
     noise = noise or NoiseSpec.model_validate({})
     c = data.constants
     red = reduce(data)
-    keys = list(red.values)
     special = {(r.instrument, r.parameter): r.estimate for r in rows
                if r.parameter in SPECIAL and r.estimate is not None}
-    est0 = {**estimate(red.values, c), **special}
+    try:  # the estimates, the data covariance and the moved data's estimates, as the
+        # constants' covariance computed them (the same steps: the same bits)
+        prop = propagation(data, noise)
+    except (ValueError, KeyError):
+        return {"judged": 0, "note": "too few positions for a prediction"}
+    keys = prop.keys
+    est0 = {**prop.est, **special}
 
     def complete(kind: str, k: int, m: int) -> bool:
         """The forward model of this datum has every constant it needs (a partial day,
@@ -126,14 +135,12 @@ def check_residuals(data: CalibrationData, rows: list[ResultRow],
     sp_sigma = {(r.instrument, r.parameter): r.sigma or 0.0 for r in rows
                 if r.parameter in SPECIAL and r.estimate is not None}
     try:
-        pred = predictions(red.values, c, judged, special)
+        pred = predictions(red.values, c, judged, special, prop.est)
     except (ValueError, KeyError):
         return {"judged": 0, "note": "too few positions for a prediction"}
     z0 = np.array([red.values[key] for key in keys])
     resid0 = np.array([red.values[key] for key in judged]) - pred
-    cov = data_covariance(red, keys, data, noise, estimate(red.values, c))
-    steps = np.sqrt(np.maximum(np.diag(cov), 0.0))
-    steps = np.where(steps > 0, steps, 1e-9 * np.maximum(np.abs(z0), 1.0))
+    cov, steps = prop.data_cov, prop.steps
     jac = np.zeros((len(judged), len(keys)))
     for i, h in enumerate(steps):
         # Only the data of the instruments that read this datum (and the datum itself)
@@ -146,14 +153,18 @@ def check_residuals(data: CalibrationData, rows: list[ResultRow],
         zp, zm = dict(red.values), dict(red.values)
         zp[keys[i]] = z0[i] + h
         zm[keys[i]] = z0[i] - h
-        rp = np.array([zp[key] for key in moved]) - predictions(zp, c, moved, special)
-        rm = np.array([zm[key] for key in moved]) - predictions(zm, c, moved, special)
+        rp = np.array([zp[key] for key in moved]) - predictions(zp, c, moved, special,
+                                                                prop.moved[(i, 1)])
+        rm = np.array([zm[key] for key in moved]) - predictions(zm, c, moved, special,
+                                                                prop.moved[(i, -1)])
         jac[idx, i] = (rp - rm) / (2.0 * h)
     var = np.einsum("ij,jk,ik->i", jac, cov, jac)
     for row, s in sp_sigma.items():  # Q_II, Q_IS at their sigmas (special experiments)
         if s:
-            up = predictions(red.values, c, judged, {**special, row: special[row] + s})
-            dn = predictions(red.values, c, judged, {**special, row: special[row] - s})
+            up = predictions(red.values, c, judged, {**special, row: special[row] + s},
+                             prop.est)
+            dn = predictions(red.values, c, judged, {**special, row: special[row] - s},
+                             prop.est)
             var += (0.5 * (up - dn)) ** 2
     own = np.array([cov[keys.index(key), keys.index(key)] for key in judged])
     out: dict[str, dict] = {}

@@ -12,6 +12,7 @@ of the turn of O and S about G that no position measures (``neglected``).
 from __future__ import annotations
 
 from collections.abc import Mapping
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -128,11 +129,17 @@ def data_covariance_model(
     return DataCovariance(red, keys, c, noise, gyros, accels, table, tbr)
 
 
+Moved = dict[tuple[int, int], dict[Row, float | None]]  # (datum, +1 or -1): estimates
+
+
 def estimator_jacobian(z: Mapping[Key, float], c: Constants, keys: list[Key], rows: list[Row],
-                       steps: np.ndarray, corrected: bool = True) -> np.ndarray:
+                       steps: np.ndarray, corrected: bool = True,
+                       keep: Moved | None = None) -> np.ndarray:
     """d(rows)/d(data) of the closed forms by central differences of ``steps``. Only the
     instruments that read a datum are estimated again: the others' rows would come out
-    identical, their differences exactly zero. ``corrected``: as ``estimate_of``."""
+    identical, their differences exactly zero. ``corrected``: as ``estimate_of``.
+    ``keep``: filled with the readers' estimates at each datum moved by +h and -h (the
+    residual check moves the same data by the same steps: ``Propagation``)."""
     jac = np.zeros((len(rows), len(keys)))
     index = {r: n for n, r in enumerate(rows)}
     for i, h in enumerate(steps):
@@ -141,36 +148,68 @@ def estimator_jacobian(z: Mapping[Key, float], c: Constants, keys: list[Key], ro
         zm[keys[i]] = z[keys[i]] - h
         for inst in readers(keys[i]):
             ep, em = estimate_of(zp, c, inst, corrected), estimate_of(zm, c, inst, corrected)
+            if keep is not None:
+                keep.setdefault((i, 1), {}).update(ep)
+                keep.setdefault((i, -1), {}).update(em)
             for r in ep:
                 if r in index:
                     jac[index[r], i] = _central_difference(ep[r], em[r], h, r, keys[i])
     return jac
 
 
+@dataclass(frozen=True)
+class Propagation:
+    """What ``constants_covariance`` computes on its way to J Sigma_z J^T and the residual
+    check (calibration.checks) needs again, the same bits (issue 17: the check moved each
+    datum by the same step and estimated its readers again, 0.05 s of a day): the reduced
+    data's keys, their covariance Sigma_z, the steps (one standard error each), the
+    estimates at the data as they are and at each datum moved by +h and -h. Read only."""
+
+    keys: list[Key]
+    data_cov: np.ndarray
+    steps: np.ndarray
+    est: dict[Row, float | None]
+    moved: Moved
+
+
 # the last few constants_covariance results by the content of their inputs: a day asks for
-# the same one three times (the sheet, the all-positions side, the calibration file)
-_HELD: dict[str, tuple[dict[Row, float | None], list[Row], np.ndarray]] = {}
+# the same one three times (the sheet, the all-positions side, the calibration file) and
+# its residual check once (``propagation``)
+_HELD: dict[str, tuple[list[Row], np.ndarray, Propagation]] = {}
 HELD_RESULTS = 4
 
 
-def constants_covariance(
-    data: CalibrationData, noise: NoiseSpec | None = None
-) -> tuple[dict[Row, float | None], list[Row], np.ndarray]:
-    """(estimates, the rows determined, their full covariance J Sigma_z J^T): J is the
-    estimator's numerical Jacobian, Sigma_z the counter data's covariance. A result is
-    held by its inputs' content (JSON: every float to the bit) and handed out as a copy."""
+def _held(data: CalibrationData, noise: NoiseSpec | None
+          ) -> tuple[list[Row], np.ndarray, Propagation]:
+    """The held result of ``data`` and ``noise`` (computed now if it is not held). A
+    result is held by its inputs' content (JSON: every float to the bit)."""
     noise = noise or NoiseSpec()
     key = data.model_dump_json() + noise.model_dump_json()
     if key not in _HELD:
         if len(_HELD) >= HELD_RESULTS:
             del _HELD[next(iter(_HELD))]
         _HELD[key] = _constants_covariance(data, noise)
-    est, rows, cov = _HELD[key]
-    return dict(est), list(rows), cov.copy()
+    return _HELD[key]
+
+
+def constants_covariance(
+    data: CalibrationData, noise: NoiseSpec | None = None
+) -> tuple[dict[Row, float | None], list[Row], np.ndarray]:
+    """(estimates, the rows determined, their full covariance J Sigma_z J^T): J is the
+    estimator's numerical Jacobian, Sigma_z the counter data's covariance. Handed out as
+    a copy of the held result (``_held``)."""
+    rows, cov, prop = _held(data, noise)
+    return dict(prop.est), list(rows), cov.copy()
+
+
+def propagation(data: CalibrationData, noise: NoiseSpec | None = None) -> Propagation:
+    """The intermediate results of ``constants_covariance(data, noise)`` (``Propagation``;
+    the held ones themselves: not to be changed)."""
+    return _held(data, noise)[2]
 
 
 def _constants_covariance(data: CalibrationData, noise: NoiseSpec
-                          ) -> tuple[dict[Row, float | None], list[Row], np.ndarray]:
+                          ) -> tuple[list[Row], np.ndarray, Propagation]:
     c = data.constants
     red = reduce(data)
     est = estimate(red.values, c)
@@ -180,9 +219,10 @@ def _constants_covariance(data: CalibrationData, noise: NoiseSpec
     steps = np.sqrt(np.maximum(np.diag(cov), 0.0))
     steps = np.where(steps > 0, steps, 1e-9 * np.maximum(np.abs(z0), 1.0))
     rows = [r for r, v in est.items() if v is not None]
-    jac = estimator_jacobian(red.values, c, keys, rows, steps)
+    moved: Moved = {}
+    jac = estimator_jacobian(red.values, c, keys, rows, steps, keep=moved)
     m = jac @ cov @ jac.T
-    return est, rows, 0.5 * (m + m.T)
+    return rows, 0.5 * (m + m.T), Propagation(keys, cov, steps, est, moved)
 
 
 def _sigmas(est: dict[Row, float | None], rows: list[Row], cov: np.ndarray

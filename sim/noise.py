@@ -81,7 +81,15 @@ class KnotProcess:
     @overload
     def integral(self, t: np.ndarray) -> np.ndarray: ...
     def integral(self, t: float | np.ndarray) -> float | np.ndarray:
-        """Integral of the process from 0 to time(s) t."""
+        """Integral of the process from 0 to time(s) t (one time: in Python floats, the same
+        operations in the same order as the array's, so the same bits; issue 17)."""
+        if isinstance(t, float):  # a Python float or a numpy float64 scalar
+            u = max(t, 0.0) / self.h
+            kk = math.floor(u)
+            self._ensure(kk)
+            ff = u - kk
+            x0s, x1s = float(self._x[kk]), float(self._x[kk + 1])
+            return float(float(self._cum[kk]) + self.h * ff * (x0s + 0.5 * ff * (x1s - x0s)))
         ta = np.asarray(t, dtype=float)
         k, f = self._locate(np.atleast_1d(ta))
         x0 = self._x[k]
@@ -158,7 +166,13 @@ class RandomWalk:
     @overload
     def value(self, t: np.ndarray) -> np.ndarray: ...
     def value(self, t: float | np.ndarray) -> float | np.ndarray:
-        """Value at time(s) t (seconds)."""
+        """Value at time(s) t (seconds); one time in Python floats, as ``integral``."""
+        if isinstance(t, float):
+            u = max(t, 0.0) / self.h
+            b, r = divmod(math.floor(u), PATH_BLOCK)
+            p = self._path(b)
+            x0s, x1s = float(p[r]), float(p[r + 1])
+            return float(x0s + (x1s - x0s) * (u - (b * PATH_BLOCK + r)))
         ta = np.asarray(t, dtype=float)
         x0, x1, f = self._knots(np.atleast_1d(ta))
         v = x0 + (x1 - x0) * f
@@ -201,6 +215,16 @@ class Multitone:
         self.psi = rng.uniform(0.0, 2.0 * math.pi, n)
         self._c = self.amp / self.w  # the integral's amplitudes, and its value at 0
         self._at_zero = float(np.sin(self.psi) @ self._c)
+
+    @property
+    def integral_amplitudes(self) -> np.ndarray:
+        """A_k / w_k: ``integral`` is sum_k of them times sin(w_k t + psi_k), less its value
+        at 0 (``integral_at_zero``)."""
+        return self._c
+
+    @property
+    def integral_at_zero(self) -> float:
+        return self._at_zero
 
     @overload
     def value(self, t: float) -> float: ...

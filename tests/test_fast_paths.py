@@ -107,3 +107,37 @@ def test_tilt_seen_by_a_turning_axis_from_the_mirrored_triangle() -> None:
         steps = int(rng.integers(20, 260))
         assert (_tilt_seen_turning_arcsec(noise, gate, rate, steps)
                 == _tilt_seen_turning_full(noise, gate, rate, steps))
+
+
+def test_one_instant_of_the_noise_processes_carries_the_bits_of_an_array() -> None:
+    """A pier wander (Gauss-Markov), a random walk and the floor vibration at one time, in
+    the scalar paths, against the same times in the array paths: labs drawn at random
+    (knot spacing, sigma, tau, band, tones), times before 0, on knots and far out."""
+    from sim.isu.environment import Environment
+    from sim.noise import gauss_markov, random_walk
+    from station.config.isu import load_config
+
+    base = load_config().world_params().environment
+
+    rng = np.random.default_rng(20261207)
+    for _ in range(30):
+        seed = int(rng.integers(0, 2**31))
+        h = float(rng.uniform(0.05, 120.0))
+        gm = gauss_markov(h, rng.uniform(1e-7, 1e-3), rng.uniform(0.5 * h, 1e5), seed, "gm")
+        rw = random_walk(h, rng.uniform(1e-12, 1e-4), seed, "rw")
+        ts = np.concatenate((rng.uniform(-10.0, 5e5, 40), h * rng.integers(0, 5000, 5),
+                             [0.0, -1.0]))
+        want_i, want_v = gm.integral(ts), rw.value(ts)
+        for i, t in enumerate(ts):
+            for x in (float(t), np.float64(t)):
+                got_i, got_v = gm.integral(x), rw.value(x)
+                assert type(got_i) is float and type(got_v) is float
+                assert got_i == want_i[i] and got_v == want_v[i]
+        p = base.model_copy(update={"vibration": base.vibration.model_copy(update={
+            "rms_micro_g": float(rng.uniform(0.1, 500.0)), "tones": int(rng.integers(1, 64)),
+            "band_hz": tuple(sorted(rng.uniform(0.05, 200.0, 2).tolist()))})})
+        env = Environment(p, seed)
+        for t in ts:
+            one = env.vibration_velocity(t)
+            each = np.stack([m.integral(np.atleast_1d(t)) for m in env.vibration], axis=-1)
+            assert one.shape == (1, 3) and np.array_equal(one, each)

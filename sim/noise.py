@@ -76,6 +76,16 @@ class KnotProcess:
         x0, x1 = self._x[k], self._x[k + 1]
         return x0 + (x1 - x0) * f, (x1 - x0) / self.h
 
+    def value_and_slope_at(self, t: float) -> tuple[float, float]:
+        """``value_and_slope`` at one time, in Python floats: the same operations in the
+        same order, so the same bits (issue 17)."""
+        u = max(t, 0.0) / self.h
+        k = math.floor(u)
+        self._ensure(k)
+        f = u - k
+        x0, x1 = float(self._x[k]), float(self._x[k + 1])
+        return float(x0 + (x1 - x0) * f), float((x1 - x0) / self.h)
+
     @overload
     def integral(self, t: float) -> float: ...
     @overload

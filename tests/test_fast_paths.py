@@ -12,6 +12,7 @@ from laboratory.export import csv_cell
 from procedures.isu.alignment.sampling import RAW_COLUMNS, RawSamples
 from procedures.isu.calibration.noise_spec import NoiseSpec
 from procedures.isu.computations import _tilt_seen_turning_arcsec
+from sim.isu.environment import Environment
 from sim.isu.trajectory import Trajectory, plan_move, plan_rate
 
 
@@ -113,7 +114,6 @@ def test_one_instant_of_the_noise_processes_carries_the_bits_of_an_array() -> No
     """A pier wander (Gauss-Markov), a random walk and the floor vibration at one time, in
     the scalar paths, against the same times in the array paths: labs drawn at random
     (knot spacing, sigma, tau, band, tones), times before 0, on knots and far out."""
-    from sim.isu.environment import Environment
     from sim.noise import gauss_markov, random_walk
     from station.config.isu import load_config
 
@@ -141,3 +141,44 @@ def test_one_instant_of_the_noise_processes_carries_the_bits_of_an_array() -> No
             one = env.vibration_velocity(t)
             each = np.stack([m.integral(np.atleast_1d(t)) for m in env.vibration], axis=-1)
             assert one.shape == (1, 3) and np.array_equal(one, each)
+
+
+def _tilt_one_by_one(env: Environment, t: float) -> tuple[np.ndarray, np.ndarray]:
+    """The pier tilt and rate at one time as tilt_and_rate computed it before (issue 17):
+    each wander and wobble process on a one-element array."""
+    ta = np.atleast_1d(np.asarray(t, dtype=float))
+    eps, rate = np.zeros((1, 3)), np.zeros((1, 3))
+    arg = env.w_d * ta + env.diurnal_phase
+    eps += np.outer(env.diurnal_amp * np.sin(arg), env.diurnal_dir)
+    rate += np.outer(env.diurnal_amp * env.w_d * np.cos(arg),
+                     env.diurnal_dir)
+    for i, ax in enumerate((1, 2)):
+        v, r = env.wander[i].value_and_slope(ta)
+        mv, mr = env.wobble[i].value_and_rate(ta)
+        eps[:, ax] += v + mv
+        rate[:, ax] += r + mr
+    return eps, rate
+
+
+def test_the_pier_tilt_at_one_instant_carries_the_bits_it_had() -> None:
+    """Environment.tilt_and_rate at one time (the wander in Python floats, the two wobble
+    axes stacked) against each process asked on its own: piers drawn at random."""
+    from station.config.isu import load_config
+
+    base = load_config().world_params().environment
+    rng = np.random.default_rng(7)
+    for _ in range(20):
+        pier = base.pier_tilt.model_copy(update={
+            "wander_sigma_arcsec": float(rng.uniform(0.01, 5.0)),
+            "wander_tau_s": float(rng.uniform(100.0, 1e5)),
+            "diurnal_pp_arcsec": float(rng.uniform(0.0, 10.0))})
+        wobble = base.wobble.model_copy(update={
+            "amplitude_arcsec": float(rng.uniform(0.0, 2.0)),
+            "period_s": float(rng.uniform(1.0, 60.0))})
+        env = Environment(base.model_copy(update={"pier_tilt": pier, "wobble": wobble}),
+                          int(rng.integers(0, 2**31)))
+        for t in np.concatenate((rng.uniform(-5.0, 9e4, 30), [0.0, 60.0, 120.0])):
+            eps, rate = env.tilt_and_rate(t)
+            want_eps, want_rate = _tilt_one_by_one(env, t)
+            assert eps.shape == rate.shape == (1, 3)
+            assert np.array_equal(eps, want_eps) and np.array_equal(rate, want_rate)

@@ -79,6 +79,11 @@ class Environment:
             )
             for ax in ("E", "N")
         ]
+        # the two wobble axes' tones stacked, for the tilt at one instant (tilt_and_rate)
+        self._wob_w = np.stack([m.w for m in self.wobble])
+        self._wob_psi = np.stack([m.psi for m in self.wobble])
+        self._wob_amp = np.stack([m.amp for m in self.wobble])[:, :, None]
+        self._wob_amp_w = np.stack([m.amp * m.w for m in self.wobble])[:, :, None]
         v = p.vibration
         rms = v.rms_micro_g * units.MICRO_G
         self.vibration = [
@@ -108,12 +113,35 @@ class Environment:
         arg = self.w_d * t + self.diurnal_phase
         eps += np.outer(self.diurnal_amp * np.sin(arg), self.diurnal_dir)
         rate += np.outer(self.diurnal_amp * self.w_d * np.cos(arg), self.diurnal_dir)
+        if t.size == 1:  # one instant (most calls): see _wander_and_wobble_at
+            v1, r1, mv1, mr1 = self._wander_and_wobble_at(t[0])
+            for i, ax in enumerate((1, 2)):
+                eps[0, ax] += v1[i] + mv1[i]
+                rate[0, ax] += r1[i] + mr1[i]
+            return eps, rate
         for i, ax in enumerate((1, 2)):
             v, r = self.wander[i].value_and_slope(t)
             mv, mr = self.wobble[i].value_and_rate(t)
             eps[:, ax] += v + mv
             rate[:, ax] += r + mr
         return eps, rate
+
+    def _wander_and_wobble_at(self, t: float) -> tuple[list[float], list[float], np.ndarray,
+                                                       np.ndarray]:
+        """The wander's value and slope (per horizontal axis, Python floats) and the
+        wobble's value and rate (the two axes' tones in one stacked product, one dot
+        product per axis) at one instant: the operations of ``value_and_slope`` and
+        ``value_and_rate`` in their order, so the same bits, a third of the time (issue
+        17)."""
+        v, r = [], []
+        for wander in self.wander:
+            x, slope = wander.value_and_slope_at(t)
+            v.append(x)
+            r.append(slope)
+        ph = t * self._wob_w + self._wob_psi
+        mv = np.matmul(np.cos(ph)[:, None, :], self._wob_amp)[:, 0, 0]
+        mr = np.matmul((-np.sin(ph))[:, None, :], self._wob_amp_w)[:, 0, 0]
+        return v, r, mv, mr
 
     # --- translational: floor vibration ---
     def vibration_accel(self, t: float | np.ndarray) -> np.ndarray:

@@ -21,6 +21,7 @@ from sim.isu.world import World
 
 BLOCK_S = 200.0  # simulated seconds of samples computed at once
 MAX_SAMPLES = 256  # samples in a block, at most
+FIRST_SAMPLES = 8  # a sampling's first block; each next one twice as long, up to the most
 
 
 class SampleBlocks:
@@ -32,6 +33,9 @@ class SampleBlocks:
         self.lines = tuple(lines)
         self._next_latch = next_latch  # the latch after a latch instant
         self.size = max(1, min(MAX_SAMPLES, int(BLOCK_S / max(period_s, 1e-9))))
+        # a short sampling (the line checks of Charts III-4 and III-8 take two samples)
+        # computes a short block; a long one reaches ``size`` after a few (issue 17)
+        self._next_size = min(self.size, FIRST_SAMPLES)
         self._after: dict[float, float] = {}  # latch instant -> the next one
         self._index: dict[float, int] = {}  # latch instant -> column of ``_levels``
         self._levels = np.zeros((len(self.lines), 0), dtype=np.int64)
@@ -64,7 +68,8 @@ class SampleBlocks:
         """Latch instants from ``t0`` on and every line's level at each, the world as it is."""
         times = [t0]
         after: dict[float, float] = {}
-        for _ in range(self.size):
+        n, self._next_size = self._next_size, min(self.size, 2 * self._next_size)
+        for _ in range(n):
             nxt = self._after.get(times[-1])
             if nxt is None:
                 nxt = self._next_latch(times[-1])

@@ -734,12 +734,26 @@ def test_a_held_covariance_is_the_one_its_inputs_give():
     data = make_data(np.random.default_rng(11), NoiseSpec())
     compute._HELD.clear()
     est, rows, cov = compute.constants_covariance(data, NoiseSpec())
-    fresh = compute._constants_covariance(data, NoiseSpec())
+    f_rows, f_cov, prop = compute._constants_covariance(data, NoiseSpec())
+    fresh = (prop.est, f_rows, f_cov)
     assert est == fresh[0] and rows == fresh[1] and np.array_equal(cov, fresh[2])
     cov[0, 0] = -1.0  # the caller's copy
     est[rows[0]] = None
     again = compute.constants_covariance(data.model_copy(deep=True), NoiseSpec())
     assert again[0] == fresh[0] and np.array_equal(again[2], fresh[2])
+    # what the residual check reads from it: each datum moved by +-h, its readers'
+    # estimates as estimate_of gives them there
+    red = reduce(data)
+    assert prop.keys == list(red.values)
+    for i in np.random.default_rng(3).choice(len(prop.keys), 8, replace=False):
+        key, h = prop.keys[i], prop.steps[i]
+        for sign in (1, -1):
+            z = dict(red.values)
+            z[key] = red.values[key] + sign * h
+            want: dict = {}
+            for inst in compute.readers(key):
+                want.update(compute.estimate_of(z, data.constants, inst))
+            assert prop.moved[(int(i), sign)] == want
     m = max(data.gyro)  # a static position: gyro 1's count one more
     pos = data.gyro[m]
     delta = (pos.delta[0] + 1.0, *pos.delta[1:])

@@ -76,13 +76,17 @@ class KnotProcess:
         x0, x1 = self._x[k], self._x[k + 1]
         return x0 + (x1 - x0) * f, (x1 - x0) / self.h
 
-    def value_and_slope_at(self, t: float) -> tuple[float, float]:
-        """``value_and_slope`` at one time, in Python floats: the same operations in the
-        same order, so the same bits (issue 17)."""
+    def _locate_one(self, t: float) -> tuple[int, float]:
+        """``_locate`` of one time, in Python numbers: the same operations, the same bits."""
         u = max(t, 0.0) / self.h
         k = math.floor(u)
         self._ensure(k)
-        f = u - k
+        return k, u - k
+
+    def value_and_slope_at(self, t: float) -> tuple[float, float]:
+        """``value_and_slope`` at one time, in Python floats: the same operations in the
+        same order, so the same bits (issue 17)."""
+        k, f = self._locate_one(t)
         x0, x1 = float(self._x[k]), float(self._x[k + 1])
         return float(x0 + (x1 - x0) * f), float((x1 - x0) / self.h)
 
@@ -94,10 +98,7 @@ class KnotProcess:
         """Integral of the process from 0 to time(s) t (one time: in Python floats, the same
         operations in the same order as the array's, so the same bits; issue 17)."""
         if isinstance(t, float):  # a Python float or a numpy float64 scalar
-            u = max(t, 0.0) / self.h
-            kk = math.floor(u)
-            self._ensure(kk)
-            ff = u - kk
+            kk, ff = self._locate_one(t)
             x0s, x1s = float(self._x[kk]), float(self._x[kk + 1])
             return float(float(self._cum[kk]) + self.h * ff * (x0s + 0.5 * ff * (x1s - x0s)))
         ta = np.asarray(t, dtype=float)
@@ -226,16 +227,6 @@ class Multitone:
         self._c = self.amp / self.w  # the integral's amplitudes, and its value at 0
         self._at_zero = float(np.sin(self.psi) @ self._c)
 
-    @property
-    def integral_amplitudes(self) -> np.ndarray:
-        """A_k / w_k: ``integral`` is sum_k of them times sin(w_k t + psi_k), less its value
-        at 0 (``integral_at_zero``)."""
-        return self._c
-
-    @property
-    def integral_at_zero(self) -> float:
-        return self._at_zero
-
     @overload
     def value(self, t: float) -> float: ...
     @overload
@@ -271,3 +262,31 @@ class Multitone:
         """Covariance at lag(s) tau."""
         ta = np.asarray(tau, dtype=float)
         return np.cos(np.multiply.outer(ta, self.w)) @ (0.5 * self.amp**2)
+
+
+class Multitones:
+    """Several multitones of as many tones each (the axes of one noise), asked at one
+    instant together: one stacked evaluation whose elementwise operations are each
+    multitone's own and whose sums are one dot product per multitone, as each one's own
+    one-instant product (numpy's matmul of a row and a column), so every value has the
+    bits that multitone gives alone, in a fraction of the numpy calls (issue 17)."""
+
+    def __init__(self, tones: list[Multitone]) -> None:
+        self._w = np.stack([m.w for m in tones])
+        self._psi = np.stack([m.psi for m in tones])
+        self._amp = np.stack([m.amp for m in tones])[:, :, None]
+        self._amp_w = np.stack([m.amp * m.w for m in tones])[:, :, None]
+        self._c = np.stack([m._c for m in tones])[:, :, None]
+        self._at_zero = np.array([m._at_zero for m in tones])
+
+    def _dot(self, rows: np.ndarray, columns: np.ndarray) -> np.ndarray:
+        return np.matmul(rows[:, None, :], columns)[:, 0, 0]
+
+    def value_and_rate_at(self, t: float) -> tuple[np.ndarray, np.ndarray]:
+        """Each multitone's ``value_and_rate`` at the time t."""
+        ph = t * self._w + self._psi
+        return self._dot(np.cos(ph), self._amp), self._dot(-np.sin(ph), self._amp_w)
+
+    def integral_at(self, t: float) -> np.ndarray:
+        """Each multitone's ``integral`` at the time t."""
+        return self._dot(np.sin(t * self._w + self._psi), self._c) - self._at_zero

@@ -147,16 +147,8 @@ def _tilt_one_by_one(env: Environment, t: float) -> tuple[np.ndarray, np.ndarray
     """The pier tilt and rate at one time as tilt_and_rate computed it before (issue 17):
     each wander and wobble process on a one-element array."""
     ta = np.atleast_1d(np.asarray(t, dtype=float))
-    eps, rate = np.zeros((1, 3)), np.zeros((1, 3))
-    arg = env.w_d * ta + env.diurnal_phase
-    eps += np.outer(env.diurnal_amp * np.sin(arg), env.diurnal_dir)
-    rate += np.outer(env.diurnal_amp * env.w_d * np.cos(arg),
-                     env.diurnal_dir)
-    for i, ax in enumerate((1, 2)):
-        v, r = env.wander[i].value_and_slope(ta)
-        mv, mr = env.wobble[i].value_and_rate(ta)
-        eps[:, ax] += v + mv
-        rate[:, ax] += r + mr
+    eps, rate = env._diurnal(ta)
+    env._add_wander_and_wobble(ta, eps, rate)
     return eps, rate
 
 

@@ -21,7 +21,7 @@ import numpy as np
 
 from sim import units
 from sim.isu.params import EnvironmentParams, SiteParams
-from sim.noise import Multitone, gauss_markov
+from sim.noise import Multitone, Multitones, gauss_markov
 from sim.rng import stream
 
 DAY = 86400.0
@@ -79,22 +79,14 @@ class Environment:
             )
             for ax in ("E", "N")
         ]
-        # the two wobble axes' tones stacked, for the tilt at one instant (tilt_and_rate)
-        self._wob_w = np.stack([m.w for m in self.wobble])
-        self._wob_psi = np.stack([m.psi for m in self.wobble])
-        self._wob_amp = np.stack([m.amp for m in self.wobble])[:, :, None]
-        self._wob_amp_w = np.stack([m.amp * m.w for m in self.wobble])[:, :, None]
+        self._wobble_at = Multitones(self.wobble)  # the tilt at one instant
         v = p.vibration
         rms = v.rms_micro_g * units.MICRO_G
         self.vibration = [
             Multitone(rms, v.band_hz[0], v.band_hz[1], v.tones, seed, "env", "vibration", ax)
             for ax in ("U", "E", "N")
         ]
-        # the three axes' tones stacked, for the velocity at one instant (vibration_velocity)
-        self._vib_w = np.stack([m.w for m in self.vibration])
-        self._vib_psi = np.stack([m.psi for m in self.vibration])
-        self._vib_c = np.stack([m.integral_amplitudes for m in self.vibration])[:, :, None]
-        self._vib_zero = np.array([m.integral_at_zero for m in self.vibration])
+        self._vibration_at = Multitones(self.vibration)  # the velocity at one instant
 
     # --- rotational: pier tilt eps(t) ---
     def tilt(self, t: np.ndarray) -> np.ndarray:
@@ -106,42 +98,45 @@ class Environment:
         return self.tilt_and_rate(t)[1]
 
     def tilt_and_rate(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """The tilt and its rate, in one pass over the processes."""
+        """The tilt and its rate, in one pass over the processes. One instant (most calls)
+        takes the wander in Python floats and the two wobble axes in one stacked product:
+        the operations of each process's own path in their order, so the same bits, a third
+        of the time (issue 17)."""
         t = np.atleast_1d(np.asarray(t, dtype=float))
+        eps, rate = self._diurnal(t)
+        if t.size == 1:
+            self._add_wander_and_wobble_at(float(t[0]), eps, rate)
+        else:
+            self._add_wander_and_wobble(t, eps, rate)
+        return eps, rate
+
+    def _diurnal(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The diurnal tilt and its rate at the times t, shape (N, 3) each."""
         eps = np.zeros((t.size, 3))
         rate = np.zeros((t.size, 3))
         arg = self.w_d * t + self.diurnal_phase
         eps += np.outer(self.diurnal_amp * np.sin(arg), self.diurnal_dir)
         rate += np.outer(self.diurnal_amp * self.w_d * np.cos(arg), self.diurnal_dir)
-        if t.size == 1:  # one instant (most calls): see _wander_and_wobble_at
-            v1, r1, mv1, mr1 = self._wander_and_wobble_at(t[0])
-            for i, ax in enumerate((1, 2)):
-                eps[0, ax] += v1[i] + mv1[i]
-                rate[0, ax] += r1[i] + mr1[i]
-            return eps, rate
+        return eps, rate
+
+    def _add_wander_and_wobble(self, t: np.ndarray, eps: np.ndarray, rate: np.ndarray
+                               ) -> None:
+        """The wander's and the wobble's tilt and rate added to ``eps`` and ``rate``, each
+        process evaluated on the array t."""
         for i, ax in enumerate((1, 2)):
             v, r = self.wander[i].value_and_slope(t)
             mv, mr = self.wobble[i].value_and_rate(t)
             eps[:, ax] += v + mv
             rate[:, ax] += r + mr
-        return eps, rate
 
-    def _wander_and_wobble_at(self, t: float) -> tuple[list[float], list[float], np.ndarray,
-                                                       np.ndarray]:
-        """The wander's value and slope (per horizontal axis, Python floats) and the
-        wobble's value and rate (the two axes' tones in one stacked product, one dot
-        product per axis) at one instant: the operations of ``value_and_slope`` and
-        ``value_and_rate`` in their order, so the same bits, a third of the time (issue
-        17)."""
-        v, r = [], []
-        for wander in self.wander:
-            x, slope = wander.value_and_slope_at(t)
-            v.append(x)
-            r.append(slope)
-        ph = t * self._wob_w + self._wob_psi
-        mv = np.matmul(np.cos(ph)[:, None, :], self._wob_amp)[:, 0, 0]
-        mr = np.matmul((-np.sin(ph))[:, None, :], self._wob_amp_w)[:, 0, 0]
-        return v, r, mv, mr
+    def _add_wander_and_wobble_at(self, t: float, eps: np.ndarray, rate: np.ndarray
+                                  ) -> None:
+        """``_add_wander_and_wobble`` at one time (a row each), the same bits."""
+        mv, mr = self._wobble_at.value_and_rate_at(t)
+        for i, ax in enumerate((1, 2)):
+            v, r = self.wander[i].value_and_slope_at(t)
+            eps[0, ax] += v + mv[i]
+            rate[0, ax] += r + mr[i]
 
     # --- translational: floor vibration ---
     def vibration_accel(self, t: float | np.ndarray) -> np.ndarray:
@@ -155,8 +150,7 @@ class Environment:
         (the same bits, a quarter of the time: issue 17)."""
         t = np.atleast_1d(np.asarray(t, dtype=float))
         if t.size == 1:
-            s = np.sin(t[0] * self._vib_w + self._vib_psi)
-            return (np.matmul(s[:, None, :], self._vib_c)[:, 0, 0] - self._vib_zero)[None, :]
+            return self._vibration_at.integral_at(float(t[0]))[None, :]
         return np.stack([m.integral(t) for m in self.vibration], axis=-1)
 
     def vibration_velocity_each(self, t: np.ndarray) -> np.ndarray:

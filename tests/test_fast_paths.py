@@ -174,3 +174,32 @@ def test_the_pier_tilt_at_one_instant_carries_the_bits_it_had() -> None:
             want_eps, want_rate = _tilt_one_by_one(env, t)
             assert eps.shape == rate.shape == (1, 3)
             assert np.array_equal(eps, want_eps) and np.array_equal(rate, want_rate)
+
+
+def test_a_line_keeps_its_phases_only_while_the_world_stands() -> None:
+    """A pulse line's kept phases are the phase functions' own bits, and a table command
+    (the world's next revision) drops them: asked again, every line answers what its phase
+    function gives under the new plan (laboratories drawn at random)."""
+    from sim.isu.world import World
+    from tests.random_labs import random_lab
+
+    rng = np.random.default_rng(20261207)
+    for lab in rng.integers(0, 10_000, 3):
+        world = World(random_lab(int(lab)).world_params(), int(lab))
+        lines = [world.line(n) for n in ("G1", "G2+", "A1S1", "A3S2", "TROT")]
+        ts = [float(x) for x in rng.uniform(0.0, 400.0, 12)]
+        before = {}
+        for t in ts + ts[::-1]:  # each instant asked twice: the second from the kept ones
+            for ln in lines:
+                v = ln.phase(t)
+                assert v == ln._phase(t)
+                before[ln.name, t] = v
+        world.table.rotate(2, float(rng.uniform(0.05, 0.3)), 0.0)  # rad/s from t = 0
+        world.changed()
+        moved = 0
+        for t in ts:
+            for ln in lines:
+                v = ln.phase(t)
+                assert v == ln._phase(t)
+                moved += v != before[ln.name, t]
+        assert moved > len(ts)  # the plan changed what the lines see

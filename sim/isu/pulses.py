@@ -11,8 +11,17 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
+from typing import Protocol
 
 import numpy as np
+
+MEMO = 32  # phases a line keeps (a gate asks the same few instants several times)
+
+
+class Revised(Protocol):
+    """What a line's phases depend on: its ``revision`` counts the changes of their future."""
+
+    revision: int
 
 
 class PulseLine:
@@ -25,9 +34,16 @@ class PulseLine:
         sample: tuple[float, float] | None = None,
         bipolar_sign: int = 0,
         phases: Callable[[np.ndarray], np.ndarray] | None = None,
+        world: Revised | None = None,
     ) -> None:
         self.name = name
         self._phase = phase
+        # ``world``: the phases asked at each instant are kept while its revision stands (a
+        # counter's gate asks its ends for the level, the direction and the edge search:
+        # half of a day's 33,500 asks repeat one of the last few); None: nothing is kept
+        self._world = world
+        self._memo: dict[float, float] = {}
+        self._memo_revision = -1
         # the phase at many times in one evaluation, with the bits of ``phase`` at each
         self._phases = phases
         self.sample = sample  # (tau, offset) of a sampled output, or None
@@ -35,7 +51,17 @@ class PulseLine:
         self.net: PulseLine | None = None  # for + / - lines: the gyro's net train
 
     def phase(self, t: float) -> float:
-        return self._phase(t)
+        world = self._world
+        if world is None:
+            return self._phase(t)
+        memo = self._memo
+        if self._memo_revision != world.revision or len(memo) >= MEMO:
+            memo.clear()
+            self._memo_revision = world.revision
+        v = memo.get(t)
+        if v is None:
+            v = memo[t] = self._phase(t)
+        return v
 
     def last_sample(self, t: float) -> float:
         if self.sample is None:

@@ -172,7 +172,7 @@ class World:
         for k, g in enumerate(self.isu.gyros, start=1):
             net = PulseLine(
                 f"G{k}", partial(self.gyro_phase, k - 1), sample=(g.tau, g.sample_offset),
-                phases=partial(self.gyro_phases, k - 1),
+                phases=partial(self.gyro_phases, k - 1), world=self,
             )
             self.lines[f"G{k}"] = net
             for sign, suffix in ((1, "+"), (-1, "-")):
@@ -183,8 +183,10 @@ class World:
             for s in (1, 2):
                 name = f"A{k}S{s}"
                 self.lines[name] = PulseLine(name, partial(self.string_phase, k - 1, s),
-                                             phases=partial(self.string_phases, k - 1, s))
-        self.lines["TROT"] = PulseLine("TROT", lambda t: float(self.table.rotation_phase(t)))
+                                             phases=partial(self.string_phases, k - 1, s),
+                                             world=self)
+        self.lines["TROT"] = PulseLine("TROT", lambda t: float(self.table.rotation_phase(t)),
+                                       world=self)
         for name, div in (("OSC1", osc.p.s1_divider), ("OSC2", osc.p.s2_divider)):
             self.lines[name] = PulseLine(name, partial(_divided, osc.phase, div),
                                          phases=partial(_divided, osc.phase, div))

@@ -5,6 +5,7 @@ the run directory. Sheets go to DIR/sheets/<name>.json under plain names only.
 from __future__ import annotations
 
 import json
+import pickle
 from pathlib import Path
 from typing import Any
 
@@ -40,6 +41,53 @@ def write_sheet_values(out: Path, values: dict[str, Any]) -> None:
     (Path(out) / "sheets").mkdir(parents=True, exist_ok=True)
     for name, value in values.items():
         write_json(paths[name], value, sync_dir=False)
+    fsync_dir(Path(out) / "sheets")
+
+
+# Sheets carried to the plot child as their models pickled (a tenth of the cost of their
+# JSON values here) and rendered there: those of the calibration while the alignments run,
+# the rest at the end (issue 17). In the child, each rendered file is kept with the pickle
+# it came from; a sheet pickled the same at the end is written from it.
+Blobs = dict[str, bytes]  # sheet name: its model pickled
+_rendered: dict[str, tuple[bytes, bytes]] = {}  # name: (pickle, file bytes) rendered here
+
+
+def sheet_blobs(sheets: dict[str, Any]) -> Blobs | None:
+    """Each of ``sheets`` (name: model, as ``Run.sheets``) pickled, by name (None: a sheet
+    pickle cannot carry)."""
+    try:
+        return {name: pickle.dumps(model, protocol=pickle.HIGHEST_PROTOCOL)
+                for name, model in sheets.items()}
+    except (pickle.PicklingError, TypeError, AttributeError):
+        return None
+
+
+def _sheet_file(blob: bytes) -> bytes:
+    """The file of the sheet pickled in ``blob``: ``sheet_values``'s value, as write_json
+    writes it."""
+    value = json.loads(dumps({"x": pickle.loads(blob)}))["x"]  # noqa: S301 - our own pickle
+    return json.dumps(value, indent=1, sort_keys=True).encode("utf-8")
+
+
+def render_sheet_blobs(blobs: Blobs) -> None:
+    """Render the sheets' files now and keep them (in the plot child, while the run goes
+    on) for ``write_sheet_blobs``; writes nothing."""
+    for name, blob in blobs.items():
+        _rendered[name] = (blob, _sheet_file(blob))
+
+
+def write_sheet_blobs(out: Path, blobs: Blobs) -> None:
+    """``blobs`` as DIR/sheets/<name>.json, each atomically, one directory sync at the end:
+    the files ``write_sheet_values`` writes of the same sheets. A sheet rendered before from
+    the same pickle is written as rendered then."""
+    paths = {name: sheet_path(out, name) for name in blobs}
+    files = {}
+    for name, blob in blobs.items():
+        held = _rendered.get(name)
+        files[name] = held[1] if held is not None and held[0] == blob else _sheet_file(blob)
+    (Path(out) / "sheets").mkdir(parents=True, exist_ok=True)
+    for name, data in files.items():
+        write_bytes(paths[name], data, sync_dir=False)
     fsync_dir(Path(out) / "sheets")
 
 

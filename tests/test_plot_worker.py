@@ -302,3 +302,62 @@ def test_the_days_sheets_written_by_an_idle_child_or_here(
     run.sheets["a"] = {"x": [1.5, 2], "y": "text"}
     assert written(tmp_path / "died") == expect
     run.journal.close()
+
+
+def test_an_answer_come_behind_another_is_seen_at_once(tmp_path: Path) -> None:
+    """Two answers in the pipe back to back: reading the first leaves the second in the
+    pipe (read by exact length), so idle sees it has come instead of reading the child as
+    busy (a buffered read took both, and the day then wrote its sheets itself)."""
+    import select
+    import time
+
+    flag = tmp_path / "second-done"
+    with PlotWorker() as w:
+        first = w.compute("statistics:fmean", {"data": [1.0, 3.0]})
+        w.compute("subprocess:run", {"args": ["touch", str(flag)]})
+        proc = w._proc
+        assert isinstance(proc, subprocess.Popen) and proc.stdout is not None
+        while not flag.exists():  # the child has run the second job
+            time.sleep(0.01)
+        while True:  # and both answers are in the pipe (the second follows the touch)
+            time.sleep(0.05)
+            if select.select([proc.stdout], [], [], 0.0)[0] and w._answered == 0:
+                break
+        assert first() == 2.0
+        assert w._answered == 1  # the first read, the second left where select sees it
+        assert w.idle()
+        w.wait()
+
+
+def test_the_days_sheets_rendered_beside_are_the_files_written_here(tmp_path: Path) -> None:
+    """laboratory.isu.day.SheetsRendered and sheets_beside: sheets rendered by the child as
+    they were saved, one changed after and one added, are written as write_sheets writes
+    the run's final sheets (the changed one from its new model, not the rendered one)."""
+    import simpy
+
+    from laboratory.isu.day import SheetsRendered, sheets_beside
+    from laboratory.record import write_sheets
+    from procedures.journal import Journal
+    from procedures.runner import Run
+    from station.clock import VirtualClock
+
+    run = Run(VirtualClock(simpy.Environment()), Journal(tmp_path / "j.jsonl"))
+    run.sheets["a"] = {"x": [1.5, 2], "y": "text"}
+    run.sheets["b"] = {"nested": {"z": None}}
+    with PlotWorker() as w:
+        rendered = SheetsRendered(w)
+        rendered({"kind": "sheet", "name": "a", "data": run.sheets["a"]})  # not started
+        rendered.start(run)
+        run.sheets["c"] = {"late": [0.1, 0.2]}
+        rendered({"kind": "sheet", "name": "c", "data": run.sheets["c"]})
+        run.sheets["b"] = {"nested": {"z": 3.25}}  # changed after it was rendered
+        assert w.values(len(w._batches) - 1) == [None]  # the renders are done
+        done = sheets_beside(w, tmp_path / "beside", run)
+        done()
+        w.wait()
+    write_sheets(tmp_path / "ref", run)
+    for name in ("a", "b", "c"):
+        got = (tmp_path / "beside" / "sheets" / f"{name}.json").read_bytes()
+        assert got == (tmp_path / "ref" / "sheets" / f"{name}.json").read_bytes()
+    assert b"3.25" in (tmp_path / "beside" / "sheets" / "b.json").read_bytes()
+    run.journal.close()

@@ -386,11 +386,15 @@ def _environment() -> Environment:
 
 
 def prepare_report() -> None:
-    """Import jinja2 and compile the report's template now: a run calls it while its plot
-    child draws, so that ``report_after`` does not pay for it after the record closes. An
-    error is left for ``report_after`` to meet and report."""
+    """Import jinja2 and compile the report's templates (the one it includes too) and
+    import the history section's modules now: a run calls it while its plot child draws,
+    so that ``report_after`` does not pay for them after the record closes. An error is
+    left for ``report_after`` to meet and report."""
     try:
-        _environment().get_template("report.html.j2")
+        env = _environment()
+        for name in ("report.html.j2", "history.html.j2"):
+            env.get_template(name)
+        import laboratory.history.section  # noqa: F401 - imported now, used by _history
     except Exception:  # noqa: BLE001, S110 - report_after reports it when it writes
         pass
 

@@ -74,6 +74,7 @@ def write_alignment_samples(out: Path, outcomes: Iterable[Any]) -> list[Path]:
     """DIR/alignments/<method>-<estimator>-ieu.csv for every alignment that sampled the
     IEU (an ``Outcome`` whose detail holds ``ieu_samples``); the paths written."""
     written = []
+    texts: dict[int, tuple[Any, bytes]] = {}  # id: (samples, CSV) of each record written
     for o in outcomes:
         raw = getattr(o, "detail", {}).get("ieu_samples")
         if raw is None:
@@ -81,7 +82,9 @@ def write_alignment_samples(out: Path, outcomes: Iterable[Any]) -> list[Path]:
         d = Path(out) / SAMPLES_DIR
         d.mkdir(parents=True, exist_ok=True)
         path = d / f"{o.method}-{o.estimator}-ieu.csv"
-        write_csv(path, raw.rows())
+        if id(raw) not in texts:  # two techniques of one method share their record
+            texts[id(raw)] = (raw, csv_text(raw.rows()).encode("utf-8"))
+        write_bytes(path, texts[id(raw)][1])
         written.append(path)
     return written
 

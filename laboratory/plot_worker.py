@@ -62,14 +62,16 @@ def _clear_stale(path: Path) -> None:
     clear_prefixed(path.parent, f".{path.name}.plot-")
 
 
-def _installed(tmp: Path, path: Path) -> None:
-    """``tmp`` synced and renamed over ``path``, the directory synced."""
+def _installed(tmp: Path, path: Path, sync_dir: bool = True) -> None:
+    """``tmp`` synced and renamed over ``path``, the directory synced (``sync_dir``: else
+    the caller syncs it, once for the files it installs there)."""
     from station.files import fsync_dir
 
     with tmp.open("rb") as f:
         os.fsync(f.fileno())
     os.replace(tmp, path)
-    fsync_dir(path.parent)
+    if sync_dir:
+        fsync_dir(path.parent)
 
 
 @contextmanager
@@ -398,15 +400,23 @@ class PlotWorker:
         if not keep:
             self._end_child()
         again = []
+        dirs: dict[Path, None] = {}  # each synced once, after every file put there
         for i, (job, tmp) in enumerate(zip(self._jobs, self._temps, strict=True)):
             outcome = self._outcomes[i]
             if i in self._here or tmp is None:  # drawn here, or a computation (no file)
                 continue
             if outcome is not None and outcome[0] == "ok" and tmp.exists():
-                _installed(tmp, Path(job[1]["path"]))
+                path = Path(job[1]["path"])
+                _installed(tmp, path, sync_dir=False)
+                dirs[path.parent] = None
             else:
                 tmp.unlink(missing_ok=True)
                 again.append(job)
+        if dirs:
+            from station.files import fsync_dir
+
+            for d in dirs:
+                fsync_dir(d)
         self._forget()
         if again:  # as the run drew them before: an error here is the run's
             draw_here(again, raising=True)

@@ -3,8 +3,8 @@ computation gives, and no caller can change them for the next.
 
 ``estimation.joint`` (an alignment's estimator and error covariances), ``covariance.
 tilt_grams`` (the fits of one day's data) and ``Constants.rho_matrix`` (the error models'
-correlations) replaced repeated work; each must give the bits of the work it replaced, for
-random inputs, not only the default lab's.
+correlations, held by their keys) replaced repeated work; each must give the bits of the
+work it replaced, for random inputs, not only the default lab's.
 """
 
 from __future__ import annotations
@@ -35,6 +35,16 @@ def test_rho_matrix_is_rho_pair_by_pair(seed):
     keys = [names[int(i)] for i in rng.permutation(len(names))[: int(rng.integers(1, 13))]]
     pairwise = np.array([[c.rho(a, b) for b in keys] for a in keys])
     assert np.array_equal(c.rho_matrix(keys), pairwise)
+    # held for the next call, by these constants and those perturbed from them (the same
+    # correlation), and read-only: no caller changes it for the next
+    moved = c.perturbed(names[0], 0.5)
+    assert moved.rho_matrix(keys) is c.rho_matrix(keys)
+    assert np.array_equal(moved.rho_matrix(keys), pairwise)
+    with pytest.raises(ValueError):
+        c.rho_matrix(keys)[0, 0] = 2.0
+    other = keys[::-1]  # other keys (their order too): built for them
+    assert np.array_equal(c.rho_matrix(other),
+                          np.array([[c.rho(a, b) for b in other] for a in other]))
 
 
 @pytest.mark.parametrize("seed", range(4))

@@ -25,6 +25,7 @@ import math
 import numpy as np
 from numpy.typing import ArrayLike
 
+from procedures.isu.calibration.vectors import cross3
 from procedures.isu.survey_math import direction, mirror_alignment
 
 ARCSEC = math.pi / (180.0 * 3600.0)
@@ -115,7 +116,7 @@ def gyrocompass_matrix(
     if s < 1e-9:
         raise ValueError("the Earth rate is vertical (at a pole): no north to find")
     first = np.array([[0.0, 1.0, 0.0], [0.0, 0.0, 1.0 / s], [1.0 / s, -wu / s, 0.0]])
-    rows = np.array([wn, u, np.cross(wn, u)])  # W, U, W x U in body components
+    rows = np.array([wn, u, cross3(wn, u)])  # W, U, W x U in body components
     return first @ rows
 
 

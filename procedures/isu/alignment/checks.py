@@ -26,6 +26,7 @@ from procedures.isu import survey_math as sm
 from procedures.isu.alignment.align_math import ARCSEC, rotation_error_arcsec
 from procedures.isu.alignment.preprocess import Constants
 from procedures.isu.calibration.noise_spec import NoiseSpec
+from procedures.isu.calibration.vectors import cross3, norm3
 from procedures.isu.plausibility import Implausible
 from procedures.isu.sheets import SurveyResults
 
@@ -115,7 +116,7 @@ def cal_sigma(constants: Constants, f: Callable[[Constants], float]) -> float:
 
 def angle_deg(a: np.ndarray, b: np.ndarray) -> float:
     a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
-    return math.degrees(math.atan2(float(np.linalg.norm(np.cross(a, b))), float(a @ b)))
+    return math.degrees(math.atan2(norm3(cross3(a, b)), float(a @ b)))
 
 
 def attitude_reference(survey: SurveyResults | None, surveyed_here: bool,

@@ -58,6 +58,10 @@ class Constants:
     # a pair not listed is independent
     correlation: dict[tuple[tuple[str, str], tuple[str, str]], float] = field(
         default_factory=dict)
+    # rho_matrix's matrices by their keys, shared by the constants ``perturbed`` makes
+    # (they keep the correlation): an error model asks the same few sets again and again
+    rho_held: dict[tuple[tuple[str, str], ...], np.ndarray] = field(
+        default_factory=dict, repr=False, compare=False)
 
     def rho(self, a: tuple[str, str], b: tuple[str, str]) -> float:
         """Correlation of the errors of constants a and b (1 when a is b)."""
@@ -67,7 +71,11 @@ class Constants:
 
     def rho_matrix(self, keys: list[tuple[str, str]]) -> np.ndarray:
         """[rho(a, b)] over ``keys``: ``rho``'s values, set from the listed pairs rather
-        than looked up pair by pair (issue 17: 4,356 lookups per error model)."""
+        than looked up pair by pair (issue 17: 4,356 lookups per error model). Read-only:
+        the same matrix serves every later call with these keys."""
+        held = self.rho_held.get(tuple(keys))
+        if held is not None:
+            return held
         at = {k: i for i, k in enumerate(keys)}
         out = np.zeros((len(keys), len(keys)))
         for (a, b), r in self.correlation.items():
@@ -77,6 +85,8 @@ class Constants:
                 if (b, a) not in self.correlation:  # rho(b, a) falls back on (a, b)
                     out[j, i] = r
         np.fill_diagonal(out, 1.0)  # rho(a, a) is 1 whatever the sheet lists
+        out.flags.writeable = False
+        self.rho_held[tuple(keys)] = out
         return out
 
     @classmethod
@@ -112,7 +122,7 @@ class Constants:
     def perturbed(self, key: tuple[str, str], delta: float) -> Constants:
         v = dict(self.values)
         v[key] += delta
-        return Constants(v, self.sigmas, self.correlation)
+        return Constants(v, self.sigmas, self.correlation, self.rho_held)
 
     def get(self, inst: str, k: int, par: str) -> float:
         return self.values[(f"{inst}{k}", par)]
@@ -149,8 +159,13 @@ def accel_integrals(p_a: np.ndarray, dt: np.ndarray, c: Constants) -> tuple[np.n
     raw = np.asarray(p_a, dtype=float) / d1 - d0 * dt  # [(a.A_k) dt]
     u = raw / dt  # (a.A_k)
     int_a = raw - d2 * u * u * dt - d3 * u**3 * dt
-    q_a = np.linalg.inv(c.matrix("accel", "A"))  # Q^A
+    q_a = _inverse(c.flat("accel", "A"))  # Q^A
     return int_a @ q_a.T, int_a, u
+
+
+# the gyro parameters other than the axes, and their constants' keys for gyros 1, 2, 3
+_NOT_AXES = tuple(p for p in GYRO_PARAMS if not p.startswith("G."))
+_NOT_AXES_KEYS = tuple(tuple((f"gyro{k}", p) for k in (1, 2, 3)) for p in _NOT_AXES)
 
 
 @lru_cache(maxsize=64)
@@ -174,7 +189,9 @@ def gyro_integrals(p_g: np.ndarray, dt: np.ndarray, a_a: np.ndarray, c: Constant
     its body-axis vector along the gyros' G, O, S (see the top).
     """
     dt = np.asarray(dt, dtype=float)[:, None]
-    g = {p: c.vector("gyro", p) for p in GYRO_PARAMS if not p.startswith("G.")}
+    values = c.values  # each parameter's three gyros, gathered in one array
+    g = dict(zip(_NOT_AXES, np.array([[values[k] for k in keys] for keys in _NOT_AXES_KEYS]),
+                 strict=True))
     dphi = scale_factor_arcsec(g["DeltaPhi"])  # Chart II-5's deg/pulse, in arcsec/pulse
     raw = np.asarray(p_g, dtype=float) * dphi - g["R"] * dt  # [(w.G_k) dt], arcsec
     w_g = raw / dt  # (w.G_k), deg/hr
@@ -189,5 +206,4 @@ def gyro_integrals(p_g: np.ndarray, dt: np.ndarray, a_a: np.ndarray, c: Constant
         + g["Q_II"] * w_g**2 + g["Q_IS"] * w_g * w_s  # Chart III-9 prints (w.G)(a.S): see top
     )
     int_w = raw - rate * dt
-    q_g = np.linalg.inv(c.matrix("gyro", "G"))  # Q^G
-    return int_w @ q_g.T
+    return int_w @ q_g.T  # Q^G

@@ -152,6 +152,12 @@ def _is_number(x: object) -> TypeGuard[int | float]:
     return isinstance(x, int | float) and not isinstance(x, bool)
 
 
+def _all_numbers(xs: Sequence[object]) -> bool:
+    """Every entry a number (``_is_number``); the types of a tape's long noise tables are
+    checked in one pass first (plain floats and ints: 11,520 entries a day, issue 17)."""
+    return set(map(type, xs)) <= {float, int} or all(_is_number(x) for x in xs)
+
+
 def _compare(name: str, a: object, b: object) -> None:
     if isinstance(a, BaseModel) and isinstance(b, BaseModel):
         for field in type(a).model_fields:
@@ -179,7 +185,7 @@ def _compare_sequence(name: str, a: Sequence[object], b: Sequence[object]) -> No
         )
     x: object  # both sequences as arrays when all numbers, else each pair of entries
     y: object
-    if all(_is_number(x) for x in a) and all(_is_number(x) for x in b):
+    if _all_numbers(a) and _all_numbers(b):
         x, y = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
         scale = max(float(np.max(np.abs(x), initial=0.0)), float(np.max(np.abs(y), initial=0.0)))
         bad = ~np.isclose(x, y, rtol=REL_TOL, atol=SEQUENCE_ABS_TOL * scale)

@@ -203,3 +203,35 @@ def test_a_line_keeps_its_phases_only_while_the_world_stands() -> None:
                 assert v == ln._phase(t)
                 moved += v != before[ln.name, t]
         assert moved > len(ts)  # the plan changed what the lines see
+
+
+def test_a_trajectory_keeps_its_arrays_as_built_afresh() -> None:
+    """Cuts and appends convert only the new segments: after each, the arrays are those
+    built from every segment held, the starts are in order, and breakpoints and state read
+    them as a scan of every start would (random command sequences, some appended without a
+    cut, some replacing a segment at the same start, some appending nothing)."""
+    rng = np.random.default_rng(20261207)
+    for _ in range(30):
+        tr = Trajectory(rng.uniform(-1, 1))
+        t = 0.0
+        for _ in range(int(rng.integers(5, 40))):
+            t += float(rng.choice([0.0, rng.uniform(0.0, 30.0)]))
+            if rng.random() < 0.8:
+                p, v = tr.cut(t)
+            else:
+                p, v = tr.state(t)[:2]
+            if rng.random() < 0.5:
+                segs, _ = plan_move(t, p, p + rng.uniform(-3, 3), 0.5, 0.3,
+                                    rng.uniform(0, 1e-3), rng.uniform(0.1, 2))
+            else:
+                segs, _ = plan_rate(t, p, v, rng.uniform(-1, 1), 0.2)
+            tr.append(segs if rng.random() < 0.95 else [])
+            starts = [s.ts for s in tr.segments]
+            assert starts == sorted(set(starts))  # in order; one at a start replaced
+            fresh = Trajectory(0.0)
+            fresh.segments = list(tr.segments)
+            fresh._arrays()
+            assert np.array_equal(tr._ts, fresh._ts) and np.array_equal(tr._kind, fresh._kind)
+            assert np.array_equal(tr._par, fresh._par) and tr._ts_list == fresh._ts_list
+            for t0, t1 in rng.uniform(-1.0, t + 40.0, (5, 2)):
+                assert tr.breakpoints(t0, t1) == [float(x) for x in tr._ts if t0 < x < t1]

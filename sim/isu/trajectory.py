@@ -8,7 +8,7 @@ history at tc and appends the new plan, so the past is never rewritten.
 from __future__ import annotations
 
 import math
-from bisect import bisect_right
+from bisect import bisect_left, bisect_right
 from dataclasses import dataclass
 
 import numpy as np
@@ -34,14 +34,25 @@ class Trajectory:
 
     def __init__(self, p0: float = 0.0) -> None:
         self.segments: list[Segment] = [Segment(0.0, POLY, p0)]
+        # the segments' start times, kinds and parameters as arrays (``_arrays``); the
+        # segments are in order of their starts, so a cut or an append keeps a prefix
+        self._ts = np.zeros(0)
+        self._kind = np.zeros(0, dtype=np.int64)
+        self._par = np.zeros((0, 6))
+        self._ts_list: list[float] = []
         self._arrays()
 
-    def _arrays(self) -> None:
-        segs = self.segments
-        self._ts = np.array([s.ts for s in segs])
-        self._kind = np.array([s.kind for s in segs])
-        self._par = np.array([[s.p0, s.v0, s.a, s.pf, s.d, s.tau] for s in segs])
-        self._ts_list = [s.ts for s in segs]
+    def _arrays(self, keep: int = 0) -> None:
+        """The segments' arrays (and start times as a list), of which the first ``keep``
+        are still those held: only the segments after them are converted (a day's table
+        commands each add a few to hundreds, issue 17)."""
+        new = self.segments[keep:]
+        self._ts = np.concatenate((self._ts[:keep], np.array([s.ts for s in new], dtype=float)))
+        self._kind = np.concatenate((self._kind[:keep],
+                                     np.array([s.kind for s in new], dtype=np.int64)))
+        self._par = np.concatenate((self._par[:keep], np.array(
+            [[s.p0, s.v0, s.a, s.pf, s.d, s.tau] for s in new], dtype=float).reshape(-1, 6)))
+        self._ts_list = self._ts_list[:keep] + [s.ts for s in new]
 
     def _at(self, t: float) -> tuple[float, float]:
         """(angle, rate) at one instant: ``evaluate``'s arithmetic on floats, term by term
@@ -58,8 +69,7 @@ class Trajectory:
     def state(self, t: float) -> tuple[float, float, float]:
         """(angle, rate, acceleration) at t."""
         p, v = self._at(t)  # evaluate's bits at one instant
-        i = int(np.searchsorted(self._ts, t, side="right") - 1)
-        s = self.segments[i]
+        s = self.segments[bisect_right(self._ts_list, t) - 1]
         if s.kind == POLY:
             acc = s.a
         else:
@@ -88,19 +98,23 @@ class Trajectory:
 
     def breakpoints(self, t0: float, t1: float) -> list[float]:
         """Segment starts strictly inside (t0, t1)."""
-        return [float(x) for x in self._ts if t0 < x < t1]
+        ts = self._ts_list
+        return [float(x) for x in ts[bisect_right(ts, t0):bisect_left(ts, t1)]]
 
     def cut(self, tc: float) -> tuple[float, float]:
         """Drop every segment starting after tc; return (angle, rate) at tc."""
         p, v, _ = self.state(tc)
-        self.segments = [s for s in self.segments if s.ts <= tc]
+        self.segments = self.segments[:bisect_right(self._ts_list, tc)]
         return p, v
 
     def append(self, segs: list[Segment]) -> None:
-        # A new segment at the same start time replaces the old one.
+        # A new segment at the same start time replaces the old one. The segments held are
+        # a prefix of those the arrays hold (a cut keeps one): those kept are one too.
+        keep = len(self.segments)
         if segs:
-            self.segments = [s for s in self.segments if s.ts < segs[0].ts] + segs
-        self._arrays()
+            keep = min(keep, bisect_left(self._ts_list, segs[0].ts))
+            self.segments = self.segments[:keep] + segs
+        self._arrays(keep)
 
     def last_change(self) -> float:
         return float(self._ts[-1])

@@ -5,13 +5,14 @@ the run directory. Sheets go to DIR/sheets/<name>.json under plain names only.
 from __future__ import annotations
 
 import json
+import os
 import pickle
 from pathlib import Path
 from typing import Any
 
 from procedures.journal import dumps, is_safe_name
 from procedures.runner import Run
-from station.files import fsync_dir, write_bytes
+from station.files import clear_prefixed, fsync_dir, write_bytes
 
 
 def write_json(path: Path, obj: Any, sync_dir: bool = True) -> None:
@@ -46,10 +47,13 @@ def write_sheet_values(out: Path, values: dict[str, Any]) -> None:
 
 # Sheets carried to the plot child as their models pickled (a tenth of the cost of their
 # JSON values here) and rendered there: those of the calibration while the alignments run,
-# the rest at the end (issue 17). In the child, each rendered file is kept with the pickle
-# it came from; a sheet pickled the same at the end is written from it.
+# the rest at the end (issue 17). In the child, each rendered file is staged, synced, as
+# DIR/.sheets-stage.<name>.json with the pickle it came from; a sheet pickled the same at
+# the end is renamed into sheets/ from there. A run that stops first leaves stages, which
+# the day clears (``clear_prefixed(out, SHEET_STAGE)``) once its plot child has ended.
 Blobs = dict[str, bytes]  # sheet name: its model pickled
-_rendered: dict[str, tuple[bytes, bytes]] = {}  # name: (pickle, file bytes) rendered here
+SHEET_STAGE = ".sheets-stage."
+_rendered: dict[str, tuple[bytes, Path]] = {}  # name: (pickle, its staged file) made here
 
 
 def sheet_blobs(sheets: dict[str, Any]) -> Blobs | None:
@@ -69,26 +73,30 @@ def _sheet_file(blob: bytes) -> bytes:
     return json.dumps(value, indent=1, sort_keys=True).encode("utf-8")
 
 
-def render_sheet_blobs(blobs: Blobs) -> None:
-    """Render the sheets' files now and keep them (in the plot child, while the run goes
-    on) for ``write_sheet_blobs``; writes nothing."""
+def render_sheet_blobs(out: Path, blobs: Blobs) -> None:
+    """Render the sheets' files now (in the plot child, while the run goes on) and stage
+    each, synced, beside the record for ``write_sheet_blobs``; nothing in sheets/."""
     for name, blob in blobs.items():
-        _rendered[name] = (blob, _sheet_file(blob))
+        sheet_path(out, name)  # a name that is no plain file name: refused before a file
+        staged = Path(out) / f"{SHEET_STAGE}{name}.json"
+        write_bytes(staged, _sheet_file(blob), sync_dir=False)
+        _rendered[name] = (blob, staged)
 
 
 def write_sheet_blobs(out: Path, blobs: Blobs) -> None:
     """``blobs`` as DIR/sheets/<name>.json, each atomically, one directory sync at the end:
-    the files ``write_sheet_values`` writes of the same sheets. A sheet rendered before from
-    the same pickle is written as rendered then."""
+    the files ``write_sheet_values`` writes of the same sheets. A sheet staged before from
+    the same pickle is renamed into place; the stages left are removed."""
     paths = {name: sheet_path(out, name) for name in blobs}
-    files = {}
-    for name, blob in blobs.items():
-        held = _rendered.get(name)
-        files[name] = held[1] if held is not None and held[0] == blob else _sheet_file(blob)
     (Path(out) / "sheets").mkdir(parents=True, exist_ok=True)
-    for name, data in files.items():
-        write_bytes(paths[name], data, sync_dir=False)
+    for name, blob in blobs.items():
+        held = _rendered.pop(name, None)
+        if held is not None and held[0] == blob and held[1].is_file():
+            os.replace(held[1], paths[name])
+        else:
+            write_bytes(paths[name], _sheet_file(blob), sync_dir=False)
     fsync_dir(Path(out) / "sheets")
+    clear_prefixed(Path(out), SHEET_STAGE)
 
 
 def write_sheets(out: Path, run: Run) -> None:

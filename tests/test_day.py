@@ -118,3 +118,27 @@ def test_computations_without_survey_name_the_chart(tmp_path):
         compute_calibration(run, data, DayPlan(), NoiseSpec(),
                             site_of(cfg))
     assert "Chart II-15, step 1" in str(e.value) and "Survey Results Sheet" in str(e.value)
+
+
+def test_a_day_stopped_in_its_alignments_leaves_no_staged_sheet(tmp_path, monkeypatch):
+    """The calibration's sheets staged by the plot child while the alignments run
+    (laboratory.record.SHEET_STAGE) are not left in the run directory of a day that stops
+    there: the journal keeps what was done, and neither sheets/ nor a stage is written."""
+    import time
+
+    import laboratory.isu.day as day_module
+
+    def stopped_alignments(*args, **kwargs):
+        for _ in range(500):  # until the child has staged the calibration's sheets
+            if any(p.name.startswith(".sheets-stage.") for p in tmp_path.iterdir()):
+                break
+            time.sleep(0.01)
+        raise ProcedureError("III-2", "1", "mirror alignment", "stopped for the test")
+
+    monkeypatch.setattr(day_module, "day_alignments", stopped_alignments)
+    with pytest.raises(ProcedureError):
+        run_day(DayRequest(load_config(seed=5), tmp_path, quiet=True,
+                           only=("II-6", "II-11")), QUIET)
+    names = {p.name for p in tmp_path.iterdir()}
+    assert "journal.jsonl" in names and "sheets" not in names
+    assert not [n for n in names if n.startswith(".sheets-stage.")]

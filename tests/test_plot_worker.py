@@ -344,17 +344,22 @@ def test_the_days_sheets_rendered_beside_are_the_files_written_here(tmp_path: Pa
     run = Run(VirtualClock(simpy.Environment()), Journal(tmp_path / "j.jsonl"))
     run.sheets["a"] = {"x": [1.5, 2], "y": "text"}
     run.sheets["b"] = {"nested": {"z": None}}
+    out = tmp_path / "beside"
+    out.mkdir()
     with PlotWorker() as w:
-        rendered = SheetsRendered(w)
+        rendered = SheetsRendered(w, out)
         rendered({"kind": "sheet", "name": "a", "data": run.sheets["a"]})  # not started
         rendered.start(run)
         run.sheets["c"] = {"late": [0.1, 0.2]}
         rendered({"kind": "sheet", "name": "c", "data": run.sheets["c"]})
         run.sheets["b"] = {"nested": {"z": 3.25}}  # changed after it was rendered
         assert w.values(len(w._batches) - 1) == [None]  # the renders are done
-        done = sheets_beside(w, tmp_path / "beside", run)
+        assert sorted(p.name for p in out.iterdir()) == [
+            f".sheets-stage.{n}.json" for n in ("a", "b", "c")]  # staged, none in sheets/
+        done = sheets_beside(w, out, run)
         done()
         w.wait()
+    assert sorted(p.name for p in out.iterdir()) == ["sheets"]  # no stage left
     write_sheets(tmp_path / "ref", run)
     for name in ("a", "b", "c"):
         got = (tmp_path / "beside" / "sheets" / f"{name}.json").read_bytes()

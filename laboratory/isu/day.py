@@ -29,7 +29,14 @@ from laboratory.isu.prior import CarriedSheets, carried_sheets
 from laboratory.isu.spec import mounting, noise_spec, site_of
 from laboratory.isu.truth import calibration_truth
 from laboratory.plot_worker import PlotWorker
-from laboratory.record import Blobs, sheet_blobs, sheet_values, write_results, write_sheet_values
+from laboratory.record import (
+    SHEET_STAGE,
+    Blobs,
+    sheet_blobs,
+    sheet_values,
+    write_results,
+    write_sheet_values,
+)
 from laboratory.report import report_after
 from laboratory.report.html import PREPARE_JOB
 from laboratory.rundir import opened_journal, prepare, resume_note
@@ -49,6 +56,7 @@ from procedures.isu.sheets import (
 from procedures.journal import Journal
 from procedures.runner import Run
 from station.config.isu import StationConfig
+from station.files import clear_prefixed
 from station.racks.isu import SimulatedRack
 
 
@@ -170,8 +178,8 @@ class SheetsRendered:
     listener). Only after the computations' fit has been sent: nothing here delays it.
     Nothing is written here."""
 
-    def __init__(self, plotter: PlotWorker) -> None:
-        self.plotter, self.started = plotter, False
+    def __init__(self, plotter: PlotWorker, out: Path) -> None:
+        self.plotter, self.out, self.started = plotter, out, False
 
     def start(self, run: Run) -> None:
         self.started = True
@@ -183,7 +191,8 @@ class SheetsRendered:
 
     def _send(self, blobs: Blobs | None) -> None:
         if blobs:
-            self.plotter.compute("laboratory.record:render_sheet_blobs", {"blobs": blobs})
+            self.plotter.compute("laboratory.record:render_sheet_blobs",
+                                 {"out": self.out, "blobs": blobs})
 
 
 def sheets_beside(plotter: PlotWorker, out: Path, run: Run) -> Callable[[], None]:
@@ -254,6 +263,7 @@ def run_day(req: DayRequest, console: Console | None = None,
         with opened_journal(req.out, req.resume) as journal, ExitStack() as stack:
             # the plot child (importing matplotlib meanwhile) outlives the record: it
             # compiles the report's template when idle and writes the report at the end
+            stack.callback(clear_prefixed, req.out, SHEET_STAGE)  # after the child ends
             plotter = stack.enter_context(PlotWorker(*DAY_CHILD))
             plotter.compute(PREPARE_JOB, {})
             # report.html of what the record holds, however it ended: after run.json is
@@ -277,7 +287,7 @@ def _day(req: DayRequest, conn: Connection, journal: Journal, console: Console,
     site, noise = site_of(cfg), noise_spec(cfg)
     with can_log(out, st.ieu), DayDisplay(console, req.quiet) as display:
         nonlinearity = NonlinearityPlot(plotter, noise, out / "nonlinearity.png")
-        rendered = SheetsRendered(plotter)
+        rendered = SheetsRendered(plotter, out)
 
         def listener(ev: dict) -> None:
             display(ev)

@@ -235,3 +235,28 @@ def test_a_trajectory_keeps_its_arrays_as_built_afresh() -> None:
             assert np.array_equal(tr._par, fresh._par) and tr._ts_list == fresh._ts_list
             for t0, t1 in rng.uniform(-1.0, t + 40.0, (5, 2)):
                 assert tr.breakpoints(t0, t1) == [float(x) for x in tr._ts if t0 < x < t1]
+
+
+def test_medians_are_numpys() -> None:
+    """procedures.medians.median against numpy.median: odd and even lengths, flattened and
+    along each axis, sliding windows (the IEU's outlier screen), ties and NaN."""
+    from procedures.medians import median
+
+    rng = np.random.default_rng(20261208)
+    for _ in range(200):
+        shape = tuple(int(n) for n in rng.integers(1, 7, int(rng.integers(1, 4))))
+        x = rng.normal(0.0, 10.0 ** rng.uniform(-6, 6), shape)
+        if rng.random() < 0.3:
+            x = np.round(x, 1)  # ties
+        if rng.random() < 0.2:
+            x.flat[int(rng.integers(0, x.size))] = np.nan
+        for axis in (None, *range(x.ndim), -1):
+            want = np.median(x, axis=axis)
+            got = median(x, axis=axis)
+            assert np.array_equal(got, want, equal_nan=True)
+            assert np.shape(got) == np.shape(want)
+        if x.ndim >= 1 and x.shape[0] >= 3:
+            win = np.lib.stride_tricks.sliding_window_view(x, 3, axis=0)
+            assert np.array_equal(median(win, axis=-1), np.median(win, axis=-1),
+                                  equal_nan=True)
+    assert median([2.0, 1.0, 4.0, 3.0]) == 2.5 and median([5.0]) == 5.0

@@ -33,6 +33,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from procedures.isu.calibration.noise_spec import ARCSEC, NoiseSpec
+from procedures.medians import median
 from station.errors import CheckFailed
 
 T = TypeVar("T")
@@ -188,8 +189,8 @@ def deviations(values: np.ndarray, sigma: np.ndarray | float) -> np.ndarray:
     v = np.asarray(values, dtype=float)
     if v.ndim == 1:
         v = v[:, None]
-    med = np.median(v, axis=0)
-    mad = MAD_TO_SIGMA * np.median(np.abs(v - med), axis=0)
+    med = median(v, axis=0)
+    mad = MAD_TO_SIGMA * median(np.abs(v - med), axis=0)
     scale = np.maximum(np.broadcast_to(np.asarray(sigma, dtype=float), med.shape), mad)
     scale = np.where(scale > 0, scale, np.inf)
     return np.abs(v - med) / scale
@@ -237,7 +238,7 @@ class AgreeingReadings:
                 return np.array(self.values)
             i = max(bad, key=lambda j: dev[j])
             if len(self.rereads) >= max_rereads:
-                med = np.median(np.array(self.values), axis=0)
+                med = median(np.array(self.values), axis=0)
                 raise Implausible(
                     source_of(self.driver),
                     f"{self.what}: reading {i + 1} of {len(self.values)} "

@@ -48,6 +48,7 @@ from procedures.isu.readings import (
 )
 from procedures.isu.sheets import SurveyResults
 from procedures.isu.site import Site
+from procedures.medians import median
 from procedures.runner import Run
 from station.drivers.isu import AutocollimatorDriver
 from station.errors import CheckFailed, InstrumentRefused
@@ -176,7 +177,7 @@ def read_mirrors(
             if levels:
                 lev.add(level())
     for k in (1, 2):
-        zen = float(np.median([v[1] for v in got[k].values]))
+        zen = float(median([v[1] for v in got[k].values]))
         got[k].sigma = pl.autocollimator_sigma_deg(noise, times, zen)
         got[k].settle()
     if levels:

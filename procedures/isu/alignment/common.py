@@ -24,6 +24,7 @@ from procedures.isu.sheets import CalibrationResults, SurveyResults
 from procedures.isu.site import Site
 from procedures.isu.system_survey import NOMINAL_AIM_DEG, POSITION0_DEG, acquire
 from procedures.isu.turn_on import oscillator_periods
+from procedures.medians import median
 from procedures.runner import Run
 from station.errors import CheckFailed
 
@@ -129,7 +130,7 @@ def read_autocollimators(st: IsuDrivers, ks: Sequence[int], n: int, survey: Surv
             got[k].add(read(k))
     out = {}
     for k, g in got.items():
-        zen = float(np.median([v[1] for v in g.values]))
+        zen = float(median([v[1] for v in g.values]))
         g.sigma = pl.autocollimator_sigma_deg(noise, times[k], zen)
         a = g.settle()
         out[k] = {

@@ -28,6 +28,7 @@ import numpy as np
 
 from procedures.isu import plausibility as pl
 from procedures.isu.calibration.noise_spec import NoiseSpec
+from procedures.medians import median
 from station.errors import DriverError
 
 if TYPE_CHECKING:
@@ -124,7 +125,7 @@ def sample_deviations(counts: np.ndarray, noise: NoiseSpec) -> tuple[np.ndarray,
         return np.zeros(counts.shape), counts.astype(float)
     half = w // 2
     padded = np.pad(counts.astype(float), ((half, half), (0, 0)), mode="edge")
-    med = np.median(np.lib.stride_tricks.sliding_window_view(padded, w, axis=0), axis=-1)
+    med = median(np.lib.stride_tricks.sliding_window_view(padded, w, axis=0), axis=-1)
     return np.abs(counts - med) / count_sigma(noise), med
 
 

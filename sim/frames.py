@@ -23,6 +23,28 @@ def gimbal(p: float | np.ndarray) -> np.ndarray:
     return m
 
 
+def gimbal_at(p: float) -> np.ndarray:
+    """``gimbal`` of one angle, (3, 3): its cosine and sine as numpy computes them for an
+    array, the matrix built at once (a twentieth of the calls, issue 17)."""
+    c, s = float(np.cos(p)), float(np.sin(p))
+    return np.array([[0.0, 1.0, 0.0], [c, 0.0, -s], [-s, 0.0, -c]])
+
+
+def transform_of_rotated_at(v: npt.ArrayLike) -> np.ndarray:
+    """``transform_of_rotated`` of one rotation vector, (3, 3): ``rotation``'s arithmetic
+    term by term (its norm, the branch its ``where`` takes, the same products in the same
+    order) without the array machinery around it (issue 17: a table's frames at one
+    instant, 465 a day; tests/test_fast_paths.py holds it to the array path)."""
+    x, y, w = (float(e) for e in np.asarray(v, dtype=float))
+    th = float(np.linalg.norm(np.array([[x, y, w]]), axis=1)[0])
+    if th < 1e-8:
+        a, b = 1.0 - th * th / 6.0, 0.5 - th * th / 24.0
+    else:
+        a, b = float(np.sin(th)) / th, (1.0 - float(np.cos(th))) / (th * th)
+    k = np.array([[0.0, -w, y], [w, 0.0, -x], [-y, x, 0.0]])
+    return (np.eye(3) + a * k + b * (k @ k)).T
+
+
 def rotation(v: npt.ArrayLike) -> np.ndarray:
     """Rotation matrix turning vectors by rotation vector v (Rodrigues); v (3,) or (N, 3)."""
     v = np.asarray(v, dtype=float)

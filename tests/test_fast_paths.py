@@ -260,3 +260,34 @@ def test_medians_are_numpys() -> None:
             assert np.array_equal(median(win, axis=-1), np.median(win, axis=-1),
                                   equal_nan=True)
     assert median([2.0, 1.0, 4.0, 3.0]) == 2.5 and median([5.0]) == 5.0
+
+
+def test_a_tables_frames_at_one_instant_carry_the_bits_of_an_array() -> None:
+    """FourAxisTable.frames at one instant (sim.frames' one-instant gimbal and rotation)
+    against the array path at that instant: every matrix, the tilt rate, the angles and
+    rates, on random labs with the axes moving, turning, settling or still, and rotation
+    vectors down to the small-angle branch."""
+    from sim.frames import transform_of_rotated, transform_of_rotated_at
+    from sim.isu.world import World
+    from tests.random_labs import random_lab
+
+    rng = np.random.default_rng(20261209)
+    for lab in rng.integers(0, 10_000, 4):
+        world = World(random_lab(int(lab)).world_params(), int(lab))
+        tb = world.table
+        lo, hi = (math.radians(x) for x in tb.p.trunnion_range_deg)
+        tb.move(1, float(rng.uniform(lo, hi)), 0.0)
+        tb.move(3, float(rng.uniform(-0.3, 0.3)), 0.0)
+        tb.move(4, float(rng.uniform(-3.0, 3.0)), 0.0)
+        tb.rotate(2, float(rng.uniform(0.05, 0.3)), 0.0)
+        for t in rng.uniform(0.0, 120.0, 15):
+            one = tb.frames(float(t))
+            many = tb._frames_of(np.array([t]))
+            for key in ("t_io", "t_or", "t_rt", "t_tf", "t_fe", "eps_rate"):
+                assert one[key].shape == (1, *many[key].shape[1:])
+                assert np.array_equal(one[key][0], many[key][0]), key
+            for k in (1, 2, 3, 4):
+                assert one["angles"][k][0] == many["angles"][k][0]
+                assert one["rates"][k][0] == many["rates"][k][0]
+    for v in rng.normal(0.0, 1.0, (200, 3)) * 10.0 ** rng.uniform(-12, 0, (200, 1)):
+        assert np.array_equal(transform_of_rotated_at(v), transform_of_rotated(v[None])[0])

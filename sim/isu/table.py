@@ -14,7 +14,7 @@ from typing import overload
 import numpy as np
 
 from sim import units
-from sim.frames import gimbal, transform_of_rotated
+from sim.frames import gimbal, gimbal_at, transform_of_rotated, transform_of_rotated_at
 from sim.isu.environment import Environment
 from sim.isu.params import TableParams
 from sim.isu.trajectory import Trajectory, plan_move, plan_rate, plan_stop
@@ -169,6 +169,10 @@ class FourAxisTable:
     def frames(self, t: float | np.ndarray) -> dict[str, np.ndarray]:
         """Gimbal transforms and axis angles/rates at times t (arrays, leading dim N)."""
         t = np.atleast_1d(np.asarray(t, dtype=float))
+        return self._frames_at(t) if t.shape == (1,) else self._frames_of(t)
+
+    def _frames_of(self, t: np.ndarray) -> dict[str, np.ndarray]:
+        """``frames`` at the times t by array arithmetic (any number of them)."""
         ang, rate = {}, {}
         for k in AXES:
             ang[k], rate[k] = self.axes[k].evaluate(t)
@@ -180,6 +184,28 @@ class FourAxisTable:
             "t_rt": gimbal(ang[2]) @ self._n["RT"],
             "t_tf": gimbal(ang[1]),
             "t_fe": transform_of_rotated(eps),
+            "eps_rate": eps_rate,
+            "angles": ang,
+            "rates": rate,
+        }
+
+    def _frames_at(self, t: np.ndarray) -> dict[str, np.ndarray]:
+        """``frames`` at one instant (``t`` of shape (1,)): each matrix made as a (3, 3) by
+        sim.frames' one-instant forms, with the bits ``_frames_of`` gives that instant (a
+        reading of the bubble levels or an autocollimator: 465 a day, half the time, issue
+        17)."""
+        ang, rate = {}, {}
+        for k in AXES:
+            p, v = self.axes[k]._at(float(t[0]))  # evaluate's path for a few instants
+            ang[k], rate[k] = np.array([p]), np.array([v])
+        eps, eps_rate = self.env.tilt_and_rate(t)
+        eps = eps + self.base_rotation
+        return {
+            "t_io": (gimbal_at(float(ang[4][0])) @ self._n["IO"])[None],
+            "t_or": (gimbal_at(float(ang[3][0])) @ self._n["OR"])[None],
+            "t_rt": (gimbal_at(float(ang[2][0])) @ self._n["RT"])[None],
+            "t_tf": gimbal_at(float(ang[1][0]))[None],
+            "t_fe": transform_of_rotated_at(eps[0])[None],
             "eps_rate": eps_rate,
             "angles": ang,
             "rates": rate,

@@ -115,8 +115,9 @@ class Environment:
         eps = np.zeros((t.size, 3))
         rate = np.zeros((t.size, 3))
         arg = self.w_d * t + self.diurnal_phase
-        eps += np.outer(self.diurnal_amp * np.sin(arg), self.diurnal_dir)
-        rate += np.outer(self.diurnal_amp * self.w_d * np.cos(arg), self.diurnal_dir)
+        # np.outer's products (a[:, None] * b), without its checks: 1,500 calls a day
+        eps += (self.diurnal_amp * np.sin(arg))[:, None] * self.diurnal_dir
+        rate += (self.diurnal_amp * self.w_d * np.cos(arg))[:, None] * self.diurnal_dir
         return eps, rate
 
     def _add_wander_and_wobble(self, t: np.ndarray, eps: np.ndarray, rate: np.ndarray

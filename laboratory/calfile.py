@@ -149,13 +149,15 @@ def calibration_document(out: Path, calib: CalibrationResults, timer_period_s: f
     }
 
 
-def write_calibration_file(out: Path, calib: CalibrationResults, timer_period_s: float,
-                           data: CalibrationData | None = None,
-                           noise: NoiseSpec | None = None,
-                           estimator: str = "closed-form",
-                           series: Mapping[int, list[dict]] | None = None) -> Path:
-    """Write DIR/calibration.json: full covariance when ``data`` (the calibration's input)
-    is given and its Jacobian can be taken, else the diagonal of the predicted sigmas."""
+def calibration_file_document(out: Path, calib: CalibrationResults, timer_period_s: float,
+                              data: CalibrationData | None = None,
+                              noise: NoiseSpec | None = None,
+                              estimator: str = "closed-form",
+                              series: Mapping[int, list[dict]] | None = None
+                              ) -> dict[str, Any]:
+    """DIR/calibration.json's document: full covariance when ``data`` (the calibration's
+    input) is given and its Jacobian can be taken, else the diagonal of the predicted
+    sigmas."""
     cov = None
     why = ""
     if data is not None:
@@ -163,23 +165,30 @@ def write_calibration_file(out: Path, calib: CalibrationResults, timer_period_s:
             cov = calibration_covariance(data, noise or NoiseSpec(), estimator, series)
         except (ValueError, np.linalg.LinAlgError) as e:  # a design it cannot cover
             why = f"diagonal: the full covariance could not be taken ({e})"
-    doc = calibration_document(out, calib, timer_period_s, cov, why, estimator)
-    path = out / FILE_NAME
-    write_json(path, doc)
-    return path
+    return calibration_document(out, calib, timer_period_s, cov, why, estimator)
 
 
-def write_day_calibration(out: Path, calib: CalibrationResults, cfg: StationConfig,
-                          data: DayData, plan: DayPlan, site: Site, noise: NoiseSpec) -> Path:
-    """What `station day` calls: the calibration file of the day in ``out``, with the full
-    covariance from the day's data (diagonal when the data cannot give it)."""
+def day_calibration_document(out: Path, calib: CalibrationResults, cfg: StationConfig,
+                             data: DayData, plan: DayPlan, site: Site, noise: NoiseSpec
+                             ) -> dict[str, Any]:
+    """The calibration file of `station day`'s run in ``out``, with the full covariance
+    from the day's data (diagonal when the data cannot give it)."""
     osc = cfg.oscillator
     try:
         cd: CalibrationData | None = calibration_data(data, plan, site)
     except ValueError:  # no survey (a partial day): the sheet's sigmas only
         cd = None
-    return write_calibration_file(out, calib, osc.s2_divider / osc.nominal_hz, cd, noise,
-                                  plan.options.estimator, data.nonlinearity)
+    return calibration_file_document(out, calib, osc.s2_divider / osc.nominal_hz, cd, noise,
+                                     plan.options.estimator, data.nonlinearity)
+
+
+def write_day_calibration(out: Path, calib: CalibrationResults, cfg: StationConfig,
+                          data: DayData, plan: DayPlan, site: Site, noise: NoiseSpec) -> Path:
+    """What `station align` calls after its day: DIR/calibration.json
+    (``day_calibration_document``)."""
+    path = out / FILE_NAME
+    write_json(path, day_calibration_document(out, calib, cfg, data, plan, site, noise))
+    return path
 
 
 # ----- reading -----

@@ -17,7 +17,8 @@ from pathlib import Path
 from rich.console import Console
 
 from laboratory import registry
-from laboratory.calfile import write_day_calibration
+from laboratory.calfile import FILE_NAME as CALIBRATION_FILE
+from laboratory.calfile import day_calibration_document
 from laboratory.connect import Connection, connect
 from laboratory.export import can_log, write_results_csv
 from laboratory.history import index_after
@@ -314,7 +315,11 @@ def _day(req: DayRequest, conn: Connection, journal: Journal, console: Console,
         rows = judge_constants(results_rows(calib, calibration_truth(world) if world else {}),
                                cfg.limits)
         plotter.draw([  # drawn during the alignments; waited for before the end note
-            (f"{PLOTS}:results_plot", {"rows": rows, "path": out / "results.png"})],
+            (f"{PLOTS}:results_plot", {"rows": rows, "path": out / "results.png"}),
+            # calibration.json written beside too, its JSON and sync off the day's end
+            ("laboratory.record:write_json", {"path": out / CALIBRATION_FILE, "sync_dir": False,
+                                             "obj": day_calibration_document(
+                                                 out, calib, cfg, data, req.plan, site, noise)})],
             more=True)  # the sheets may follow
         rendered.start(run)
         alignment = []
@@ -339,7 +344,6 @@ def _day(req: DayRequest, conn: Connection, journal: Journal, console: Console,
     write_results_csv(out, rows)
     if alignment:
         write_results_csv(out, alignment, "alignment.csv")
-    write_day_calibration(out, calib, cfg, data, req.plan, site, noise)  # calibration.json
 
     def show(res: dict) -> None:
         render_results(console, res["calibration"])

@@ -340,14 +340,6 @@ class PlotWorker:
             self._read_answers(self._answered)  # its first bytes are here: the rest follow
         return True
 
-    def idle(self) -> bool:
-        """Whether the child has answered every batch sent (reading the answers that have
-        come) and still takes jobs: a job sent now starts at once."""
-        p = self._proc
-        if p is None or p.stdin is None or p.stdin.closed or p.stdout is None:
-            return False
-        return self._answered_now(len(self._batches) - 1) and self._proc is not None
-
     def _read_answers(self, upto: int) -> None:
         """The child's answers to every batch up to ``upto`` (the child gone: none)."""
         while self._answered <= upto:

@@ -197,13 +197,14 @@ class SheetsRendered:
 
 
 def sheets_beside(plotter: PlotWorker, out: Path, run: Run) -> Callable[[], None]:
-    """The sheets' files written by the plot child when it is idle (the results plot
-    drawn), while this process writes the rest of the record (issue 17: 30 synced files,
-    most rendered during the alignments); else here, now. Call the result before the plots
-    are waited for (``PlotWorker.wait`` forgets its jobs): it returns once they are
-    written (here, on the sheets as they were, if the child did not)."""
+    """The sheets' files written by the plot child (most of them staged there during the
+    alignments, ``SheetsRendered``: renamed into place), while this process writes the
+    rest of the record (issue 17); here, now, when pickle cannot carry a sheet. Call the
+    result before the plots are waited for (``PlotWorker.wait`` forgets its jobs): it
+    returns once they are written (here, on the sheets as they were, if the child did
+    not)."""
     blobs = sheet_blobs(run.sheets)
-    if blobs is not None and plotter.idle():
+    if blobs is not None:
         return plotter.compute("laboratory.record:write_sheet_blobs",
                                {"out": out, "blobs": blobs})
     write_sheet_values(out, sheet_values(run))

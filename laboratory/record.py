@@ -15,9 +15,14 @@ from procedures.runner import Run
 from station.files import clear_prefixed, fsync_dir, write_bytes
 
 
+def json_bytes(obj: Any) -> bytes:
+    """A JSON file's content as the record writes it (indented, sorted keys)."""
+    return json.dumps(obj, indent=1, sort_keys=True).encode("utf-8")
+
+
 def write_json(path: Path, obj: Any, sync_dir: bool = True) -> None:
-    """A JSON file of the record (indented, sorted keys), atomically."""
-    write_bytes(path, json.dumps(obj, indent=1, sort_keys=True).encode("utf-8"), sync_dir)
+    """A JSON file of the record (``json_bytes``), atomically."""
+    write_bytes(path, json_bytes(obj), sync_dir)
 
 
 def sheet_path(out: Path, name: str) -> Path:
@@ -28,10 +33,15 @@ def sheet_path(out: Path, name: str) -> Path:
     return Path(out) / "sheets" / f"{name}.json"
 
 
+def sheet_value(model: Any) -> Any:
+    """A sheet as its JSON value (its journal form)."""
+    return json.loads(dumps({"x": model}))["x"]
+
+
 def sheet_values(run: Run) -> dict[str, Any]:
-    """Every sheet of ``run`` as its JSON value, by name (its journal form); the names are
-    checked where they become paths (``write_sheet_values``)."""
-    return {name: json.loads(dumps({"x": model}))["x"] for name, model in run.sheets.items()}
+    """Every sheet of ``run`` as its JSON value, by name; the names are checked where they
+    become paths (``write_sheet_values``)."""
+    return {name: sheet_value(model) for name, model in run.sheets.items()}
 
 
 def write_sheet_values(out: Path, values: dict[str, Any]) -> None:
@@ -67,10 +77,8 @@ def sheet_blobs(sheets: dict[str, Any]) -> Blobs | None:
 
 
 def _sheet_file(blob: bytes) -> bytes:
-    """The file of the sheet pickled in ``blob``: ``sheet_values``'s value, as write_json
-    writes it."""
-    value = json.loads(dumps({"x": pickle.loads(blob)}))["x"]  # noqa: S301 - our own pickle
-    return json.dumps(value, indent=1, sort_keys=True).encode("utf-8")
+    """The file of the sheet pickled in ``blob``, as ``write_sheet_values`` writes it."""
+    return json_bytes(sheet_value(pickle.loads(blob)))  # noqa: S301 - our own pickle
 
 
 def render_sheet_blobs(out: Path, blobs: Blobs) -> None:

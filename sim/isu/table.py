@@ -194,21 +194,18 @@ class FourAxisTable:
         sim.frames' one-instant forms, with the bits ``_frames_of`` gives that instant (a
         reading of the bubble levels or an autocollimator: 465 a day, half the time, issue
         17)."""
-        ang, rate = {}, {}
-        for k in AXES:
-            p, v = self.axes[k]._at(float(t[0]))  # evaluate's path for a few instants
-            ang[k], rate[k] = np.array([p]), np.array([v])
+        at = {k: self.axes[k]._at(float(t[0])) for k in AXES}  # evaluate's few-instant path
         eps, eps_rate = self.env.tilt_and_rate(t)
         eps = eps + self.base_rotation
         return {
-            "t_io": (gimbal_at(float(ang[4][0])) @ self._n["IO"])[None],
-            "t_or": (gimbal_at(float(ang[3][0])) @ self._n["OR"])[None],
-            "t_rt": (gimbal_at(float(ang[2][0])) @ self._n["RT"])[None],
-            "t_tf": gimbal_at(float(ang[1][0]))[None],
+            "t_io": (gimbal_at(at[4][0]) @ self._n["IO"])[None],
+            "t_or": (gimbal_at(at[3][0]) @ self._n["OR"])[None],
+            "t_rt": (gimbal_at(at[2][0]) @ self._n["RT"])[None],
+            "t_tf": gimbal_at(at[1][0])[None],
             "t_fe": transform_of_rotated_at(eps[0])[None],
             "eps_rate": eps_rate,
-            "angles": ang,
-            "rates": rate,
+            "angles": {k: np.array([p]) for k, (p, _) in at.items()},
+            "rates": {k: np.array([v]) for k, (_, v) in at.items()},
         }
 
     def rotation_phase(self, t: float | np.ndarray) -> np.ndarray:

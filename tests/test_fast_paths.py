@@ -11,7 +11,7 @@ import numpy as np
 from laboratory.export import csv_cell
 from procedures.isu.alignment.sampling import RAW_COLUMNS, RawSamples
 from procedures.isu.calibration.noise_spec import NoiseSpec
-from procedures.isu.computations import _tilt_seen_turning_arcsec
+from procedures.isu.count_sigma import tilt_seen_turning_arcsec
 from sim.isu.environment import Environment
 from sim.isu.trajectory import Trajectory, plan_move, plan_rate
 
@@ -106,7 +106,7 @@ def test_tilt_seen_by_a_turning_axis_from_the_mirrored_triangle() -> None:
         })
         gate, rate = float(rng.uniform(1, 400)), float(rng.uniform(0.1, 20))
         steps = int(rng.integers(20, 260))
-        assert (_tilt_seen_turning_arcsec(noise, gate, rate, steps)
+        assert (tilt_seen_turning_arcsec(noise, gate, rate, steps)
                 == _tilt_seen_turning_full(noise, gate, rate, steps))
 
 

@@ -13,7 +13,7 @@ import numpy as np
 
 from laboratory.plot_worker import png_options
 from procedures.isu.calibration.noise_spec import NoiseSpec
-from procedures.isu.computations import speed_count_sigma  # the fit's own weights
+from procedures.isu.count_sigma import speed_count_sigma  # the fit's own weights
 from procedures.isu.nonlinearity import fit_nonlinearity
 
 if TYPE_CHECKING:

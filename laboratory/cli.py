@@ -314,9 +314,11 @@ def start_plot_child(args: list[str]) -> None:
 
     modules = PLOT_CHILDREN.get(args[0]) if args else None
     if modules and not {"--help", "-h"} & set(args):
+        from laboratory import vcs
         from laboratory.plot_worker import start_early
 
         start_early(*modules)
+        vcs.start()  # run.json's revision: git asked beside the imports
     else:  # not a run: the collector the script deferred is on again now
         startup.resume()
 

@@ -17,7 +17,6 @@ import json
 import math
 import os
 import re
-import subprocess
 import sys
 import uuid
 from collections.abc import Iterator, Mapping
@@ -30,6 +29,8 @@ from typing import Annotated, Any
 
 import typer
 
+from laboratory import vcs
+from laboratory.vcs import SOURCE_TREE
 from station.errors import OperatorError, StopError
 from station.files import write_bytes
 
@@ -38,7 +39,6 @@ CONFIG_TOML = "config.toml"
 # run.json's run-specific stamps: two runs of the same seed and config differ only in these
 # (argv too: it names each run's own --out)
 STAMPS = ("run_uid", "started_utc", "ended_utc", "vcs_revision", "argv")
-SOURCE_TREE = Path(__file__).resolve().parent.parent
 
 
 @dataclass(frozen=True)
@@ -85,19 +85,8 @@ def operator_name(given: str | None = None) -> str:
 
 def vcs_revision(tree: Path = SOURCE_TREE) -> str | None:
     """``git rev-parse HEAD`` of the source tree (``-dirty`` with changes), None when the
-    package does not run from a git checkout; never an error."""
-    if not (tree / ".git").exists():
-        return None
-    try:
-        head = subprocess.run(["git", "-C", str(tree), "rev-parse", "HEAD"],
-                              capture_output=True, text=True, timeout=10, check=True)
-        st = subprocess.run(["git", "-C", str(tree), "status", "--porcelain",
-                             "--untracked-files=no"],
-                            capture_output=True, text=True, timeout=10, check=True)
-    except (OSError, subprocess.SubprocessError):
-        return None
-    rev = head.stdout.strip()
-    return (rev + ("-dirty" if st.stdout.strip() else "")) or None
+    package does not run from a git checkout; never an error (laboratory.vcs)."""
+    return vcs.revision(tree)
 
 
 def package_version() -> str:

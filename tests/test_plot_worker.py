@@ -62,6 +62,40 @@ def test_a_run_that_stops_before_waiting_leaves_no_plot(tmp_path: Path) -> None:
     assert list(tmp_path.iterdir()) == []
 
 
+def test_an_idle_child_is_ended_at_close_and_a_busy_one_before_close_returns(
+        tmp_path: Path) -> None:
+    """close: a child that has answered every job is killed and reaped by a thread (the
+    run's process need not wait for its teardown); one with a job outstanding is killed
+    and reaped before close returns, so nothing it draws can land after close."""
+    w = PlotWorker()
+    assert w.compute("statistics:fmean", {"data": [1.0, 3.0]})() == 2.0
+    idle = w._proc
+    assert isinstance(idle, subprocess.Popen)
+    w.close()
+    assert w._proc is None
+    assert idle.wait(timeout=120) == -9  # killed by the thread (not a timing: a bound)
+    w = PlotWorker("laboratory.isu.plots")
+    busy = w._proc
+    assert isinstance(busy, subprocess.Popen)
+    w.draw([(RESULTS, {"rows": ROWS, "path": tmp_path / "r.png"})], more=True)
+    w.close()  # not answered yet: ended here
+    assert busy.poll() is not None
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_a_child_whose_input_ends_exits_at_once_with_zero(tmp_path: Path) -> None:
+    """Its input closed (the run gone without a kill), the child answers what it had and
+    exits 0 without the interpreter's teardown (laboratory.process_exit.finish)."""
+    w = PlotWorker()
+    value = w.compute("statistics:fmean", {"data": [2.0, 4.0]})
+    p = w._proc
+    assert isinstance(p, subprocess.Popen) and p.stdin is not None
+    p.stdin.close()
+    assert value() == 3.0
+    assert p.wait(timeout=120) == 0
+    w.close()
+
+
 def test_a_plot_beside_a_record_file_of_its_stem_leaves_it_alone(tmp_path: Path) -> None:
     """results.png drawn while results.json is written: neither clears the other's
     temporary (atomic_path clears ``.results.tmp-*`` of a killed writer)."""

@@ -109,3 +109,38 @@ def test_verify_options_refused_in_one_line(tmp_path):
         assert p.returncode == 2, p.stderr
         assert what in p.stderr and p.stderr.strip().count("\n") == 0, p.stderr
         assert not (tmp_path / "p").exists()
+
+
+def test_the_check_before_the_run_and_ii6_share_one_answer_on_near_mountings(monkeypatch):
+    """collection_times: the station's mounting (the check before the run) and the survey's
+    (II-6), within SHARED_MOUNTING of each other, give one prediction, made once; a mounting
+    farther off, or another plan, is predicted again (and the answer is its own)."""
+    from procedures.isu import settings
+
+    cfg = load_config(seed=3)
+    site, noise = site_of(cfg), noise_spec(cfg)
+    made = []
+    real = settings.choose_times
+
+    def counted(*a, **k):
+        made.append(a[2].t_bi)
+        return real(*a, **k)
+
+    monkeypatch.setattr(settings, "choose_times", counted)
+    monkeypatch.setattr(settings, "_CHOSEN", [])
+    rng = np.random.default_rng(5)
+    station = rng.normal(scale=4e-3, size=(3, 3)) + np.eye(3)  # a bolting error of ~1/4 deg
+    near = station + rng.uniform(-3e-4, 3e-4, size=(3, 3))  # the survey's measurement error
+    far = station + np.array([[0, 3e-3, 0], [-3e-3, 0, 0], [0, 0, 0]])  # 10 arcmin about B3
+    first = collection_times(DayPlan(), site, noise, t_bi=station)
+    assert collection_times(DayPlan(), site, noise, t_bi=near) == first
+    assert len(made) == 1
+    again = collection_times(DayPlan(), site, noise, t_bi=far)
+    assert len(made) == 2 and made[1] != made[0]
+    alone = real(DayPlan().requirements.requirements(), 3600.0,
+                 planning_lab(DayPlan(), site, noise, t_bi=far), settings.manual_times(DayPlan()))
+    assert again[0] == alone[0]
+    assert [g.predicted for g in again[1].values()] == [c.predicted for c in alone[1]]
+    plan = DayPlan(study_gyro_gate_s=90.0)  # another plan on the same mounting
+    collection_times(plan, site, noise, t_bi=far)
+    assert len(made) == 3

@@ -13,8 +13,17 @@ gate, the requirement, the predicted sigma at the chosen time and why.
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
-from procedures.isu.accuracy import GateChoice, Lab, Times, choose_times, planning_mounting
+from procedures.isu.accuracy import (
+    SQUARE,
+    GateChoice,
+    Lab,
+    Matrix3,
+    Times,
+    choose_times,
+    planning_mounting,
+)
 from procedures.isu.calibration.noise_spec import NoiseSpec
 from procedures.isu.plan import DayPlan
 from procedures.isu.sheets import (
@@ -132,7 +141,25 @@ def manual_times(plan: DayPlan) -> Times:
     return Times(turns=plan.min_turns)
 
 
-_CHOSEN: dict[str, tuple[Times, list[GateChoice]]] = {}
+# The latest answer (one station at a time): its key without the mounting, the planning
+# mounting it was made for, and the answer.
+_CHOSEN: list[tuple[str, Matrix3, tuple[Times, list[GateChoice]]]] = []
+# How far apart two planning mountings may be and still share one answer (rad, each
+# element): the prediction needs the mounting only to a fraction of a degree (accuracy.Lab:
+# through the sense of its small bolting error), and the survey's differs from the station's
+# by its measurement error, which can round across planning_mounting's 1e-4 on either side.
+SHARED_MOUNTING = 1e-3
+
+
+def _shared(key: str, t_bi: Matrix3) -> tuple[Times, list[GateChoice]] | None:
+    """The latest answer, if it was asked with the same key on a mounting within
+    SHARED_MOUNTING of ``t_bi``."""
+    if _CHOSEN and _CHOSEN[0][0] == key:
+        held = _CHOSEN[0][1]
+        if all(abs(a - b) <= SHARED_MOUNTING for ra, rb in zip(held, t_bi, strict=True)
+               for a, b in zip(ra, rb, strict=True)):
+            return _CHOSEN[0][2]
+    return None
 
 
 def collection_times(plan: DayPlan, site: Site, noise: NoiseSpec, s1: float = 1e-6,
@@ -143,16 +170,19 @@ def collection_times(plan: DayPlan, site: Site, noise: NoiseSpec, s1: float = 1e
     ``t_bi``: the unit's mounting (the day's survey), which sets each instrument's share of
     the table's orientation errors."""
     req = plan.requirements
-    # a planning figure: the counter clock's period to 4 figures, so that the check before
-    # the run (nominal clock) and II-6 (the measured one) ask the same and share one answer
+    # planning figures: the counter clock's period to 4 figures, and the mounting to within
+    # SHARED_MOUNTING, so that the check before the run (nominal clock, the station's
+    # mounting) and II-6 (the measured clock, the survey's) share one answer (issue 17: the
+    # prediction is 0.03 s)
     lab = planning_lab(plan, site, noise, float(f"{s1:.4g}"), f0, t_bi)
     fixed = plan.study_times()
-    key = repr((req, lab, manual_times(plan), fixed))
-    if key not in _CHOSEN:
-        _CHOSEN.clear()  # one station at a time: keep the latest only
-        _CHOSEN[key] = choose_times(req.requirements(), 60.0 * req.max_gate_minutes, lab,
-                                    manual_times(plan), fixed=fixed)
-    times, choices = _CHOSEN[key]
+    key = repr((req, replace(lab, t_bi=SQUARE), manual_times(plan), fixed))
+    answer = _shared(key, lab.t_bi)
+    if answer is None:
+        answer = choose_times(req.requirements(), 60.0 * req.max_gate_minutes, lab,
+                              manual_times(plan), fixed=fixed)
+        _CHOSEN[:] = [(key, lab.t_bi, answer)]
+    times, choices = answer
     gates = {c.gate: GateSetting(requirement=c.requirement, required=c.required,
                                  predicted=c.predicted, units=c.units, default=c.default,
                                  chosen=c.chosen, why=c.why) for c in choices}

@@ -288,3 +288,15 @@ def test_a_report_the_plot_child_cannot_write_is_a_warning(
     with PlotWorker() as w:
         report_html.report_after(tmp_path, w)
     assert "warning" in capsys.readouterr().err
+
+
+def test_the_nonlinearity_plot_is_captioned_as_the_plot_titles_itself() -> None:
+    """nonlinearity.png is Chart II-7's gyro scale-factor plot (laboratory.isu.plots'
+    suptitle); the report once captioned it as an accelerometer chart (II-7Q)."""
+    import inspect
+
+    from laboratory.isu import plots
+    from laboratory.report.html import PLOT_CAPTIONS
+
+    caption = PLOT_CAPTIONS["nonlinearity.png"]
+    assert f'fig.suptitle("{caption}")' in inspect.getsource(plots.nonlinearity_plot)

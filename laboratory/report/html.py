@@ -63,7 +63,7 @@ VERDICT_KEYS = ("limit", "limit_text", "verdict")
 TRUTH_KEYS = ("truth", "error", "error_over_sigma", "truth_check", "T_true",
               "level_error_arcsec", "azimuth_error_arcsec")
 PLOT_CAPTIONS = {
-    "nonlinearity.png": "Accelerometer nonlinearity (Chart II-7Q)",
+    "nonlinearity.png": "Gyro scale-factor nonlinearity (Chart II-7)",
     "gyrocompass.png": "Gyrocompassing error theta per run (report 001, section 5)",
     "esg_calibration.png": "ESG pattern calibration and readout errors (report 004)",
     "esg_strategy.png": "Readout error amplification against pattern range (report 004, "

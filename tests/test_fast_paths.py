@@ -291,3 +291,20 @@ def test_a_tables_frames_at_one_instant_carry_the_bits_of_an_array() -> None:
                 assert one["rates"][k][0] == many["rates"][k][0]
     for v in rng.normal(0.0, 1.0, (200, 3)) * 10.0 ** rng.uniform(-12, 0, (200, 1)):
         assert np.array_equal(transform_of_rotated_at(v), transform_of_rotated(v[None])[0])
+
+
+def test_the_attitude_alone_is_the_kinematics_attitude_bit_for_bit() -> None:
+    """World.attitude (an autocollimator's reading) makes T^BE without the rate and force:
+    the same matrix, bit for bit, as kinematics gives at that instant, with the table
+    still, turning and settling (laboratories drawn at random)."""
+    from sim.isu.world import World
+    from tests.random_labs import random_lab
+
+    rng = np.random.default_rng(1207)
+    for lab in rng.integers(0, 10_000, 3):
+        world = World(random_lab(int(lab)).world_params(), int(lab))
+        world.table.move(3, float(rng.uniform(-1.0, 1.0)), 0.0)  # rad: a slew, then a settle
+        world.table.rotate(2, float(rng.uniform(0.05, 0.3)), 60.0)
+        world.changed()
+        for t in rng.uniform(0.0, 400.0, 20):
+            assert np.array_equal(world.attitude(float(t)), world.kinematics(float(t))[0][0])

@@ -77,13 +77,8 @@ class World:
     # ----- kinematics -----
     def kinematics(self, t: float | np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """T^BE (N,3,3), body angular rate w.r.t. inertial space (N,3), specific force (N,3)."""
-        t = np.atleast_1d(np.asarray(t, dtype=float))
-        f = self.table.frames(t)
-        t_bi = self.isu.t_bi
-        t_bo = t_bi @ f["t_io"]
-        t_br = t_bo @ f["t_or"]
-        t_bt = t_br @ f["t_rt"]
-        t_be = t_bt @ f["t_tf"] @ f["t_fe"]
+        f = self.table.frames(np.atleast_1d(np.asarray(t, dtype=float)))
+        t_bi, t_bo, t_br, t_bt, t_be = self._chain(f)
         rates = f["rates"]
         w_rel = (
             rates[4][:, None] * t_bi[None, :, 0]
@@ -96,9 +91,18 @@ class World:
         a_b = np.einsum("nij,j->ni", t_be, self.site.gravity_e)
         return t_be, w_b, a_b
 
+    def _chain(self, f: dict) -> tuple[np.ndarray, ...]:
+        """T^BI and, from the table's frames ``f``, T^BO, T^BR, T^BT and T^BE."""
+        t_bi = self.isu.t_bi
+        t_bo = t_bi @ f["t_io"]
+        t_br = t_bo @ f["t_or"]
+        t_bt = t_br @ f["t_rt"]
+        return t_bi, t_bo, t_br, t_bt, t_bt @ f["t_tf"] @ f["t_fe"]
+
     def attitude(self, t: float) -> np.ndarray:
-        """True T^BE at t."""
-        return self.kinematics(t)[0][0]
+        """True T^BE at t: ``kinematics``' without its rate and force (an autocollimator's
+        reading asks for it 284 times a day)."""
+        return self._chain(self.table.frames(np.atleast_1d(np.asarray(t, dtype=float))))[4][0]
 
     def mirror_normals(self, t: float) -> tuple[np.ndarray, np.ndarray]:
         """True mirror normals in E components (up, east, north)."""

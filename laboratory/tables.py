@@ -1,18 +1,20 @@
 """Console tables that never cut a number: a table too wide for the console is printed as
 several narrower ones (the key columns repeated in each), and a cell that still does not
-fit wraps (``fold``) instead of ending in an ellipsis."""
+fit wraps (``fold``) instead of ending in an ellipsis. rich's tables are imported when a
+table is made: a quiet run prints none (issue 17)."""
 
 from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
-from rich import box
 from rich.cells import cell_len
 from rich.console import Console
-from rich.measure import Measurement
-from rich.table import Table
 from rich.text import Text
+
+if TYPE_CHECKING:
+    from rich.table import Table
 
 
 @dataclass(frozen=True)
@@ -23,6 +25,9 @@ class Column:
 
 def _table(title: str | None, cols: Sequence[Column], rows: Sequence[Sequence[str | Text]],
            idx: Sequence[int]) -> Table:
+    from rich import box
+    from rich.table import Table
+
     t = Table(title=title, box=box.SIMPLE_HEAD, pad_edge=False, collapse_padding=True)
     for i in idx:
         c = cols[i]
@@ -65,6 +70,8 @@ def column_widths(console: Console, cols: Sequence[Column],
                   rows: Sequence[Sequence[str | Text]]) -> list[int]:
     """Each column's natural width, header and cells unwrapped (markup rendered), measured
     once per cell: a table of any of these columns is then as wide as ``table_width`` says."""
+    from rich.measure import Measurement
+
     options = console.options.update_width(10_000)
     widths = [Measurement.get(console, options, c.name).maximum for c in cols]
     for r in rows:
@@ -83,4 +90,6 @@ def table_width(widths: Sequence[int]) -> int:
 
 def _width(console: Console, table: Table) -> int:
     """The table's natural width: its cells unwrapped, on a console wide enough."""
+    from rich.measure import Measurement
+
     return Measurement.get(console, console.options.update_width(10_000), table).maximum

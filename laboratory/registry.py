@@ -77,9 +77,11 @@ def _installed() -> tuple[tuple[str, str], ...]:
     return tuple((ep.name, ep.value) for ep in entry_points(group=ENTRY_POINTS))
 
 
-def _entries() -> dict[str, str]:
+def _entries(installed: bool = True) -> dict[str, str]:
+    """Every laboratory's entry: the built-in ones, then the installed ones (``installed``;
+    they cannot take a built-in name), then $STATION_LABORATORIES (which can)."""
     table = dict(BUILTIN)
-    for name, value in _installed():
+    for name, value in _installed() if installed else ():
         table.setdefault(name, value)
     for item in filter(None, (x.strip() for x in os.environ.get(ENV_VAR, "").split(","))):
         name, sep, target = item.partition("=")
@@ -89,9 +91,10 @@ def _entries() -> dict[str, str]:
     return table
 
 
-def names() -> list[str]:
-    """The names of every laboratory known (built in first)."""
-    return list(_entries())
+def names(installed: bool = True) -> list[str]:
+    """The names of every laboratory known (built in first); without ``installed``, only
+    the built-in and $STATION_LABORATORIES ones (no scan of the installed packages)."""
+    return list(_entries(installed))
 
 
 _loaded: dict[str, Laboratory] = {}
@@ -101,7 +104,8 @@ def get(name: str) -> Laboratory:
     """The laboratory called ``name``; UnknownLaboratory naming the ones known."""
     if name in _loaded:
         return _loaded[name]
-    table = _entries()
+    # a built-in name is never an installed package's (``_entries``): no scan for it
+    table = _entries(installed=name not in BUILTIN)
     if name not in table:
         raise UnknownLaboratory(f"--station: unknown laboratory {name!r} (known: "
                                 f"{', '.join(table)})")

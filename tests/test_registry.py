@@ -116,3 +116,41 @@ def test_toy_rack_served_checked_and_measured_over_links(toy, tmp_path, monkeypa
     res = json.loads((tmp_path / "served" / "toy.json").read_text())
     assert res["served"]["station"] == "toy" and res["served"]["truth"] is True
     assert abs(res["mean_k"] - res["truth_k"]) < 5.0 * res["sigma_k"]
+
+
+def test_an_installed_laboratory_runs_and_a_builtin_command_scans_no_package(tmp_path):
+    """The toy laboratory installed as a package declares it (an entry point of
+    ``station.laboratories``, no environment entry): `station labs` lists it and its own
+    command runs. A command of the station or of a built-in laboratory starts without
+    scanning the installed packages' metadata (issue 17): a scan there fails the run."""
+    dist = tmp_path / "site" / "toylab_dist-0.1.dist-info"
+    dist.mkdir(parents=True)
+    (dist / "METADATA").write_text("Metadata-Version: 2.1\nName: toylab-dist\nVersion: 0.1\n")
+    (dist / "entry_points.txt").write_text(f"[{registry.ENTRY_POINTS}]\n"
+                                           "toy = toylab.lab:LAB\n")
+    env = {k: v for k, v in os.environ.items() if k != registry.ENV_VAR}
+    env["PYTHONPATH"] = os.pathsep.join([str(TESTS), str(tmp_path / "site"),
+                                         env.get("PYTHONPATH", "")])
+
+    def station(*args: str, code: str = "") -> subprocess.CompletedProcess:
+        return subprocess.run([sys.executable, "-c", code + "import sys\nsys.argv = "
+                               "['station', " + ", ".join(repr(a) for a in args) + "]\n"
+                               "from laboratory.cli import main\nmain()\n"],
+                              env=env, capture_output=True, text=True, timeout=120,
+                              stdin=subprocess.DEVNULL)
+
+    r = station("labs")
+    assert r.returncode == 0 and "toy\ttoy laboratory" in r.stdout, r.stderr
+    r = station("toy-bath", "--seed", "3", "--readings", "3", "--out", str(tmp_path / "run"))
+    assert r.returncode == 0, r.stderr
+    res = json.loads((tmp_path / "run" / "toy.json").read_text())
+    assert abs(res["mean_k"] - res["truth_k"]) < 4.0 * res["sigma_k"]
+    no_scan = ("import importlib.metadata as md\n"
+               "def refuse(*a, **k):\n    raise SystemExit('installed packages scanned')\n"
+               "md.entry_points = refuse\n")
+    for args in (["report", "--help"], ["day", "--help"], ["compare", str(tmp_path),
+                                                          str(tmp_path)]):
+        r = station(*args, code=no_scan)
+        assert "scanned" not in r.stderr, (args, r.stderr)
+    r = station("toy-bath", "--help", code=no_scan)  # not a built-in command: scanned
+    assert "installed packages scanned" in r.stderr

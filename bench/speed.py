@@ -9,7 +9,9 @@ MODULE the one the tree's pyproject names for its `station` script (laboratory.s
 with PYTHONPATH set to the tree under test, it prints the minimum and median wall time of
 the whole process, the time inside the run (results.json ``wall_seconds``, else the closing
 line), lab time per wall second, the peak memory of the process (its own rusage) and its CPU
-time with the children it reaped (the plot child): a run's cpu s / CPUs is a floor under its
+time with the children it reaped (the plot child, where the run reaps it before it exits:
+a day since bfe0fda leaves the reaping to a thread its exit may overtake, and its child is
+then not counted): a run's cpu s / CPUs is a floor under its
 wall time that no overlap of the two processes gets below (the column is the median). Then,
 where the tree has them, bench/ieu_stream.ieu_cost_per_sample(4.0) and
 bench/gate_cost.gate_cost_ratio().
@@ -236,8 +238,9 @@ def report(trees: list[Tree], names: list[str], repeat: int) -> None:
             for k, v in t.costs.items():
                 print(f"{t.label:<10} {k}: {v}")
     print(f"\ncpu s: median user + system time of the process and the children it reaped "
-          f"(the plot child); on {os.cpu_count()} CPUs each run's wall is at least its own "
-          f"cpu s / {os.cpu_count()}")
+          f"(the plot child, where the run reaps it before it exits; a day leaves it to a "
+          f"thread that the exit may overtake, so its child is then not counted); on "
+          f"{os.cpu_count()} CPUs each run's wall is at least its own cpu s / {os.cpu_count()}")
     if len(trees) == 2:
         print(f"\nratio: {trees[0].label} / {trees[1].label} (above 1: {trees[1].label} is "
               "faster)")

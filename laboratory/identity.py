@@ -30,7 +30,6 @@ from typing import Annotated, Any
 import typer
 
 from laboratory import vcs
-from laboratory.vcs import SOURCE_TREE
 from station.errors import OperatorError, StopError
 from station.files import write_bytes
 
@@ -83,7 +82,7 @@ def operator_name(given: str | None = None) -> str:
     return login or "unknown"
 
 
-def vcs_revision(tree: Path = SOURCE_TREE) -> str | None:
+def vcs_revision(tree: Path = vcs.SOURCE_TREE) -> str | None:
     """``git rev-parse HEAD`` of the source tree (``-dirty`` with changes), None when the
     package does not run from a git checkout; never an error (laboratory.vcs)."""
     return vcs.revision(tree)

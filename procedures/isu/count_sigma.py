@@ -55,7 +55,7 @@ def speed_count_sigma(noise: NoiseSpec, gate_s: float, p_dot: float, dphi_arcsec
                       along: float = 1.0, across: float = 0.0, rate_deg_s: float = 0.0
                       ) -> float:
     """One speed's gyro count standard error (pulses) in a Chart II-7 or II-7Q series: as
-    ``_count_sigma``, with the quantization at the pulse rate ``p_dot`` (pulses exist only
+    ``count_sigma``, with the quantization at the pulse rate ``p_dot`` (pulses exist only
     at the rebalance loop's sampling instants: q (1 + (P' / f_s)^2)) and the pier's tilt
     over the gate, which the rotary pulses do not count: its change about the rotary axis,
     seen through ``along`` (G . r: 1 for II-7, 1/sqrt2 for II-7Q), and its east component,

@@ -172,8 +172,8 @@ def collection_times(plan: DayPlan, site: Site, noise: NoiseSpec, s1: float = 1e
     req = plan.requirements
     # planning figures: the counter clock's period to 4 figures, and the mounting to within
     # SHARED_MOUNTING, so that the check before the run (nominal clock, the station's
-    # mounting) and II-6 (the measured clock, the survey's) share one answer (issue 17: the
-    # prediction is 0.03 s)
+    # mounting) and II-6 (the measured clock, the survey's) share one answer (issue 17: a
+    # second prediction cost 12 ms)
     lab = planning_lab(plan, site, noise, float(f"{s1:.4g}"), f0, t_bi)
     fixed = plan.study_times()
     key = repr((req, replace(lab, t_bi=SQUARE), manual_times(plan), fixed))

@@ -106,8 +106,18 @@ def test_tilt_seen_by_a_turning_axis_from_the_mirrored_triangle() -> None:
         })
         gate, rate = float(rng.uniform(1, 400)), float(rng.uniform(0.1, 20))
         steps = int(rng.integers(20, 260))
-        assert (tilt_seen_turning_arcsec(noise, gate, rate, steps)
-                == _tilt_seen_turning_full(noise, gate, rate, steps))
+        full = _tilt_seen_turning_full(noise, gate, rate, steps)
+        assert tilt_seen_turning_arcsec(noise, gate, rate, steps) == full
+        # asked again on an equal noise model (another object): the held value, the same
+        hits = tilt_seen_turning_arcsec.cache_info().hits
+        again = NoiseSpec.model_validate(noise.model_dump())
+        assert tilt_seen_turning_arcsec(again, gate, rate, steps) == full
+        assert tilt_seen_turning_arcsec.cache_info().hits == hits + 1
+        # another lab's noise with the same gate and rate is computed for itself
+        other = NoiseSpec.model_validate({**noise.model_dump(), "wobble_amplitude_arcsec":
+                                          noise.wobble_amplitude_arcsec + 0.5})
+        assert (tilt_seen_turning_arcsec(other, gate, rate, steps)
+                == _tilt_seen_turning_full(other, gate, rate, steps) != full)
 
 
 def test_one_instant_of_the_noise_processes_carries_the_bits_of_an_array() -> None:

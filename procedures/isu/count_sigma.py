@@ -5,6 +5,7 @@ weights the nonlinearity plot's fit alike without importing the day's procedures
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -30,12 +31,16 @@ def tilt_change_about_north_arcsec(noise: NoiseSpec, gate_s: float) -> float:
     return math.sqrt(max(2.0 * float(nn0 - nn1), 0.0)) * 180.0 / math.pi * 3600.0
 
 
+# a day asks for the same gate and rate of the II-7Q series once per gyro: 18 times, 7
+# different, 1.5 ms each (issue 17); NoiseSpec is frozen, so it keys the cache by content
+@functools.lru_cache(maxsize=64)
 def tilt_seen_turning_arcsec(noise: NoiseSpec, gate_s: float, rate_deg_s: float,
                               steps: int = 240) -> float:
     """Pier tilt about the east axis seen over a gate by a unit axis that turns with the
     table about R1 (north-south) at ``rate_deg_s``, arcsec: the angle int eps_E' cos(w t +
     phi) dt, phi uniform; near the wobble's period (60 s against 72 s a turn at 5 deg/s) it
-    does not average out over whole turns."""
+    does not average out over whole turns. Held by its arguments' values (a pure function
+    of them)."""
     t = np.linspace(0.0, gate_s, steps + 1)
     # ee at |t_i - t_j| is symmetric bit for bit (x - y = -(y - x) in floating point): the
     # upper triangle is evaluated once and mirrored (half the cosines, exps and sincs)

@@ -299,7 +299,8 @@ class PlotWorker:
         arguments as they are now; the returned callable gives its value (computed here, on
         those same arguments, if the child could not: an error then is the run's).
         ``race``: the callable does not wait for a child still busy (with the plots sent
-        before): unless its value has come, it computes it here at once (the same bits)."""
+        before): unless its value has come or the child is on it, it computes it here at
+        once (the same bits)."""
         first = len(self._jobs)
         sent = pickle.dumps([(job, kwargs)])  # the arguments now, whatever they become
         self._jobs.append((job, {}))
@@ -314,9 +315,10 @@ class PlotWorker:
         return lambda: self.values(batch)[0]
 
     def _first(self, batch: int) -> Any:
-        """The value of the computation ``batch``: the child's if it has come, else made here
-        now (its answer, when it comes, is read and left)."""
-        if self._proc is None or self._answered_now(batch):
+        """The value of the computation ``batch``: the child's if it has come or the child
+        is on it (it has answered every batch before: it began no later than this process
+        would), else made here now (its answer, when it comes, is read and left)."""
+        if self._proc is None or self._answered_now(batch) or self._answered == batch:
             return self.values(batch)[0]
         (i,) = self._batches[batch]
         return self._computed_here(i)

@@ -171,9 +171,10 @@ class Run:
         """The pure function ``job`` (``"module:function"``) of ``kwargs`` as they are now,
         computed beside the run while it goes on (on the second core, issue 17) or, without
         ``beside``, here and now; call the returned callable for its value, which is then
-        made here if the second process has not given it yet (busy with a plot, on a
-        loaded machine: the run does not wait for it). Only a computation whose value does
-        not depend on where it runs belongs here (no clock, no drivers, no journal)."""
+        made here if the second process has not given it yet and is not on it (busy with
+        a plot, on a loaded machine: the run does not wait for it). Only a computation
+        whose value does not depend on where it runs belongs here (no clock, no drivers,
+        no journal)."""
         if self.beside is not None:
             return self.beside.compute(job, kwargs, race=True)
         module, _, function = job.partition(":")

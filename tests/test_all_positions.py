@@ -204,34 +204,38 @@ def test_sheet_shows_both_and_takes_the_chosen_one(labs: list[dict], estimator: 
 
 
 def test_the_fit_computed_beside_the_run_is_the_fit_computed_here(labs: list[dict]) -> None:
-    """compute_calibration hands the closed-form day's fit to the plot child (Run.meanwhile):
-    its columns, pickled there and back, are the ones side_by_side writes here, to the bit,
-    and the child computes them on the rows as they were sent (a later change is not
-    seen)."""
+    """compute_calibration hands the closed-form day's all-positions side to the plot child
+    (Run.meanwhile) from the data and the closed forms' estimates alone: the columns made
+    from it, pickled there and back, are the ones side_by_side writes here, to the bit, and
+    they are of the rows as computed (a change made meanwhile is not seen)."""
     from laboratory.plot_worker import PlotWorker
-    from procedures.isu.calibration.all_positions import fill_columns
+    from procedures.isu.calibration.all_positions import fill_columns, side_columns
+    from procedures.isu.calibration.compute import closed_forms, constants_covariance
 
-    lab = labs[1]
-    here = calibrate(lab["data"], lab["noise"])
-    beside = calibrate(lab["data"], lab["noise"])
-    side_by_side(here, lab["data"], lab["noise"], "closed-form", lab["series"])
-    with PlotWorker("procedures.isu.calibration.all_positions") as w:
-        later = w.compute("procedures.isu.calibration.all_positions:side_by_side_columns",
-                          {"rows": beside, "data": lab["data"], "noise": lab["noise"],
-                           "series": lab["series"]})
-        for r in beside:  # what the special experiments do meanwhile
-            if r.parameter == "Q_II":
-                r.estimate, r.sigma = 1.0, 2.0
-        columns, _ = later()
-        assert 0 not in w._here  # the child's value, not one computed here
-        w.wait()
-    fill_columns(beside, columns)
-    for a, b in zip(here, beside, strict=True):
-        if b.parameter == "Q_II":
-            assert (b.estimate, b.sigma) == (1.0, 2.0)
-            b.estimate, b.sigma = a.estimate, a.sigma
-        assert a.model_dump() == b.model_dump()
-    assert sum(r.all_positions is not None for r in beside) >= 40
+    for lab in labs[:2]:
+        closed = closed_forms(lab["data"])
+        assert closed == constants_covariance(lab["data"], lab["noise"])[0]
+        here = calibrate(lab["data"], lab["noise"])
+        beside = calibrate(lab["data"], lab["noise"])
+        side_by_side(here, lab["data"], lab["noise"], "closed-form", lab["series"])
+        with PlotWorker("procedures.isu.calibration.all_positions") as w:
+            later = w.compute("procedures.isu.calibration.all_positions:all_positions_side",
+                              {"data": lab["data"], "noise": lab["noise"], "closed": closed,
+                               "series": lab["series"]}, race=True)
+            computed = [r.model_copy() for r in beside]
+            for r in beside:  # what the special experiments do meanwhile
+                if r.parameter == "Q_II":
+                    r.estimate, r.sigma = 1.0, 2.0
+            side = later()
+            assert 0 not in w._here  # the child's value (it was on it), not made here
+            w.wait()
+        fill_columns(beside, side_columns(computed, side))
+        for a, b in zip(here, beside, strict=True):
+            if b.parameter == "Q_II":
+                assert (b.estimate, b.sigma) == (1.0, 2.0)
+                b.estimate, b.sigma = a.estimate, a.sigma
+            assert a.model_dump() == b.model_dump()
+        assert sum(r.all_positions is not None for r in beside) >= 40
 
 
 def test_unknown_estimator_refused_in_one_line(labs: list[dict]) -> None:

@@ -199,3 +199,33 @@ def test_a_damaged_history_is_an_error_naming_it(tmp_path: Path) -> None:
             runs_of_sqlite(db, "ISU-1")
     with pytest.raises(HistoryError, match=f"history database sqlite:///{db}"):
         index_run_sqlite(db, record(tmp_path / "r9", "u9", "2026-01-02T03:04:05+00:00", 1.1))
+
+
+def test_an_index_that_fails_leaves_no_part_of_its_schema(tmp_path: Path) -> None:
+    """The schema and the rows are one transaction: a database whose runs table the run
+    cannot go into (another schema) gets neither the missing tables nor any row; the same
+    run then goes into a good database whole."""
+    from laboratory.history.where import HistoryError
+
+    run = record(tmp_path / "a", "u1", "2026-01-02T03:04:05", 1.1)
+    bad = tmp_path / "bad.sqlite"
+    db = sqlite3.connect(bad)
+    db.execute("CREATE TABLE runs (id INTEGER PRIMARY KEY, other TEXT)")
+    db.commit()
+    db.close()
+    try:
+        index_run_sqlite(bad, run)
+    except HistoryError as e:
+        assert str(bad) in str(e)
+    else:
+        raise AssertionError("indexed into a runs table without its columns")
+    assert dump(bad) == ["BEGIN TRANSACTION;", "COMMIT;",
+                         "CREATE TABLE runs (id INTEGER PRIMARY KEY, other TEXT);"]
+    index_run_sqlite(tmp_path / "good.sqlite", run)
+    good = sqlite3.connect(tmp_path / "good.sqlite")
+    try:
+        assert good.execute("SELECT count(*) FROM results").fetchone() == (2,)
+        assert {r[0] for r in good.execute("SELECT name FROM sqlite_master")} >= {
+            "runs", "run_units", "results", "ix_runs_run_uid"}
+    finally:
+        good.close()

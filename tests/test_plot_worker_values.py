@@ -4,6 +4,8 @@ plot the same bytes; without a child it is computed and drawn here."""
 
 from __future__ import annotations
 
+import threading
+import time
 from pathlib import Path
 from typing import Any
 
@@ -56,4 +58,21 @@ def test_a_race_does_not_wait_for_a_busy_child(tmp_path: Path) -> None:
         later = w.compute("json:dumps", {"obj": [3]}, race=True)
         w.values(2)  # the child has answered all three now
         assert later() == "[3]" and 2 not in w._here and w._outcomes[2] == ("ok", "[3]")
+        w.wait()
+
+
+def test_a_race_waits_for_a_child_already_on_it(tmp_path: Path) -> None:
+    """A raced computation the child has begun (it answered every batch before) is awaited,
+    not made again here: the child began it no later than this process would."""
+    gate, began = tmp_path / "gate", tmp_path / "began"
+    with PlotWorker() as w:
+        w.compute("json:dumps", {"obj": [0]})()  # answered: the child is free
+        raced = w.compute("subprocess:run", {"args": [
+            "sh", "-c", f"touch '{began}'; while [ ! -e '{gate}' ]; do sleep 0.01; done; "
+                        "echo child"], "capture_output": True, "text": True}, race=True)
+        while not began.exists():  # the child is on it
+            time.sleep(0.01)
+        threading.Timer(0.3, gate.touch).start()  # released only while this one waits
+        assert raced().stdout == "child\n"
+        assert 1 not in w._here and w._outcomes[1] is not None
         w.wait()

@@ -26,11 +26,12 @@ from procedures.isu.calibration.all_positions import (
     chosen_correlation,
     fill_columns,
     side_by_side,
+    side_columns,
 )
 from procedures.isu.calibration.checks import K_RESULT, check_residuals, check_string_sums
 from procedures.isu.calibration.compute import (
     calibrate_with_correlation,
-    constants_covariance,
+    closed_forms,
     without,
 )
 from procedures.isu.calibration.forward import GyroModel
@@ -60,7 +61,7 @@ from procedures.runner import Run
 from station.errors import CheckFailed
 
 TITLE = "Calibration computations"
-SIDE_BY_SIDE = "procedures.isu.calibration.all_positions:side_by_side_columns"
+ALL_POSITIONS_SIDE = "procedures.isu.calibration.all_positions:all_positions_side"
 STRING_KEY = {c: (int(name[1]), int(name[3])) for c, name in STRINGS.items()}
 J_COUNTERS = {7: {3: 2, 4: 3}, 11: {2: 1}}  # position -> counter -> gyro
 
@@ -231,6 +232,13 @@ def compute_calibration(run: Run, data: DayData, plan: DayPlan, noise: NoiseSpec
         with sheet.step("1", "Prepare the data for entry") as s:
             cd = calibration_data(data, plan, site, last_d1d3, prior)
             s.reading = {"gyro_positions": sorted(cd.gyro), "accel_positions": sorted(cd.accel)}
+        # issue 19: the all-positions estimator beside the closed forms. On a closed-form day
+        # it changes no estimate the steps below read, so it is computed beside them from
+        # the data as they are now (Run.meanwhile, issue 17)
+        estimator = plan.options.estimator
+        side = (run.meanwhile(ALL_POSITIONS_SIDE, data=cd, noise=noise, closed=closed_forms(cd),
+                              series=data.nonlinearity)
+                if estimator == "closed-form" else None)
         sheet.done("2", "Load the calibration program")
         step3 = cd.constants.model_dump(exclude={"t_br_column2"})
         if prior is not None:
@@ -248,15 +256,9 @@ def compute_calibration(run: Run, data: DayData, plan: DayPlan, noise: NoiseSpec
         sheet.done("7", "Last (D1 D3) for accelerometers without positions 13, 14", step7)
         with sheet.step("8", "Compute the constants") as s:
             rows, corr = calibrate_with_correlation(cd, noise)
-            # issue 19: the all-positions estimator beside the closed forms; the correlation
-            # carried to the alignments is the laboratory's estimator's
-            estimator = plan.options.estimator
-            fitted = None
-            if estimator == "closed-form":  # the fit's columns change no estimate the
-                # checks read: it runs beside them, on the rows as they are now (issue 17)
-                fitted = run.meanwhile(SIDE_BY_SIDE, rows=rows, data=cd, noise=noise,
-                                       series=data.nonlinearity,
-                                       closed_covariance=constants_covariance(cd, noise))
+            # the correlation carried to the alignments is the laboratory's estimator's
+            if side is not None:  # the side's columns are of the rows as computed here
+                computed = [r.model_copy() for r in rows]
             else:
                 chosen = side_by_side(rows, cd, noise, estimator, data.nonlinearity)
                 corr = chosen_correlation(rows, chosen, estimator)
@@ -266,8 +268,8 @@ def compute_calibration(run: Run, data: DayData, plan: DayPlan, noise: NoiseSpec
             # the data the constants did not need must agree with them (calibration.checks)
             checked = check_residuals(cd, rows, noise)
             sums = check_string_sums(cd, rows, noise)
-            if fitted is not None:
-                fill_columns(rows, fitted()[0])
+            if side is not None:
+                fill_columns(rows, side_columns(computed, side()))
             s.reading = {"determined": sum(r.estimate is not None for r in rows),
                          "rows": len(rows),
                          "residual_z": {k: v["z"] for k, v in

@@ -26,7 +26,7 @@ fitted: the Q_IS series (II-7Q) and the J experiment (II-10), which stay the she
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Collection, Mapping
 from dataclasses import dataclass, field
 from typing import Any, cast
 
@@ -566,14 +566,39 @@ def side_by_side_columns(rows: list[ResultRow], data: CalibrationData,
                                                   np.ndarray] | None = None
                          ) -> tuple[list[dict[str, Any]], tuple[list[Row], np.ndarray]]:
     """``side_by_side`` without touching ``rows``: what it writes on each row (field ->
-    value) and what it returns. A pure function of its arguments, so the closed-form day
-    computes it beside its checks (Run.meanwhile, issue 17). ``closed_covariance``:
-    ``constants_covariance(data, noise)`` where the caller holds it (a second process
-    would compute it again: 0.04 s of a day)."""
+    value) and what it returns. ``closed_covariance``: ``constants_covariance(data,
+    noise)`` where the caller holds it (0.04 s of a day to compute again)."""
     if estimator not in ESTIMATORS:
         raise ValueError(f"estimator: {estimator!r} is not one of {', '.join(ESTIMATORS)}")
     noise = noise or NoiseSpec()
     closed, cf_rows, cf_cov = closed_covariance or constants_covariance(data, noise)
+    side = all_positions_side(data, noise, closed, series)
+    columns = side_columns(rows, side, estimator, cf_rows)
+    f = side.fit
+    if estimator == "all-positions" and f.rows:
+        return columns, (f.rows, f.covariance)
+    return columns, (cf_rows, cf_cov)
+
+
+@dataclass
+class Side:
+    """The all-positions side of the Calibration Results Sheet: the fit, and the
+    Cramer-Rao bound at its estimate on the rows ``bound_rows``."""
+
+    fit: Fit
+    bound_rows: list[Row]
+    bound: np.ndarray
+
+
+def all_positions_side(data: CalibrationData, noise: NoiseSpec | None,
+                       closed: Mapping[Row, float | None],
+                       series: Mapping[int, list[dict]] | None = None) -> Side:
+    """The all-positions fit and its Cramer-Rao bound from the day's data and the closed
+    forms' estimates ``closed`` (``compute.closed_forms``): a pure function of them, no
+    sheet row needed, so the closed-form day sends it to its second process as soon as
+    its data are prepared (Run.meanwhile, issue 17). A design the fit cannot invert gives
+    an empty side (the closed forms stand)."""
+    noise = noise or NoiseSpec()
     red = reduce_all(data)
     d = design(data, closed, red)
     cov_z = data_covariance(red, d.keys, data, noise, closed)
@@ -581,9 +606,19 @@ def side_by_side_columns(rows: list[ResultRow], data: CalibrationData,
         f = fit(data, noise, closed, cov_z, series)
         bound_rows, bound = (cramer_rao(data, {**closed, **f.estimates}, noise, closed, cov_z,
                                         series) if f.rows else ([], np.zeros((0, 0))))
-    except np.linalg.LinAlgError:  # a design the fit cannot invert: the closed forms stand
+    except np.linalg.LinAlgError:
         f = Fit({}, [], np.zeros((0, 0)), 0.0, 0, 0, [], np.zeros(0))
         bound_rows, bound = [], np.zeros((0, 0))
+    return Side(f, bound_rows, bound)
+
+
+def side_columns(rows: list[ResultRow], side: Side, estimator: str = "closed-form",
+                 determined: Collection[Row] = ()) -> list[dict[str, Any]]:
+    """What each row of the sheet shows beside its closed form (field -> value): the
+    all-positions estimate, its sigma and the Cramer-Rao sigma; under the all-positions
+    estimator these become the estimate and sigma of the rows the closed forms
+    ``determined`` too."""
+    f, bound_rows, bound = side.fit, side.bound_rows, side.bound
     columns: list[dict[str, Any]] = []
     for r in rows:
         key = (r.instrument, r.parameter)
@@ -592,13 +627,11 @@ def side_by_side_columns(rows: list[ResultRow], data: CalibrationData,
             i = bound_rows.index(key)
             col |= {"all_positions": f.estimates[key], "all_positions_sigma": f.sigma(key),
                     "cramer_rao_sigma": float(np.sqrt(max(bound[i, i], 0.0)))}
-            if estimator == "all-positions" and key in cf_rows:
+            if estimator == "all-positions" and key in determined:
                 col |= {"estimate": col["all_positions"], "sigma": col["all_positions_sigma"],
                         "estimator": estimator}
         columns.append(col)
-    if estimator == "all-positions" and f.rows:
-        return columns, (f.rows, f.covariance)
-    return columns, (cf_rows, cf_cov)
+    return columns
 
 
 def fill_columns(rows: list[ResultRow], columns: list[dict[str, Any]]) -> None:

@@ -70,6 +70,12 @@ def estimate(z: Mapping[Key, float], c: Constants) -> dict[Row, float | None]:
     return out
 
 
+def closed_forms(data: CalibrationData) -> dict[Row, float | None]:
+    """The closed forms' estimates of the day's data (``estimate`` of its reduced data):
+    the ``constants_covariance`` estimates, without the covariance."""
+    return estimate(reduce(data).values, data.constants)
+
+
 def readers(key: Key) -> tuple[str, ...]:
     """The instruments whose closed forms read datum ``key`` (reduce's kinds): a gyro's
     rates and supplied misalignments its own, an accelerometer's differences and supplied

@@ -11,7 +11,9 @@ import base64
 import functools
 import json
 import math
+import re
 import sys
+from collections.abc import Collection
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -182,14 +184,27 @@ def _read_json(path: Path, missing: list[str], texts: dict[str, str] | None = No
     return value
 
 
-def _journal_records(d: Path) -> list[dict] | None:
+# the end of a journal line that is a sheet record as procedures.journal writes it (sorted
+# keys: the sheet's data first, then its kind, its name and the wall stamp): every pair it
+# names is the record's own, at its top level (the final brace closes the record)
+SHEET_LINE_END = re.compile(r'\},"kind":"sheet","name":"([^"\\]*)"(?:,"wall":"[^"\\]*")?\}')
+SHEET_LINE_TAIL = 400  # characters of a long line that hold that end
+
+
+def _journal_records(d: Path, skip_sheets: Collection[str] = ()) -> list[dict] | None:
     """The journal's records, read once for the whole report (a torn last line or a line
-    that is no record left out); None without a journal."""
+    that is no record left out); None without a journal. ``skip_sheets``: sheets the
+    report has from sheets/, whose journal records (most of the journal's bytes: the
+    alignments' parameter sheets are 110 KB a line) are left unparsed (issue 17)."""
     path = d / "journal.jsonl"
     if not path.is_file():
         return None
     records = []
     for line in path.read_text(encoding="utf-8", errors="replace").splitlines():
+        if skip_sheets and len(line) > SHEET_LINE_TAIL:
+            m = SHEET_LINE_END.search(line, len(line) - SHEET_LINE_TAIL)
+            if m is not None and m.end() == len(line) and m[1] in skip_sheets:
+                continue
         try:
             rec = json.loads(line)
         except ValueError:
@@ -331,7 +346,7 @@ def build(run_dir: Path) -> dict:
         if s is not None:
             loaded.append((f.stem, s))
     have = {name for name, _ in loaded}
-    records = _journal_records(d)
+    records = _journal_records(d, have)
     loaded += [(n, s) for n, s in _journal_sheets(records) if n not in have and s is not None]
     for name, s in sorted(loaded, key=_sheet_sort_key):
         if isinstance(s, dict) and "chart" in s and "steps" in s:
@@ -394,6 +409,7 @@ def prepare_report() -> None:
         env = _environment()
         for name in ("report.html.j2", "history.html.j2"):
             env.get_template(name)
+        import laboratory.history.lite  # noqa: F401 - imported now, used by _history
         import laboratory.history.section  # noqa: F401 - imported now, used by _history
     except Exception:  # noqa: BLE001, S110 - report_after reports it when it writes
         pass

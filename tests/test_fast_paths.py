@@ -318,3 +318,34 @@ def test_the_attitude_alone_is_the_kinematics_attitude_bit_for_bit() -> None:
         world.changed()
         for t in rng.uniform(0.0, 400.0, 20):
             assert np.array_equal(world.attitude(float(t)), world.kinematics(float(t))[0][0])
+
+
+def test_functionals_fourier_transforms_carry_the_bits_of_add_at() -> None:
+    """kernels.fourier adds each functional's atoms one after another (``_add_rows``), as
+    np.add.at does: the same bits on random functionals (points, gates, empty ones, many
+    atoms each) and frequency sets, signed zeros included."""
+    import math
+
+    from procedures.isu.calibration import kernels
+    from procedures.isu.calibration.kernels import Functional, fourier
+
+    rng = np.random.default_rng(20261207)
+    for _ in range(60):
+        fs = []
+        for _ in range(int(rng.integers(1, 40))):
+            atoms = []
+            for _ in range(int(rng.integers(0, 9))):
+                a = float(rng.uniform(-100.0, 4e4))
+                b = a if rng.random() < 0.3 else a + float(rng.uniform(0.0, 600.0))
+                atoms.append((float(rng.normal() * 10.0 ** rng.uniform(-6, 6)), a, b))
+            fs.append(Functional(tuple(atoms)))
+        freqs = rng.uniform(-0.05, 0.05, int(rng.integers(1, 400)))
+        freqs[0] = 0.0
+        owner, w, a, b = kernels._flatten(fs)
+        want = np.zeros((len(fs), freqs.size), dtype=complex)
+        if owner.size:
+            ph = (np.exp(2j * math.pi * np.outer(0.5 * (a + b), freqs))
+                  * np.sinc(np.outer(b - a, freqs)))
+            np.add.at(want, owner, w[:, None] * ph)
+        got = fourier(fs, freqs)
+        assert got.view(np.uint64).tobytes() == want.view(np.uint64).tobytes()

@@ -107,8 +107,21 @@ def fourier(fs: Sequence[Functional], freqs: np.ndarray) -> np.ndarray:
         return out
     c = 0.5 * (a + b)
     ph = np.exp(2j * math.pi * np.outer(c, freqs)) * np.sinc(np.outer(b - a, freqs))
-    np.add.at(out, owner, w[:, None] * ph)
+    _add_rows(out, owner, w[:, None] * ph)
     return out
+
+
+def _add_rows(out: np.ndarray, owner: np.ndarray, rows: np.ndarray) -> None:
+    """``np.add.at(out, owner, rows)`` for ``owner`` in increasing order (``_flatten``'s):
+    each functional's atoms added one after another from zero, as add.at adds them (the
+    same bits), the k-th atoms of every functional at once: 3x faster on the day's tilt
+    functionals (issue 17; np.add.reduceat sums in another order)."""
+    first = np.flatnonzero(np.r_[True, owner[1:] != owner[:-1]])
+    counts = np.diff(np.r_[first, owner.size])
+    rank = np.arange(owner.size) - np.repeat(first, counts)
+    for k in range(int(counts.max())):
+        kth = rank == k
+        out[owner[kth]] += rows[kth]
 
 
 def cosine_gram(fs: Sequence[Functional], freqs: np.ndarray, weights: np.ndarray) -> np.ndarray:

@@ -554,30 +554,16 @@ def side_by_side(rows: list[ResultRow], data: CalibrationData, noise: NoiseSpec 
     Cramer-Rao bound at the all-positions estimate; the rows' estimate and sigma become
     ``estimator``'s. Returns that estimator's rows and full covariance (calibration file).
     ``series``: the II-7 speed series, which the fit takes too."""
-    columns, chosen = side_by_side_columns(rows, data, noise, estimator, series)
-    fill_columns(rows, columns)
-    return chosen
-
-
-def side_by_side_columns(rows: list[ResultRow], data: CalibrationData,
-                         noise: NoiseSpec | None, estimator: str = "closed-form",
-                         series: Mapping[int, list[dict]] | None = None,
-                         closed_covariance: tuple[dict[Row, float | None], list[Row],
-                                                  np.ndarray] | None = None
-                         ) -> tuple[list[dict[str, Any]], tuple[list[Row], np.ndarray]]:
-    """``side_by_side`` without touching ``rows``: what it writes on each row (field ->
-    value) and what it returns. ``closed_covariance``: ``constants_covariance(data,
-    noise)`` where the caller holds it (0.04 s of a day to compute again)."""
     if estimator not in ESTIMATORS:
         raise ValueError(f"estimator: {estimator!r} is not one of {', '.join(ESTIMATORS)}")
     noise = noise or NoiseSpec()
-    closed, cf_rows, cf_cov = closed_covariance or constants_covariance(data, noise)
+    closed, cf_rows, cf_cov = constants_covariance(data, noise)
     side = all_positions_side(data, noise, closed, series)
-    columns = side_columns(rows, side, estimator, cf_rows)
+    fill_columns(rows, side_columns(rows, side, estimator, cf_rows))
     f = side.fit
     if estimator == "all-positions" and f.rows:
-        return columns, (f.rows, f.covariance)
-    return columns, (cf_rows, cf_cov)
+        return f.rows, f.covariance
+    return cf_rows, cf_cov
 
 
 @dataclass
@@ -635,7 +621,7 @@ def side_columns(rows: list[ResultRow], side: Side, estimator: str = "closed-for
 
 
 def fill_columns(rows: list[ResultRow], columns: list[dict[str, Any]]) -> None:
-    """``side_by_side_columns``'s values written on the rows (in place)."""
+    """``side_columns``'s values written on the rows (in place)."""
     for r, col in zip(rows, columns, strict=True):
         for name, value in col.items():
             setattr(r, name, value)

@@ -1,6 +1,6 @@
 """Console tables that never cut a number: a table too wide for the console is printed as
 several narrower ones (the key columns repeated in each), and a cell that still does not
-fit wraps (``fold``) instead of ending in an ellipsis. rich's tables are imported when a
+fit wraps (``fold``) instead of ending in an ellipsis. rich is imported when a
 table is made: a quiet run prints none (issue 17)."""
 
 from __future__ import annotations
@@ -9,12 +9,10 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
-from rich.cells import cell_len
-from rich.console import Console
-from rich.text import Text
-
 if TYPE_CHECKING:
+    from rich.console import Console
     from rich.table import Table
+    from rich.text import Text
 
 
 @dataclass(frozen=True)
@@ -47,6 +45,8 @@ def print_fitted(console: Console, title: str, cols: Sequence[Column],
     """One table if it fits the console; otherwise the first ``keys`` columns with as many
     of the others as fit, repeated until every column is shown (titles say which part).
     A cell is markup, parsed once here (rich would parse it at each measure and render)."""
+    from rich.text import Text
+
     cells: list[list[str | Text]] = [[Text.from_markup(c) if isinstance(c, str) else c
                                       for c in r] for r in rows]
     widths = column_widths(console, cols, cells)
@@ -70,7 +70,9 @@ def column_widths(console: Console, cols: Sequence[Column],
                   rows: Sequence[Sequence[str | Text]]) -> list[int]:
     """Each column's natural width, header and cells unwrapped (markup rendered), measured
     once per cell: a table of any of these columns is then as wide as ``table_width`` says."""
+    from rich.cells import cell_len
     from rich.measure import Measurement
+    from rich.text import Text
 
     options = console.options.update_width(10_000)
     widths = [Measurement.get(console, options, c.name).maximum for c in cols]

@@ -27,7 +27,6 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, TypeVar
 
 from pydantic import BaseModel, ValidationError
-from rich.console import Console
 
 from laboratory import registry
 from laboratory.calfile import write_day_calibration
@@ -35,7 +34,7 @@ from laboratory.connect import connect
 from laboratory.export import can_log, write_alignment_samples, write_results_csv
 from laboratory.history import index_after
 from laboratory.identity import identified, isu_config, isu_identity
-from laboratory.isu.display import DayDisplay
+from laboratory.isu.display import DayDisplay, shown_console
 from laboratory.isu.spec import noise_spec, site_of
 from laboratory.record import write_results, write_sheets
 from laboratory.report import report_after
@@ -61,6 +60,8 @@ from station.config.isu import StationConfig
 from station.racks.isu import SimulatedRack
 
 if TYPE_CHECKING:
+    from rich.console import Console
+
     from sim.isu.world import World
     from station.drivers.isu import IsuDrivers
 
@@ -360,7 +361,7 @@ def run_align(req: AlignRequest, console: Console | None = None,
     est = canonical_estimator(method, estimator)
     if method == "gyrocompass" and (why := gyrocompass_refusal(cfg, plan)) is not None:
         raise ValueError(why)
-    console = console or Console()
+    console = shown_console(console, req.quiet)
     day_plan = DayPlan()
     calib = survey = None
     if calibration_dir is not None:
@@ -434,7 +435,7 @@ def run_align(req: AlignRequest, console: Console | None = None,
             write_results_csv(out, entries)
             write_alignment_samples(out, outcomes)
             run.note(event="end", sim_seconds=st.clock.now())
-        if not req.quiet:
+        if console is not None:
             render_alignment(console, entries)
             if est != estimator:
                 console.print(f"note: {method} alignment with the {estimator} technique is "

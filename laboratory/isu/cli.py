@@ -166,7 +166,7 @@ def add_commands(app: typer.Typer) -> None:
                                          start_s=start_at, quiet=quiet,
                                          prior=args.get("prior"), survey=args.get("survey"),
                                          tape_library=_path(args.get("tape_library"))),
-                                 real_console())
+                                 None if quiet else real_console())
         except typer.Exit as e:
             release(target, fresh_dir and e.exit_code == 2)
             raise
@@ -333,7 +333,7 @@ def add_commands(app: typer.Typer) -> None:
                                    tape=tape_file, tape_library=_path(args.get("tape_library")),
                                    plan=plan, links=links, resume=resume is not None,
                                    quiet=quiet)
-                res = run_align(req, real_console())
+                res = run_align(req, None if quiet else real_console())
         except typer.Exit as e:
             release(target, fresh_dir and e.exit_code == 2)
             raise

@@ -13,8 +13,7 @@ from collections.abc import Callable
 from contextlib import ExitStack
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-
-from rich.console import Console
+from typing import TYPE_CHECKING
 
 from laboratory import registry
 from laboratory.calfile import FILE_NAME as CALIBRATION_FILE
@@ -24,7 +23,7 @@ from laboratory.export import can_log, write_results_csv
 from laboratory.history import index_after
 from laboratory.identity import RunIdentity, identified, isu_config, isu_identity
 from laboratory.isu.align import day_alignments, render_alignment, tape_library
-from laboratory.isu.display import DayDisplay
+from laboratory.isu.display import DayDisplay, shown_console
 from laboratory.isu.plot_child import DAY_CHILD, PLOTS
 from laboratory.isu.prior import CarriedSheets, carried_sheets
 from laboratory.isu.spec import mounting, noise_spec, site_of
@@ -59,6 +58,9 @@ from procedures.runner import Run
 from station.config.isu import StationConfig
 from station.files import clear_prefixed
 from station.racks.isu import SimulatedRack
+
+if TYPE_CHECKING:  # rich.console imported when a console shows something (issue 17)
+    from rich.console import Console
 
 
 @dataclass(frozen=True)
@@ -254,7 +256,7 @@ def run_day(req: DayRequest, console: Console | None = None,
     them). ``req.out`` must hold no record unless ``req.resume`` (RunDirError); nothing is
     written before the checks pass.
     """
-    console = console or Console()
+    console = shown_console(console, req.quiet)
     carried = carried_sheets(req.cfg, req.prior, req.survey)  # refused before anything
     req = replace(req, plan=day_plan(req))
     check_plan(req.cfg, req.plan)  # an unreachable requirement: refused before anything
@@ -280,7 +282,7 @@ def run_day(req: DayRequest, console: Console | None = None,
         conn.close()
 
 
-def _day(req: DayRequest, conn: Connection, journal: Journal, console: Console,
+def _day(req: DayRequest, conn: Connection, journal: Journal, console: Console | None,
          wall0: float, ident: RunIdentity, carried: CarriedSheets, plotter: PlotWorker) -> dict:
     cfg, out, links = req.cfg, req.out, req.links
     st = conn.station
@@ -347,6 +349,7 @@ def _day(req: DayRequest, conn: Connection, journal: Journal, console: Console,
         write_results_csv(out, alignment, "alignment.csv")
 
     def show(res: dict) -> None:
+        assert console is not None  # shown only when not quiet
         render_results(console, res["calibration"])
         if res["alignment"]:
             render_alignment(console, res["alignment"])

@@ -23,9 +23,11 @@ from __future__ import annotations
 
 import datetime as dt
 import json
+import pickle
 from collections.abc import Callable, Iterator, Mapping
 from contextlib import contextmanager
 from fnmatch import fnmatchcase
+from functools import cache
 from importlib import import_module
 from typing import Any, Protocol, TypeVar
 
@@ -170,7 +172,9 @@ class Run:
     def meanwhile(self, job: str, **kwargs: Any) -> Callable[[], Any]:
         """The pure function ``job`` (``"module:function"``) of ``kwargs`` as they are now,
         computed beside the run while it goes on (on the second core, issue 17) or, without
-        ``beside``, here and now; call the returned callable for its value, which is then
+        ``beside``, here when the value is first asked for, on the arguments as they were
+        (as when the race below is lost: an error in it is met where the value is needed,
+        in that step); call the returned callable for its value, which is then
         made here if the second process has not given it yet and is not on it (busy with
         a plot, on a loaded machine: the run does not wait for it). Only a computation
         whose value does not depend on where it runs belongs here (no clock, no drivers,
@@ -178,8 +182,9 @@ class Run:
         if self.beside is not None:
             return self.beside.compute(job, kwargs, race=True)
         module, _, function = job.partition(":")
-        value = getattr(import_module(module), function)(**kwargs)
-        return lambda: value
+        f = getattr(import_module(module), function)
+        sent = pickle.dumps(kwargs)  # the arguments now, as a second process has them
+        return cache(lambda: f(**pickle.loads(sent)))
 
     def note(self, **data: Any) -> None:
         """A free record (run start, settings); journaled unless replaying."""

@@ -213,7 +213,10 @@ def test_a_run_block_is_heard_once_run_and_not_when_restored(tmp_path):
     """Run.block tells its listener a chart's data (its journal form) as soon as the chart
     has run, so a run can act on it meanwhile (the day's nonlinearity plot, issue 17); a
     block restored from the journal (skip mode) is not heard again. Run.meanwhile without a
-    second process computes at the call, on the arguments as they are then."""
+    second process computes when the value is asked for, on the arguments as they were at
+    the call: its error is met there, as when a second process loses the race."""
+    import statistics
+
     import simpy
 
     heard: list[dict] = []
@@ -228,6 +231,9 @@ def test_a_run_block_is_heard_once_run_and_not_when_restored(tmp_path):
     later = run.meanwhile("statistics:fmean", data=xs)
     xs.append(9.0)
     assert later() == 1.5
+    empty = run.meanwhile("statistics:fmean", data=[])  # nothing raised yet
+    with pytest.raises(statistics.StatisticsError):
+        empty()
     j.close()
     heard.clear()
     again = Run(clock, Journal(tmp_path / "journal.jsonl", resume=True), listener=heard.append,

@@ -10,6 +10,7 @@ III-11 gives T. T refers to t* = the end of the data plus eps_t.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -101,23 +102,36 @@ def matrices(estimator: str, K: int, dt: float, tape: Tape | None
     return es.hybrid_gyrocompass(M, b, K, dt)
 
 
-def gyro_solution(record: IeuRecord, c: Constants, M: np.ndarray, b: np.ndarray,
-                  opts: dict[str, float], inst: Instruments | None = None
-                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(T, g_B in g, omega_B in deg/hr); ``inst``: the instruments used (all when None)."""
+def record_x(record: IeuRecord, c: Constants, inst: Instruments | None,
+             g_survey: float | None) -> np.ndarray:
+    """X of Chart III-10 (accelerometers in m/s^2 s, gyros in arcsec; 6K) from the record
+    with the constants ``c``: what every technique's estimate (M X + b) starts from."""
     int_b, _, u = accel_integrals(p_of(record.strings), record.dt, c)
-    est = M @ np.concatenate((x_of(int_b), _gyro_x(record, c, u, inst, opts.get("g_survey")))) + b
+    return np.concatenate((x_of(int_b), _gyro_x(record, c, u, inst, g_survey)))
+
+
+def gyro_solution(record: IeuRecord, c: Constants, M: np.ndarray, b: np.ndarray,
+                  opts: dict[str, float], inst: Instruments | None = None,
+                  x: Callable[[Constants], np.ndarray] | None = None
+                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(T, g_B in g, omega_B in deg/hr); ``inst``: the instruments used (all when None).
+    ``x``: ``record_x`` of these record, instruments and options, held by the constants
+    (the techniques of one record share it)."""
+    xc = (x(c) if x is not None else record_x(record, c, inst, opts.get("g_survey")))
+    est = M @ xc + b
     g_b, w_b = est[:3] / es.G0, est[3:]
     return gyro_t(g_b, w_b, opts, inst), g_b, w_b
 
 
 def gyro_error_model(record: IeuRecord, c: Constants, M: np.ndarray, b: np.ndarray,
                      opts: dict[str, float], params: es.LevelParams, noise: NoiseSpec,
-                     w_horizontal: float, inst: Instruments | None = None) -> dict:
-    """Predicted phi covariance (U, E, N) and the physical limits (Chart III-11)."""
-    t0, g_b, w_b = gyro_solution(record, c, M, b, opts, inst)
+                     w_horizontal: float, inst: Instruments | None = None,
+                     x: Callable[[Constants], np.ndarray] | None = None) -> dict:
+    """Predicted phi covariance (U, E, N) and the physical limits (Chart III-11). ``x``:
+    the record's X by the constants, as ``gyro_solution`` takes it."""
+    t0, g_b, w_b = gyro_solution(record, c, M, b, opts, inst, x)
     # the three perturbation passes below (T, |omega|, colatitude) share each solution
-    solution = em.memoized(lambda cc: gyro_solution(record, cc, M, b, opts, inst))
+    solution = em.memoized(lambda cc: gyro_solution(record, cc, M, b, opts, inst, x))
 
     def solve(cc: Constants) -> np.ndarray:
         return solution(cc)[0]
@@ -283,7 +297,10 @@ def gyrocompass_procedure(st: IsuDrivers, run: Run, options: AlignmentOptions,
                                      plan.ieu_retakes)
             check_record(record, K, dt)
             mats = {e: matrices(e, K, dt, tapes.get(e)) for e in ests}
-            sols = {e: gyro_solution(record, c, M, b, opts, inst)
+            # X by the constants, shared by the techniques and their error models' passes
+            # (one record: the day's two techniques perturb the same constants, issue 17)
+            xs = em.memoized(lambda cc: record_x(record, cc, inst, opts.get("g_survey")))
+            sols = {e: gyro_solution(record, c, M, b, opts, inst, xs)
                     for e, (M, b) in mats.items()}
             s.reading = record.summary() | {
                 e: {"g_body_g": sol[1].tolist(), "omega_body_deg_hr": sol[2].tolist()}
@@ -300,7 +317,8 @@ def gyrocompass_procedure(st: IsuDrivers, run: Run, options: AlignmentOptions,
             out = []
             checked = {}
             for e, (M, b) in mats.items():
-                model = gyro_error_model(record, c, M, b, opts, params, noise, w_north, inst)
+                model = gyro_error_model(record, c, M, b, opts, params, noise, w_north, inst,
+                                         xs)
                 checked[e] = gyro_checks(e, model, survey, w_north, w_up, reference)
                 sheet_model = AlignmentResults(
                     procedure="gyrocompass", estimator=e, calibration_id=calibration_id,

@@ -383,7 +383,7 @@ def run_align(req: AlignRequest, console: Console | None = None,
             ident = stack.enter_context(identified(
                 out, "isu", "align", cfg.seed, isu_config(cfg), *isu_identity(cfg),
                 req.resume, journal.records))
-            with can_log(out, st.ieu), DayDisplay(console, req.quiet) as display:
+            with can_log(out, st.ieu), DayDisplay(console) as display:
                 run = Run(st.clock, journal, listener=display,
                           resume="replay" if conn.rack is not None else "skip",
                           sheet_models=ISU_SHEETS, sheets_used=sheets_used,

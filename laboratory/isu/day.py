@@ -289,7 +289,7 @@ def _day(req: DayRequest, conn: Connection, journal: Journal, console: Console |
     sid = conn.session.session if conn.session else None
     repeat = ("I-1",) if req.resume and sid != rack_session(journal) else ()
     site, noise = site_of(cfg), noise_spec(cfg)
-    with can_log(out, st.ieu), DayDisplay(console, req.quiet) as display:
+    with can_log(out, st.ieu), DayDisplay(console) as display:
         nonlinearity = NonlinearityPlot(plotter, noise, out / "nonlinearity.png")
         rendered = SheetsRendered(plotter, out)
 
@@ -349,12 +349,12 @@ def _day(req: DayRequest, conn: Connection, journal: Journal, console: Console |
         write_results_csv(out, alignment, "alignment.csv")
 
     def show(res: dict) -> None:
-        assert console is not None  # shown only when not quiet
+        assert console is not None  # shown only with a console (not quiet)
         render_results(console, res["calibration"])
         if res["alignment"]:
             render_alignment(console, res["alignment"])
 
-    shown = Shown(None if req.quiet else show, prepare=False)  # the child has the template
+    shown = Shown(None if console is None else show, prepare=False)  # the child has the template
 
     def meanwhile() -> None:
         shown.meanwhile(res)

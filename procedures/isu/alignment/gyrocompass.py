@@ -105,9 +105,12 @@ def matrices(estimator: str, K: int, dt: float, tape: Tape | None
 def record_x(record: IeuRecord, c: Constants, inst: Instruments | None,
              g_survey: float | None) -> np.ndarray:
     """X of Chart III-10 (accelerometers in m/s^2 s, gyros in arcsec; 6K) from the record
-    with the constants ``c``: what every technique's estimate (M X + b) starts from."""
+    with the constants ``c``: what every technique's estimate (M X + b) starts from.
+    Read-only: the techniques of one record share it (``gyrocompass_procedure``)."""
     int_b, _, u = accel_integrals(p_of(record.strings), record.dt, c)
-    return np.concatenate((x_of(int_b), _gyro_x(record, c, u, inst, g_survey)))
+    x = np.concatenate((x_of(int_b), _gyro_x(record, c, u, inst, g_survey)))
+    x.setflags(write=False)
+    return x
 
 
 def gyro_solution(record: IeuRecord, c: Constants, M: np.ndarray, b: np.ndarray,
@@ -115,7 +118,7 @@ def gyro_solution(record: IeuRecord, c: Constants, M: np.ndarray, b: np.ndarray,
                   x: Callable[[Constants], np.ndarray] | None = None
                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(T, g_B in g, omega_B in deg/hr); ``inst``: the instruments used (all when None).
-    ``x``: ``record_x`` of these record, instruments and options, held by the constants
+    ``x``: ``record_x`` of this record, instruments and options, held by the constants
     (the techniques of one record share it)."""
     xc = (x(c) if x is not None else record_x(record, c, inst, opts.get("g_survey")))
     est = M @ xc + b

@@ -28,12 +28,12 @@ from laboratory.rundir import opened_journal, resume_note
 from procedures.runner import Run
 from station.clock import Clock, WallClock
 from station.drivers.driver_set import DriverSet
-from station.hil.profile import ServedRun, WrongStation, attach
-from station.hil.session import Session
 from station.racks.base import Rack, open_drivers
 
 if TYPE_CHECKING:  # the server brings every laboratory's CAN hub (the ISU's IEU): on use only
+    from station.hil.profile import ServedRun
     from station.hil.server import ServedStation
+    from station.hil.session import Session
 
 
 @dataclass
@@ -95,6 +95,8 @@ def served_links(lab: Laboratory, served: ServedRun, links_dir: Path) -> dict[st
     names = list(lab.drivers())
     missing = [n for n in names if n not in offered]
     if missing:
+        from station.hil.profile import WrongStation
+
         raise WrongStation(f"{links_dir}: the rack served there does not serve "
                            f"{', '.join(missing)} (was it started with --only?)")
     return {n: offered[n] for n in names}
@@ -144,6 +146,10 @@ def _connect(lab: Laboratory, cfg: Any, links_dir: Path | None,
     if rack_hook is not None:
         raise ValueError("faults for a served rack are configured in the server's config "
                          "([faults.<instrument>]), not injected by the client")
+    # the served rack's modules on this path only: a virtual run spends none of their
+    # import (pydantic models built at import, 4-5 ms of a day's; issue 17)
+    from station.hil.profile import attach
+
     served = attach(links_dir, lab.name, lab.seed_of(cfg), lab.digest(cfg))
     st = open_station(lab, cfg, served_links(lab, served, links_dir), served.clock, timeout)
     twin = None

@@ -51,6 +51,14 @@ def test_the_day_before_its_run_loads_no_plots_reports_or_history() -> None:
     assert [m for m in mods if m.startswith(unused)] == []
 
 
+def test_a_virtual_run_loads_no_served_rack_module() -> None:
+    """The day's and the alignment's modules hold none of station.hil (the served rack's
+    profile, session and server): a run in virtual time attaches to no served rack, and
+    those modules build pydantic models at import (issue 17)."""
+    assert loaded("laboratory.isu.day", ("station.hil",)) == []
+    assert loaded("laboratory.isu.align", ("station.hil",)) == []
+
+
 def test_help_loads_no_rich() -> None:
     """`station --help` (every command registered, the help printed) loads no part of rich:
     the help is click's plain text, the console is made by the first command that prints."""

@@ -11,7 +11,7 @@ import random
 import pytest
 from rich.console import Console
 
-from laboratory.isu.display import DayDisplay
+from laboratory.isu.display import DayDisplay, shown_console
 
 WORDS = ["Set", "phi1", "=", "90", "deg", "[red]", "(project", "addition)", "T^BRm", "\u2713",
          "counters", "1-4", "[dim]x[/]", "\u5bbd\u5b57\u7b26", "x" * 70, "S1^T,", "ok"]
@@ -66,7 +66,7 @@ def test_terminal_ticks_keep_their_colours() -> None:
 
 def test_quiet_shows_nothing() -> None:
     buf = io.StringIO()
-    with DayDisplay(Console(file=buf, width=80), quiet=True) as display:
+    with DayDisplay(shown_console(Console(file=buf, width=80), quiet=True)) as display:
         display({"kind": "step", "t_sim": 1.0, "chart": "I-1", "step": "1", "text": "x"})
     assert buf.getvalue() == ""
 

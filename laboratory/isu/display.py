@@ -30,9 +30,9 @@ class DayDisplay:
     """Check-sheet ticks as they happen, and a progress bar in simulated time; nothing
     without a console."""
 
-    def __init__(self, console: Console | None, quiet: bool = False) -> None:
-        # a quiet console shows nothing, written or not
-        self.console = None if quiet or console is None or console.quiet else console
+    def __init__(self, console: Console | None) -> None:
+        # a quiet console shows nothing, written or not (a quiet run has none: shown_console)
+        self.console = None if console is None or console.quiet else console
         self.progress: Progress | None = None
         self.task: TaskID | None = None
         self.plain_width: int | None = None

@@ -29,7 +29,7 @@ from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
 from types import TracebackType
-from typing import Any
+from typing import Any, BinaryIO
 
 try:
     import fcntl
@@ -443,6 +443,33 @@ class PlotWorker:
         self._forget()
 
 
+def _batches_read_ahead(source: BinaryIO) -> Iterator[list[Job]]:
+    """The batches sent, in order, read from ``source`` by a thread as they come, not when
+    the last is drawn: a child blocked writing an answer the run has not yet read (a pipe
+    holds 64 KB where it cannot be widened) still takes what the run sends, so the run's
+    send never waits on it (both waiting: the day hung with a slow child)."""
+    import queue
+
+    come: queue.SimpleQueue[list[Job] | BaseException | None] = queue.SimpleQueue()
+
+    def read() -> None:
+        while True:
+            try:
+                come.put(pickle.load(source))
+            except EOFError:
+                come.put(None)
+                return
+            except BaseException as e:  # noqa: BLE001  # raised where the batches are drawn
+                come.put(e)
+                return
+
+    threading.Thread(target=read, name="batches", daemon=True).start()
+    while (batch := come.get()) is not None:
+        if isinstance(batch, BaseException):
+            raise batch
+        yield batch
+
+
 def main() -> None:
     """The child: import matplotlib and the modules named in argv now (while the run
     runs), then draw each batch of jobs read from stdin as it comes and answer it on stdout
@@ -463,11 +490,7 @@ def main() -> None:
     startup.resume()  # what the imports made frozen; the plots' garbage is collected
 
     out = sys.stdout.buffer
-    while True:
-        try:
-            batch = pickle.load(sys.stdin.buffer)
-        except EOFError:
-            break
+    for batch in _batches_read_ahead(sys.stdin.buffer):
         done: list[Outcome] = []
         for name, kw in batch:  # to the parent's temporaries: it renames them
             try:

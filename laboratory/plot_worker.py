@@ -31,11 +31,6 @@ from pathlib import Path
 from types import TracebackType
 from typing import Any, BinaryIO
 
-try:
-    import fcntl
-except ImportError:  # not on POSIX: the default pipe
-    fcntl = None  # type: ignore[assignment]
-
 Job = tuple[str, dict[str, Any]]  # "module:function", its keywords (one of them path)
 
 
@@ -125,27 +120,17 @@ def _drawn_here(job: Job) -> Any:
 Outcome = tuple[str, Any]  # ("ok", the function's value) or ("err", the error's line)
 
 
-PIPE_BYTES = 1 << 20  # the jobs' pipe, where the system allows: a batch never waits on it
-
-
 def _spawn(modules: tuple[str, ...]) -> subprocess.Popen[bytes] | None:
-    """The child, importing ``modules`` at once (None: it could not be started). Its
-    stdin is widened to ``PIPE_BYTES`` where Linux allows (F_SETPIPE_SZ), so that sending a
-    batch (the day's sheets pickled: 0.33 MB) does not wait for a child still drawing."""
+    """The child, importing ``modules`` at once (None: it could not be started). Its pipes
+    keep the system's size: the child reads the batches sent as they come, whatever it is
+    doing (``_batches_read_ahead``)."""
     env = dict(os.environ, PYTHONPATH=os.pathsep.join(p for p in sys.path if p))
     try:
-        p = subprocess.Popen([sys.executable, "-m", "laboratory.plot_worker", *modules],
-                             stdin=subprocess.PIPE, stdout=subprocess.PIPE,
-                             stderr=subprocess.DEVNULL, env=env)
+        return subprocess.Popen([sys.executable, "-m", "laboratory.plot_worker", *modules],
+                                stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+                                stderr=subprocess.DEVNULL, env=env)
     except OSError:
         return None
-    widen = getattr(fcntl, "F_SETPIPE_SZ", None) if fcntl is not None else None
-    if widen is not None and p.stdin is not None:
-        try:
-            fcntl.fcntl(p.stdin.fileno(), widen, PIPE_BYTES)
-        except OSError:  # above the system's limit: the default pipe (a send may wait)
-            pass
-    return p
 
 
 class _Exact:

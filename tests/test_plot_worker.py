@@ -400,16 +400,14 @@ def test_the_days_sheets_rendered_beside_are_the_files_written_here(tmp_path: Pa
     run.journal.close()
 
 
-def test_a_send_to_a_child_blocked_on_its_answer_does_not_wait_for_it(
-        monkeypatch: pytest.MonkeyPatch) -> None:
+def test_a_send_to_a_child_blocked_on_its_answer_does_not_wait_for_it() -> None:
     """A child whose answer fills its output pipe (the run has not read it yet) still
     takes the batches sent after it, so the run's send returns and the run, reading the
     answer later, gets both values. Before the child read ahead, both processes waited on
     each other for ever: the day hung whenever its plot child lagged where the pipe to it
-    could not be widened (fcntl absent, as here, or refused)."""
-    monkeypatch.setattr(plot_worker, "fcntl", None)  # the pipes' default 64 KB
-    answer_bytes = 1 << 20  # past any pipe: the child blocks writing it
-    sent = "x" * (2 << 20)  # past any pipe, widened or not: the send waits for a reader
+    could not be widened (the widening then went: no longer needed)."""
+    answer_bytes = 1 << 20  # past a pipe: the child blocks writing it
+    sent = "x" * (2 << 20)  # past a pipe: the send waits for a reader
     with PlotWorker() as w:
         big = w.compute("secrets:token_bytes", {"nbytes": answer_bytes})
         quoted = w.compute("json:dumps", {"obj": sent})  # returns only if the child reads

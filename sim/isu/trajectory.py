@@ -105,6 +105,7 @@ class Trajectory:
         """Drop every segment starting after tc; return (angle, rate) at tc."""
         p, v, _ = self.state(tc)
         self.segments = self.segments[:bisect_right(self._ts_list, tc)]
+        self._arrays(len(self.segments))  # the arrays hold what is held: a second cut reads them
         return p, v
 
     def append(self, segs: list[Segment]) -> None:

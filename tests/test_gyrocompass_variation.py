@@ -98,3 +98,29 @@ def test_vary_refuses_resume_links_and_bad_values(tmp_path):
                                  str(tmp_path / "x")])
     assert r.exit_code == 2 and "whole degrees" in _words(r.output)
     assert not (tmp_path / "x").exists()
+
+
+def test_a_failed_write_of_variation_json_leaves_the_earlier_file_whole(tmp_path, monkeypatch):
+    """variation.json is replaced whole or not at all: a write that fails half way (the
+    disk full after the first bytes) leaves the earlier study's file as it was, and no
+    temporary beside it. Before, write_text truncated it first."""
+    import os
+
+    from laboratory.cigtf import variation
+
+    first = {"variable": "azimuth", "sensitivity": 1.5, "settings": [{"value": 0.0}]}
+    variation.write_variation(tmp_path, first)
+    before = (tmp_path / "variation.json").read_bytes()
+    assert json.loads(before) == first and before.endswith(b"}\n")
+    real_write = os.write
+
+    def disk_full(fd: int, data: bytes) -> int:
+        real_write(fd, bytes(data)[:5])
+        raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr("station.files.os.write", disk_full)
+    with pytest.raises(OSError):
+        variation.write_variation(tmp_path, {**first, "sensitivity": 2.5, "pad": "x" * 1000})
+    monkeypatch.setattr("station.files.os.write", real_write)
+    assert (tmp_path / "variation.json").read_bytes() == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["variation.json"]

@@ -40,6 +40,7 @@ from sim.cigtf.world import CigtfParams, CigtfWorld
 from station.config.assignment import named_item
 from station.config.cigtf import Eq27Config
 from station.config.limits import CigtfLimits
+from station.files import write_bytes
 
 VARIABLES = {"rotor-voltage": "V", "azimuth": "deg"}
 
@@ -155,5 +156,12 @@ def run_variation(seed: int, out: Path, name: str, values: list[float],
     if name == "azimuth":
         result["error_sensitivity"] = slope + 3600.0
         truth_fit["error_sensitivity"] = t_slope + 3600.0
-    (out / "variation.json").write_text(json.dumps(result, indent=1, sort_keys=True) + "\n")
+    write_variation(out, result)
     return result
+
+
+def write_variation(out: Path, result: dict) -> None:
+    """``out/variation.json``, atomically (station.files): a write that fails or is killed
+    leaves the study's earlier file whole, never a truncated one."""
+    write_bytes(out / "variation.json",
+                (json.dumps(result, indent=1, sort_keys=True) + "\n").encode("utf-8"))

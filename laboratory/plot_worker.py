@@ -31,6 +31,8 @@ from pathlib import Path
 from types import TracebackType
 from typing import Any, BinaryIO
 
+from laboratory.children import ended
+
 Job = tuple[str, dict[str, Any]]  # "module:function", its keywords (one of them path)
 
 
@@ -204,17 +206,9 @@ def _ended(p: subprocess.Popen[bytes], reap_beside: bool = False) -> None:
     reaping (the kernel's teardown of the child's memory: 3-6 ms) is left to a thread, for
     a child that has nothing left to write (``PlotWorker.close``, the end of a run)."""
     if reap_beside:
-        threading.Thread(target=_ended, args=(p,), daemon=True).start()
+        threading.Thread(target=ended, args=(p,), daemon=True).start()
         return
-    if p.poll() is None:
-        p.kill()
-    p.wait()
-    for f in (p.stdin, p.stdout):
-        if f is not None:
-            try:
-                f.close()
-            except OSError:
-                pass
+    ended(p)
 
 
 class PlotWorker:

@@ -13,6 +13,8 @@ from __future__ import annotations
 import subprocess
 from pathlib import Path
 
+from laboratory.children import ended
+
 SOURCE_TREE = Path(__file__).resolve().parent.parent
 _ASKS = (("rev-parse", "HEAD"), ("status", "--porcelain", "--untracked-files=no"))
 _started: dict[Path, list[subprocess.Popen[str]]] = {}
@@ -42,13 +44,9 @@ def _ask(tree: Path) -> list[subprocess.Popen[str]] | None:
 
 
 def _ended(asked: list[subprocess.Popen[str]]) -> None:
-    """Each process killed if it still runs, and reaped."""
+    """Each process killed if it still runs, reaped, its pipe closed."""
     for p in asked:
-        if p.poll() is None:
-            p.kill()
-        p.wait()
-        if p.stdout is not None:
-            p.stdout.close()
+        ended(p)
 
 
 def revision(tree: Path = SOURCE_TREE) -> str | None:

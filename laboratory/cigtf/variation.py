@@ -35,6 +35,7 @@ from pathlib import Path
 
 import numpy as np
 
+from laboratory.record import json_bytes
 from procedures.cigtf.procedure import TestPlan
 from sim.cigtf.world import CigtfParams, CigtfWorld
 from station.config.assignment import named_item
@@ -163,5 +164,4 @@ def run_variation(seed: int, out: Path, name: str, values: list[float],
 def write_variation(out: Path, result: dict) -> None:
     """``out/variation.json``, atomically (station.files): a write that fails or is killed
     leaves the study's earlier file whole, never a truncated one."""
-    write_bytes(out / "variation.json",
-                (json.dumps(result, indent=1, sort_keys=True) + "\n").encode("utf-8"))
+    write_bytes(out / "variation.json", json_bytes(result) + b"\n")

@@ -256,6 +256,9 @@ def test_ieu_period_that_would_overflow_the_string_registers(tmp_path):
     ("gyrocompass-test", b"[cigtf]\ncurrent_noise_ma = 1e300\n"),
     ("esg-calibration", b"[esg]\n" + b"x = " + b"[" * 1000 + b"]" * 1000 + b"\n"),
     ("day", b"[environment.pier_tilt]\nwander_tau_s = 21.0\n"),
+    # a period so short that Delta t / period overflows (the fuzz test found it: seed 37614)
+    ("day", b"[alignment]\ngyro_period_s = 5e-324\n"),
+    ("day", b"[alignment]\nlevel_period_s = 5e-324\n"),
     ("serve", b"[faults.table]\nlatency_s = 1e300\n"),
 ])
 def test_commands_exit_2_without_a_traceback_and_write_nothing(tmp_path, command, text):

@@ -9,6 +9,7 @@ station matter rather than an experiment's. Lab units at this boundary: s, g, ar
 
 from __future__ import annotations
 
+import math
 from typing import Annotated, Literal
 
 from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, field_validator, model_validator
@@ -99,6 +100,9 @@ class AlignPlan(BaseModel):
         for name, dt, per in (("level", self.level_dt_s, self.level_period_s),
                               ("gyro", self.gyro_dt_s, self.gyro_period_s)):
             n = dt / per
+            if not math.isfinite(n):  # a period so short the count overflows a float
+                raise ValueError(f"{name}: IEU samples of {per} s are too short to count "
+                                 f"in Delta t {dt} s")
             if abs(n - round(n)) > 1e-9 or round(n) < 1:
                 raise ValueError(f"{name}: Delta t {dt} s is not a whole number of IEU "
                                  f"samples of {per} s")
